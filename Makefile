@@ -1,0 +1,45 @@
+# msspr: the two commands are `make demo` and `make test` (see README.md).
+SHELL := /bin/bash
+BUILD ?= build
+JOBS ?= 2
+# Debian's catkin needs Debian's python (not a pyenv shim) first on PATH.
+export PATH := /usr/bin:/bin:$(PATH)
+CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
+               -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON
+
+.PHONY: all deps configure build test demo bench core clean format
+
+all: build
+
+deps:
+	@scripts/install_deps.sh
+
+configure:
+	@test -f $(BUILD)/CMakeCache.txt || cmake -S . -B $(BUILD) $(CMAKE_FLAGS)
+
+build: configure
+	cmake --build $(BUILD) -j$(JOBS)
+	cmake --build $(BUILD) --target tests -j$(JOBS)
+
+test: deps
+	@$(MAKE) --no-print-directory build
+	@scripts/run_tests.sh $(BUILD)
+
+demo: deps
+	@$(MAKE) --no-print-directory build
+	@scripts/demo.sh $(BUILD)
+
+bench: deps
+	@$(MAKE) --no-print-directory build
+	@scripts/bench.sh $(BUILD)
+
+# The ROS-free core alone (as on a GPU machine): make core CORE_FLAGS=-DCMAKE_PREFIX_PATH=...
+core:
+	cmake -S msspr_core -B build-core -DCMAKE_BUILD_TYPE=Release $(CORE_FLAGS)
+	cmake --build build-core -j$(JOBS)
+
+format:
+	find msspr_core msspr_sim msspr_policy_node tests -name '*.h' -o -name '*.cc' | xargs clang-format -i
+
+clean:
+	rm -rf $(BUILD) build-core

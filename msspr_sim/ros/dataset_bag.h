@@ -1,0 +1,119 @@
+// The dataset bag format of msspr, shared by the direct writer (msspr_collect),
+// `rosbag record` of the live sim node, msspr_bag_info and the training adapter.
+//
+// Layout (README "Dataset bags"): per episode one msspr/EpisodeInfo on
+// /msspr/episode, then for every step t one msspr/Observation (episode_id, step=t)
+// on /msspr/observation, optionally one sensor_msgs/Image (rgb8, stamp equal to the
+// observation's) on /msspr/camera/image, and one msspr/Action (same episode_id and
+// step) on /msspr/action. Transition t is (observation t, action t, observation t+1);
+// the last action of an episode has no next state (OGBench's convention).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <ros/time.h>
+
+namespace rosbag {
+class Bag;
+}
+
+namespace msspr::ros_bridge {
+
+inline constexpr char kEpisodeTopic[] = "/msspr/episode";
+inline constexpr char kObservationTopic[] = "/msspr/observation";
+inline constexpr char kActionTopic[] = "/msspr/action";
+inline constexpr char kImageTopic[] = "/msspr/camera/image";
+inline constexpr char kCameraFrame[] = "msspr_camera";
+
+// A bag that cannot be read, or whose content breaks the layout; what() names the file.
+class BagError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct EpisodeMeta {
+  uint64_t episode_id = 0;
+  std::string env;            // e.g. "pointmaze-medium"
+  std::string split = "train";
+  int task_id = 0;
+  uint64_t seed = 0;
+  std::vector<float> start;   // [obs_dim]
+  std::vector<float> goal;    // [obs_dim]
+};
+
+// Writes dataset bags through the rosbag C++ API (no master needed).
+class DatasetBagWriter {
+ public:
+  // Opens `path` for writing, LZ4-compressed unless lz4 is false; throws BagError.
+  DatasetBagWriter(const std::string& path, double control_dt, bool lz4 = true);
+  ~DatasetBagWriter();
+
+  // Writes one episode of `length` steps. observations/actions: [length, obs_dim] /
+  // [length, act_dim] float32 row-major; images: [length, image_size, image_size, 3]
+  // uint8 or nullptr. Stamps follow TickToTime: one tick for the reset, one per step.
+  void WriteEpisode(const EpisodeMeta& meta, int length, int obs_dim, int act_dim,
+                    const float* observations, const float* actions, const uint8_t* images,
+                    int image_size, double success_radius);
+
+  uint64_t messages() const { return messages_; }
+  void Close();
+
+ private:
+  std::string path_;
+  double control_dt_;
+  uint64_t tick_ = 0;
+  uint64_t messages_ = 0;
+  std::unique_ptr<rosbag::Bag> bag_;
+};
+
+// One episode read back from a bag. Arrays cover steps [0, num_steps); a step
+// whose observation or action (or image, when the episode has images) is missing
+// is marked absent and never bridged: Segments() gives the complete runs.
+struct BagEpisode {
+  EpisodeMeta meta;
+  bool has_meta = false;
+  int num_steps = 0;                 // 1 + the highest step seen
+  int obs_dim = 0, act_dim = 0;
+  int image_size = 0;                // 0 when the episode has no images
+  std::vector<float> observations;   // [num_steps, obs_dim]
+  std::vector<float> actions;        // [num_steps, act_dim]
+  std::vector<uint8_t> images;       // [num_steps, image_size, image_size, 3] or empty
+  std::vector<uint8_t> has_obs, has_action, has_image;  // [num_steps] 0/1
+  std::vector<std::string> problems; // human-readable, empty when the episode is whole
+
+  // Runs [begin, end) of consecutive steps with all their data, in order.
+  std::vector<std::pair<int, int>> Segments() const;
+  bool complete() const { return problems.empty(); }
+};
+
+struct BagReadReport {
+  uint64_t messages = 0, episodes = 0, complete_episodes = 0, steps = 0;
+  uint64_t missing_observations = 0, missing_actions = 0, missing_images = 0;
+  uint64_t duplicates = 0, foreign_messages = 0;
+  std::vector<std::string> problems;  // episode-level and bag-level, "episode 3: ..."
+};
+
+// Streams a dataset bag episode by episode in one pass (memory for ~2 episodes).
+class DatasetBagReader {
+ public:
+  explicit DatasetBagReader(std::string path);  // throws BagError naming the path
+  ~DatasetBagReader();
+
+  // Calls fn for each episode in increasing episode_id. Throws BagError naming the
+  // file when the bag is truncated or corrupt (after the episodes read so far).
+  void ForEachEpisode(const std::function<void(BagEpisode&&)>& fn);
+  const BagReadReport& report() const { return report_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  std::unique_ptr<rosbag::Bag> bag_;
+  BagReadReport report_;
+};
+
+}  // namespace msspr::ros_bridge

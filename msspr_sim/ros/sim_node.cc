@@ -1,0 +1,349 @@
+#include "sim_node.h"
+
+#include <cmath>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <rosgraph_msgs/Clock.h>
+
+#include "msg_conversion.h"
+#include "msspr/EpisodeInfo.h"
+#include "msspr_sim/expert.h"
+
+namespace msspr::ros_bridge {
+
+namespace {
+template <typename T>
+T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
+  T v = def;
+  pnh.param<T>(name, v, def);
+  ROS_INFO_STREAM_NAMED("msspr_sim", "  " << name << ": " << v);
+  return v;
+}
+}  // namespace
+
+SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
+  SimNodeOptions o;
+  ROS_INFO_NAMED("msspr_sim", "msspr_sim_node parameters:");
+  o.maze = Param(pnh, "maze", o.maze);
+  o.observation_mode = Param(pnh, "observation_mode", o.observation_mode);
+  o.image_size = Param(pnh, "image_size", o.image_size);
+  o.stepping = Param(pnh, "stepping", o.stepping);
+  o.control_rate = Param(pnh, "control_rate", o.control_rate);
+  o.action_timeout = Param(pnh, "action_timeout", o.action_timeout);
+  o.republish_timeout = Param(pnh, "republish_timeout", o.republish_timeout);
+  o.max_episode_steps = Param(pnh, "max_episode_steps", o.max_episode_steps);
+  o.initial_task = Param(pnh, "initial_task", o.initial_task);
+  o.seed = Param(pnh, "seed", o.seed);
+  o.auto_reset = Param(pnh, "auto_reset", o.auto_reset);
+  o.episode_length = Param(pnh, "episode_length", o.episode_length);
+  o.num_episodes = Param(pnh, "num_episodes", o.num_episodes);
+  o.val_episodes = Param(pnh, "val_episodes", o.val_episodes);
+  o.shutdown_when_done = Param(pnh, "shutdown_when_done", o.shutdown_when_done);
+  o.wait_for_subscribers = Param(pnh, "wait_for_subscribers", o.wait_for_subscribers);
+  o.publish_clock = Param(pnh, "publish_clock", o.publish_clock);
+  o.world_frame = Param(pnh, "world_frame", o.world_frame);
+  o.agent_frame = Param(pnh, "agent_frame", o.agent_frame);
+  if (o.observation_mode != "state" && o.observation_mode != "pixels" && o.observation_mode != "both")
+    throw std::invalid_argument("~observation_mode must be state, pixels or both, got '" +
+                                o.observation_mode + "'");
+  if (o.stepping != "lockstep" && o.stepping != "realtime")
+    throw std::invalid_argument("~stepping must be lockstep or realtime, got '" + o.stepping + "'");
+  if (o.control_rate <= 0) throw std::invalid_argument("~control_rate must be > 0");
+  if (o.initial_task < -1 || o.initial_task > 5)
+    throw std::invalid_argument("~initial_task must be -1 (none), 0 (random) or 1..5");
+  if (o.auto_reset && o.episode_length < 2) throw std::invalid_argument("~episode_length must be >= 2");
+  if (o.max_episode_steps < 1) throw std::invalid_argument("~max_episode_steps must be >= 1");
+  return o;
+}
+
+SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& options)
+    : options_(options), nh_(nh), pnh_(pnh), it_(nh) {
+  sim::PointMazeOptions env_opt;
+  env_opt.maze = options_.maze;
+  env_opt.enable_rendering = pixels();
+  env_opt.image_size = options_.image_size;
+  env_opt.max_episode_steps = options_.max_episode_steps;
+  env_ = std::make_unique<sim::PointMaze>(env_opt);
+  env_name_ = "pointmaze-" + options_.maze;
+
+  obs_pub_ = nh_.advertise<msspr::Observation>("observation", 10);
+  episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", 10, /*latch=*/true);
+  if (options_.publish_clock) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  if (pixels()) {
+    image_pub_ = it_.advertise("camera/image", 10);
+    goal_image_pub_ = it_.advertise("goal_image", 1, /*latch=*/true);
+  }
+  action_sub_ = nh_.subscribe("action", 10, &SimNode::OnAction, this,
+                              ros::TransportHints().tcpNoDelay());
+  reset_srv_ = nh_.advertiseService("reset", &SimNode::OnReset, this);
+  goal_srv_ = nh_.advertiseService("set_goal", &SimNode::OnSetGoal, this);
+  pause_srv_ = nh_.advertiseService("pause", &SimNode::OnPause, this);
+  if (options_.stepping == "realtime")
+    realtime_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / options_.control_rate),
+                                          &SimNode::OnRealtimeTick, this);
+  watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &SimNode::OnWatchdog, this);
+  diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &SimNode::OnDiagnostics, this);
+  wait_since_ = ros::WallTime::now();
+  if (options_.publish_clock) {  // time 0 until the first step
+    rosgraph_msgs::Clock c;
+    c.clock = TickToTime(0, 0.1);
+    clock_pub_.publish(c);
+  }
+  ROS_INFO_STREAM_NAMED("msspr_sim", "msspr_sim_node serving " << env_name_ << " ("
+                                         << options_.stepping << ", " << options_.observation_mode
+                                         << ")");
+}
+
+void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split) {
+  ++episode_id_;
+  ++tick_;
+  if (task_id == 0)
+    env_->ResetRandom(seed);
+  else
+    env_->ResetToTask(task_id, seed);
+  active_ = true;
+  have_action_ = false;
+  ++counters_.episodes;
+  msspr::EpisodeInfo info;
+  info.header.stamp = TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip);
+  info.episode_id = static_cast<uint32_t>(episode_id_);
+  info.env = env_name_;
+  info.split = split;
+  info.task_id = task_id;
+  info.seed = seed;
+  info.start = ToFloatVector(env_->state());
+  info.goal = ToFloatVector(env_->goal());
+  episode_pub_.publish(info);
+  if (pixels()) {
+    const auto goal_img = env_->RenderGoal();
+    goal_image_pub_.publish(ToImageMsg(goal_img.data(), options_.image_size, info.header.stamp,
+                                       kCameraFrame));
+  }
+  Publish();
+}
+
+bool SimNode::NextAutoEpisode() {
+  const int64_t next = episode_id_ + 1;
+  const int64_t total = static_cast<int64_t>(options_.num_episodes) + options_.val_episodes;
+  if (options_.num_episodes > 0 && next >= total) {
+    active_ = false;
+    done_ = true;
+    ROS_INFO_STREAM_NAMED("msspr_sim", "collection complete: " << total << " episodes of "
+                                                               << options_.episode_length << " steps");
+    if (options_.shutdown_when_done) ros::shutdown();
+    return false;
+  }
+  const std::string split =
+      options_.num_episodes > 0 && next >= options_.num_episodes ? "val" : "train";
+  StartEpisode(0, sim::EpisodeSeed(static_cast<uint64_t>(options_.seed), static_cast<uint64_t>(next)),
+               split);
+  return true;
+}
+
+msspr::Observation SimNode::MakeObservation() const {
+  msspr::Observation o;
+  o.header.stamp = TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip);
+  o.header.frame_id = options_.world_frame;
+  o.episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
+  o.step = static_cast<uint32_t>(env_->steps());
+  o.state = ToFloatVector(env_->state());
+  o.goal = ToFloatVector(env_->goal());
+  o.success = env_->success();
+  o.last = options_.auto_reset ? env_->steps() >= options_.episode_length - 1
+                               : env_->steps() >= options_.max_episode_steps;
+  return o;
+}
+
+void SimNode::Publish() {
+  const msspr::Observation o = MakeObservation();
+  if (options_.publish_clock) {
+    rosgraph_msgs::Clock c;
+    c.clock = o.header.stamp;
+    clock_pub_.publish(c);
+  }
+  geometry_msgs::TransformStamped tf;
+  tf.header.stamp = o.header.stamp;
+  tf.header.frame_id = options_.world_frame;
+  tf.child_frame_id = options_.agent_frame;
+  tf.transform.translation.x = o.state[0];
+  tf.transform.translation.y = o.state[1];
+  tf.transform.rotation.w = 1.0;
+  tf_.sendTransform(tf);
+  if (pixels()) {
+    const auto img = env_->Render();
+    image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
+  }
+  obs_pub_.publish(o);
+  last_publish_time_ = ros::WallTime::now();
+  if (o.last && !options_.auto_reset) active_ = false;  // wait for a reset
+}
+
+void SimNode::DoStep(const Eigen::Vector2d& action) {
+  if (options_.auto_reset && env_->steps() >= options_.episode_length - 1) {
+    NextAutoEpisode();  // the last action of the episode is recorded; start the next
+    return;
+  }
+  env_->Step(action);
+  ++tick_;
+  ++counters_.steps;
+  Publish();
+}
+
+void SimNode::OnAction(const msspr::Action::ConstPtr& msg) {
+  ++counters_.actions;
+  if (msg->action.size() != static_cast<size_t>(sim::PointMaze::kActionDim)) {
+    ++counters_.rejected_wrong_length;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with "
+                                                          << msg->action.size() << " values, expected "
+                                                          << sim::PointMaze::kActionDim);
+    return;
+  }
+  if (!AllFinite(msg->action)) {
+    ++counters_.rejected_nonfinite;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with NaN or Inf values");
+    return;
+  }
+  Eigen::Vector2d a(msg->action[0], msg->action[1]);
+  if (a.cwiseAbs().maxCoeff() > 1.0) {
+    ++counters_.clipped;
+    a = a.cwiseMax(-1.0).cwiseMin(1.0);
+  }
+  if (paused_) {
+    ++counters_.ignored_paused;
+    return;
+  }
+  if (!active_) {
+    ++counters_.ignored_after_end;
+    return;
+  }
+  if (options_.stepping == "realtime") {
+    latest_action_ = a;
+    latest_action_time_ = ros::WallTime::now();
+    have_action_ = true;
+    return;
+  }
+  if (static_cast<int64_t>(msg->episode_id) != episode_id_ ||
+      msg->step != static_cast<uint32_t>(env_->steps())) {
+    ++counters_.stale;  // answers an observation that is no longer current
+    return;
+  }
+  DoStep(a);
+}
+
+void SimNode::OnRealtimeTick(const ros::WallTimerEvent&) {
+  if (!active_ || paused_) return;
+  Eigen::Vector2d a = Eigen::Vector2d::Zero();
+  if (have_action_ && (ros::WallTime::now() - latest_action_time_).toSec() <= options_.action_timeout)
+    a = latest_action_;
+  else if (have_action_)
+    ++counters_.timeouts;
+  DoStep(a);
+}
+
+void SimNode::OnWatchdog(const ros::WallTimerEvent&) {
+  if (!started_) {
+    const bool subs_ok = obs_pub_.getNumSubscribers() >= static_cast<uint32_t>(options_.wait_for_subscribers);
+    const bool agent_ok = !options_.auto_reset || action_sub_.getNumPublishers() > 0;
+    if (!subs_ok || !agent_ok) {
+      wait_since_ = ros::WallTime::now();
+      ROS_INFO_THROTTLE_NAMED(5.0, "msspr_sim", "waiting for %d observation subscriber(s)%s",
+                              options_.wait_for_subscribers,
+                              options_.auto_reset ? " and an action publisher" : "");
+      return;
+    }
+    // Let every new subscriber finish connecting to the other topics too.
+    if (options_.wait_for_subscribers > 0 && (ros::WallTime::now() - wait_since_).toSec() < 0.5) return;
+    started_ = true;
+    if (options_.auto_reset)
+      NextAutoEpisode();
+    else if (options_.initial_task >= 0)
+      StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed), "");
+    return;
+  }
+  if (options_.stepping == "lockstep" && active_ && !paused_ &&
+      (ros::WallTime::now() - last_publish_time_).toSec() > options_.republish_timeout) {
+    ++counters_.republished;  // the observation or its answer was lost: send it again
+    Publish();
+  }
+}
+
+bool SimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
+  if (req.task_id < 0 || req.task_id > 5) {
+    res.ok = false;
+    res.message = "task_id must be 0 (random) or 1..5, got " + std::to_string(req.task_id);
+    return true;
+  }
+  try {
+    started_ = true;
+    StartEpisode(req.task_id, req.seed, "");
+  } catch (const std::exception& e) {
+    res.ok = false;
+    res.message = e.what();
+    return true;
+  }
+  res.ok = true;
+  res.message = "episode " + std::to_string(episode_id_);
+  res.observation = MakeObservation();
+  res.goal = ToFloatVector(env_->goal());
+  return true;
+}
+
+bool SimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) {
+  if (req.goal.size() != static_cast<size_t>(sim::PointMaze::kObsDim) || !AllFinite(req.goal)) {
+    res.ok = false;
+    res.message = "goal must be 2 finite numbers (x, y)";
+    return true;
+  }
+  env_->SetGoal(Eigen::Vector2d(req.goal[0], req.goal[1]));
+  if (pixels()) {
+    const auto goal_img = env_->RenderGoal();
+    goal_image_pub_.publish(ToImageMsg(goal_img.data(), options_.image_size,
+                                       TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip),
+                                       kCameraFrame));
+  }
+  res.ok = true;
+  res.message = "goal set";
+  return true;
+}
+
+bool SimNode::OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res) {
+  paused_ = req.pause;
+  res.paused = paused_;
+  if (!paused_) last_publish_time_ = ros::WallTime::now();
+  ROS_INFO_STREAM_NAMED("msspr_sim", (paused_ ? "paused" : "resumed"));
+  return true;
+}
+
+void SimNode::OnDiagnostics(const ros::WallTimerEvent&) {
+  diagnostic_msgs::DiagnosticArray arr;
+  arr.header.stamp = TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip);
+  diagnostic_msgs::DiagnosticStatus st;
+  st.name = ros::this_node::getName() + ": actions";
+  st.hardware_id = env_name_;
+  const uint64_t rejected = counters_.rejected_wrong_length + counters_.rejected_nonfinite;
+  st.level = rejected > 0 ? diagnostic_msgs::DiagnosticStatus::WARN : diagnostic_msgs::DiagnosticStatus::OK;
+  st.message = rejected > 0 ? std::to_string(rejected) + " malformed actions rejected" : "ok";
+  auto kv = [&](const std::string& k, uint64_t v) {
+    diagnostic_msgs::KeyValue p;
+    p.key = k;
+    p.value = std::to_string(v);
+    st.values.push_back(p);
+  };
+  kv("steps", counters_.steps);
+  kv("episodes", counters_.episodes);
+  kv("actions", counters_.actions);
+  kv("rejected_wrong_length", counters_.rejected_wrong_length);
+  kv("rejected_nonfinite", counters_.rejected_nonfinite);
+  kv("clipped", counters_.clipped);
+  kv("stale", counters_.stale);
+  kv("ignored_paused", counters_.ignored_paused);
+  kv("ignored_after_end", counters_.ignored_after_end);
+  kv("timeouts", counters_.timeouts);
+  kv("republished", counters_.republished);
+  arr.status.push_back(st);
+  diag_pub_.publish(arr);
+}
+
+}  // namespace msspr::ros_bridge

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Runs every test (gtest units, rostest scenarios, checks) through ctest and
+# ends with the line "N passed, N failed".
+set -uo pipefail
+BUILD=${1:-build}
+cd "$BUILD" || { echo "no build dir $BUILD (run make build)"; echo "0 passed, 1 failed"; exit 1; }
+export PATH=/usr/bin:/bin:$PATH
+export ROS_HOME=${ROS_HOME:-$PWD/ros_home}
+export ROS_LOG_DIR=${ROS_LOG_DIR:-$ROS_HOME/log}
+export OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
+mkdir -p "$ROS_LOG_DIR"
+log=$PWD/ctest.log
+ctest --output-on-failure --timeout 900 "${@:2}" 2>&1 | tee "$log"
+rc=${PIPESTATUS[0]}
+total=$(grep -oE 'tests failed out of [0-9]+' "$log" | tail -1 | grep -oE '[0-9]+$')
+failed=$(grep -oE '[0-9]+ tests failed out of' "$log" | tail -1 | grep -oE '^[0-9]+')
+if [ -z "$total" ]; then
+  echo "ctest gave no summary (exit $rc)"
+  echo "0 passed, 1 failed"
+  exit 1
+fi
+echo "$((total - failed)) passed, ${failed} failed"
+[ "$rc" -eq 0 ] && [ "$failed" -eq 0 ]

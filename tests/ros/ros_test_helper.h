@@ -1,0 +1,77 @@
+// Shared helper of the rostest scenarios: subscribes to the sim's topics, waits
+// with timeouts, and reads the sim's diagnostics counters.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <string>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <ros/ros.h>
+
+#include "msspr/Action.h"
+#include "msspr/Observation.h"
+
+namespace msspr::testing {
+
+class RosTestHelper {
+ public:
+  RosTestHelper() {
+    obs_sub_ = nh_.subscribe<msspr::Observation>(
+        "observation", 1000, [this](const msspr::Observation::ConstPtr& o) {
+          latest_ = o;
+          ++observations_;
+        });
+    diag_sub_ = nh_.subscribe<diagnostic_msgs::DiagnosticArray>(
+        "/diagnostics", 10, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& d) {
+          for (const auto& st : d->status)
+            if (st.name.find("actions") != std::string::npos)
+              for (const auto& kv : st.values) counters_[kv.key] = std::stoull(kv.value);
+        });
+    action_pub_ = nh_.advertise<msspr::Action>("action", 100);
+  }
+
+  // Spins until pred() holds or timeout_s of wall time pass; returns pred().
+  bool WaitFor(const std::function<bool()>& pred, double timeout_s) {
+    const auto end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+    while (ros::ok() && !pred() && ros::WallTime::now() < end) {
+      ros::spinOnce();
+      ros::WallDuration(0.001).sleep();
+    }
+    ros::spinOnce();
+    return pred();
+  }
+
+  // Waits until the sim's observation topic and action subscriber are connected.
+  bool WaitForSim(double timeout_s = 30.0) {
+    return WaitFor([&] { return obs_sub_.getNumPublishers() > 0 && action_pub_.getNumSubscribers() > 0; },
+                   timeout_s);
+  }
+
+  void SendAction(uint32_t episode, uint32_t step, std::vector<float> a) {
+    msspr::Action m;
+    m.episode_id = episode;
+    m.step = step;
+    m.action = std::move(a);
+    action_pub_.publish(m);
+  }
+
+  uint64_t Counter(const std::string& key) const {
+    auto it = counters_.find(key);
+    return it == counters_.end() ? 0 : it->second;
+  }
+
+  ros::NodeHandle& nh() { return nh_; }
+  msspr::Observation::ConstPtr latest() const { return latest_; }
+  uint64_t observations() const { return observations_; }
+
+ private:
+  ros::NodeHandle nh_;
+  ros::Subscriber obs_sub_, diag_sub_;
+  ros::Publisher action_pub_;
+  msspr::Observation::ConstPtr latest_;
+  uint64_t observations_ = 0;
+  std::map<std::string, uint64_t> counters_;
+};
+
+}  // namespace msspr::testing

@@ -1,0 +1,182 @@
+// rostest scenarios of the sim node (one suite per .test file, see tests/ros/*.test).
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "dataset_bag.h"
+#include "msspr/Pause.h"
+#include "msspr/Reset.h"
+#include "msspr/SetGoal.h"
+#include "msspr_sim/dataset_gen.h"
+#include "msspr_sim/maze_map.h"
+#include "msspr_sim/point_maze.h"
+#include "ros_test_helper.h"
+
+namespace msspr::testing {
+namespace {
+
+msspr::Reset::Response CallReset(ros::NodeHandle& nh, int task, uint64_t seed) {
+  ros::ServiceClient c = nh.serviceClient<msspr::Reset>("reset");
+  EXPECT_TRUE(c.waitForExistence(ros::Duration(30.0)));
+  msspr::Reset srv;
+  srv.request.task_id = task;
+  srv.request.seed = seed;
+  EXPECT_TRUE(c.call(srv));
+  return srv.response;
+}
+
+// sim + expert (goal mode) in lockstep reach the goal of every medium task.
+TEST(SimExpertLockstep, ReachesGoals) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  for (int task = 1; task <= 5; ++task) {
+    const auto res = CallReset(h.nh(), task, 100 + task);
+    ASSERT_TRUE(res.ok) << res.message;
+    const uint32_t id = res.observation.episode_id;
+    const bool reached = h.WaitFor(
+        [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->success; }, 60.0);
+    ASSERT_TRUE(reached) << "task " << task << " not reached; last step "
+                         << (h.latest() ? h.latest()->step : 0);
+    EXPECT_LT(h.latest()->step, 1000u);
+    EXPECT_GT(h.latest()->step, 5u);  // it really drove there
+  }
+}
+
+// Malformed actions are rejected and counted; the node keeps serving.
+TEST(SimBadInput, RejectsAndKeepsServing) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  const auto res = CallReset(h.nh(), 2, 7);
+  ASSERT_TRUE(res.ok);
+  const uint32_t id = res.observation.episode_id;
+  const float x0 = res.observation.state[0], y0 = res.observation.state[1];
+  h.SendAction(id, 0, {0.1f});                       // wrong length
+  h.SendAction(id, 0, {0.1f, 0.2f, 0.3f});           // wrong length
+  h.SendAction(id, 0, {NAN, 0.f});                   // NaN
+  h.SendAction(id, 0, {0.f, INFINITY});              // Inf
+  ASSERT_TRUE(h.WaitFor([&] { return h.Counter("rejected_wrong_length") >= 2 &&
+                                     h.Counter("rejected_nonfinite") >= 2; }, 10.0))
+      << "wrong_length=" << h.Counter("rejected_wrong_length")
+      << " nonfinite=" << h.Counter("rejected_nonfinite");
+  EXPECT_EQ(h.Counter("steps"), 0u);  // none of them stepped the sim
+  // A stale action (wrong step) is ignored, a good one (out of range: clipped) steps.
+  h.SendAction(id, 5, {1.f, 0.f});
+  h.SendAction(id, 0, {0.f, 5.f});
+  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 10.0));
+  const double moved = std::hypot(h.latest()->state[0] - x0, h.latest()->state[1] - y0);
+  EXPECT_LE(moved, 0.2 + 1e-4);  // clipped to 1, times 0.2
+  EXPECT_GT(moved, 0.0);
+  EXPECT_TRUE(h.WaitFor([&] { return h.Counter("clipped") >= 1 && h.Counter("stale") >= 1; }, 5.0));
+}
+
+// The reset, set_goal and pause services.
+TEST(SimServices, ResetSetGoalPause) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  const auto map = sim::MazeMap::FromName("medium");
+  for (int task = 1; task <= 5; ++task) {
+    const auto res = CallReset(h.nh(), task, 3);
+    ASSERT_TRUE(res.ok) << res.message;
+    const auto& t = map.Tasks()[task - 1];
+    const auto s = map.CellCenter(t.start), g = map.CellCenter(t.goal);
+    EXPECT_LE(std::abs(res.observation.state[0] - s.x()), 1.1 + 1e-5);
+    EXPECT_LE(std::abs(res.observation.state[1] - s.y()), 1.1 + 1e-5);
+    EXPECT_LE(std::abs(res.goal[0] - g.x()), 1.0 + 1e-5);
+    EXPECT_LE(std::abs(res.goal[1] - g.y()), 1.0 + 1e-5);
+    EXPECT_EQ(res.observation.step, 0u);
+  }
+  // Same seed, same start.
+  const auto a = CallReset(h.nh(), 3, 42), b = CallReset(h.nh(), 3, 42);
+  EXPECT_EQ(a.observation.state, b.observation.state);
+  EXPECT_EQ(a.goal, b.goal);
+  EXPECT_EQ(b.observation.episode_id, a.observation.episode_id + 1);
+  // A bad task id is refused with a message.
+  const auto bad = CallReset(h.nh(), 9, 0);
+  EXPECT_FALSE(bad.ok);
+  EXPECT_NE(bad.message.find("task_id"), std::string::npos);
+  // set_goal
+  ros::ServiceClient sg = h.nh().serviceClient<msspr::SetGoal>("set_goal");
+  msspr::SetGoal g;
+  g.request.goal = {8.f, 0.f};
+  ASSERT_TRUE(sg.call(g));
+  EXPECT_TRUE(g.response.ok);
+  g.request.goal = {1.f};
+  ASSERT_TRUE(sg.call(g));
+  EXPECT_FALSE(g.response.ok);
+  // pause: actions are ignored until resumed.
+  ros::ServiceClient pc = h.nh().serviceClient<msspr::Pause>("pause");
+  msspr::Pause p;
+  p.request.pause = true;
+  ASSERT_TRUE(pc.call(p));
+  EXPECT_TRUE(p.response.paused);
+  const uint32_t id = b.observation.episode_id + 1;
+  h.SendAction(id, 0, {1.f, 0.f});
+  ASSERT_TRUE(h.WaitFor([&] { return h.Counter("ignored_paused") >= 1; }, 5.0));
+  p.request.pause = false;
+  ASSERT_TRUE(pc.call(p));
+  h.SendAction(id, 0, {1.f, 0.f});
+  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 5.0));
+  EXPECT_FLOAT_EQ(h.latest()->goal[0], 8.f);  // the goal set above holds
+}
+
+// A live recording (rosbag record of sim + navigate expert) equals msspr_collect's writer.
+TEST(LiveRecording, EqualsDirectWriter) {
+  const char* dir = std::getenv("ROS_LOG_DIR");
+  const std::string bag = std::string(dir ? dir : "/tmp") + "/msspr_live_" + std::to_string(getpid()) + ".bag";
+  const pid_t rec = fork();
+  if (rec == 0) {
+    execlp("rosbag", "rosbag", "record", "-O", bag.c_str(), "/msspr/observation", "/msspr/action",
+           "/msspr/episode", "/msspr/camera/image", "__name:=msspr_test_recorder", (char*)nullptr);
+    _exit(127);
+  }
+  ASSERT_GT(rec, 0);
+  RosTestHelper h;  // with the recorder and the expert: 3 observation subscribers start the sim
+  const int kEpisodes = 4, kLength = 40;
+  const bool done = h.WaitFor([&] {
+    return h.latest() && h.latest()->episode_id == kEpisodes - 1 && h.latest()->step == kLength - 1;
+  }, 120.0);
+  ros::WallDuration(1.0).sleep();  // the last action reaches the recorder
+  kill(rec, SIGINT);
+  int status = 0;
+  waitpid(rec, &status, 0);
+  ASSERT_TRUE(done) << "live collection did not finish";
+
+  sim::PointMazeOptions eo;
+  eo.enable_rendering = true;
+  sim::PointMaze env(eo);
+  sim::CollectOptions co;
+  co.episode_length = kLength;
+  co.seed = 11;
+  co.images = true;
+  ros_bridge::DatasetBagReader reader(bag);
+  int k = 0;
+  reader.ForEachEpisode([&](ros_bridge::BagEpisode&& ep) {
+    ASSERT_LT(k, kEpisodes);
+    const sim::Episode direct = sim::CollectEpisode(env, co, static_cast<uint64_t>(k));
+    EXPECT_TRUE(ep.complete()) << (ep.problems.empty() ? "" : ep.problems[0]);
+    EXPECT_EQ(ep.meta.split, k == kEpisodes - 1 ? "val" : "train");
+    EXPECT_EQ(ep.meta.seed, direct.seed);
+    ASSERT_EQ(ep.num_steps, kLength);
+    EXPECT_EQ(ep.observations, direct.observations) << "episode " << k;
+    EXPECT_EQ(ep.actions, direct.actions) << "episode " << k;
+    EXPECT_EQ(ep.images, direct.images) << "episode " << k;
+    ++k;
+  });
+  EXPECT_EQ(k, kEpisodes);
+  std::remove(bag.c_str());
+}
+
+}  // namespace
+}  // namespace msspr::testing
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "msspr_rostest", ros::init_options::AnonymousName);
+  ros::Time::init();
+  return RUN_ALL_TESTS();
+}
