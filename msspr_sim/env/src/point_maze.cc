@@ -1,0 +1,253 @@
+#include "msspr_sim/point_maze.h"
+
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+#include "gl_context.h"
+#include "random_util.h"
+
+namespace msspr::sim {
+namespace {
+
+[[noreturn]] void ThrowMujocoError(const char* msg) {
+  throw std::runtime_error(std::string("MuJoCo error: ") + msg);
+}
+void LogMujocoWarning(const char* msg) { std::fprintf(stderr, "MuJoCo warning: %s\n", msg); }
+
+// MuJoCo's default error handler waits for Enter on stdin; ours throws.
+void InstallMujocoHandlers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    mju_user_error = ThrowMujocoError;
+    mju_user_warning = LogMujocoWarning;
+  });
+}
+
+struct ModelDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+};
+struct DataDeleter {
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+struct VfsDeleter {
+  void operator()(mjVFS* v) const {
+    mj_deleteVFS(v);
+    delete v;
+  }
+};
+
+std::unique_ptr<mjModel, ModelDeleter> LoadInlineModel(const std::string& xml,
+                                                       const std::string& name) {
+  // mjVFS is ~2 MB: heap only.
+  std::unique_ptr<mjVFS, VfsDeleter> vfs(new mjVFS);
+  mj_defaultVFS(vfs.get());
+  const std::string file = name + ".xml";
+  if (mj_makeEmptyFileVFS(vfs.get(), file.c_str(), static_cast<int>(xml.size())) != 0) {
+    throw std::runtime_error("MuJoCo: cannot create VFS file " + file);
+  }
+  const int index = mj_findFileVFS(vfs.get(), file.c_str());
+  std::memcpy(vfs->filedata[index], xml.data(), xml.size());
+  char error[1024] = {0};
+  mjModel* m = mj_loadXML(file.c_str(), vfs.get(), error, sizeof(error));
+  if (m == nullptr) {
+    throw std::runtime_error("MuJoCo: cannot load the generated MJCF " + file + ": " + error);
+  }
+  return std::unique_ptr<mjModel, ModelDeleter>(m);
+}
+
+}  // namespace
+
+struct PointMaze::Impl {
+  std::unique_ptr<mjModel, ModelDeleter> model;
+  std::unique_ptr<mjData, DataDeleter> data;
+  // Rendering (only with enable_rendering).
+  std::unique_ptr<internal::GlContext> gl;
+  bool render_ready = false;
+  mjvScene scene;
+  mjvCamera camera;
+  mjvOption vopt;
+  mjrContext context;
+  std::vector<uint8_t> flip;  // [S, S, 3] scratch for the bottom-up read
+
+  ~Impl() {
+    if (render_ready) {
+      gl->MakeCurrent();
+      mjr_freeContext(&context);
+      mjv_freeScene(&scene);
+    }
+  }
+};
+
+PointMaze::PointMaze(const PointMazeOptions& options)
+    : options_(options), map_(MazeMap::FromName(options.maze)), impl_(std::make_unique<Impl>()) {
+  if (options_.image_size < 1 || options_.image_size > 4096) {
+    throw std::invalid_argument("PointMaze: image_size must be in [1, 4096], got " +
+                                std::to_string(options_.image_size));
+  }
+  InstallMujocoHandlers();
+  impl_->model = LoadInlineModel(map_.ToMjcf(options_.image_size), "pointmaze_" + map_.name());
+  mjModel* m = impl_->model.get();
+  if (m->nq != 2 || m->nv != 2) throw std::logic_error("PointMaze: model must have nq = nv = 2");
+  impl_->data.reset(mj_makeData(m));
+  if (!impl_->data) throw std::runtime_error("MuJoCo: mj_makeData failed");
+  mj_forward(m, impl_->data.get());
+
+  if (options_.enable_rendering) {
+    const int s = options_.image_size;
+    impl_->gl = std::make_unique<internal::GlContext>(s, s);
+    mjv_defaultScene(&impl_->scene);
+    mjv_defaultCamera(&impl_->camera);
+    mjv_defaultOption(&impl_->vopt);
+    mjr_defaultContext(&impl_->context);
+    mjv_makeScene(m, &impl_->scene, 2000);
+    mjr_makeContext(m, &impl_->context, mjFONTSCALE_100);
+    mjr_setBuffer(mjFB_OFFSCREEN, &impl_->context);
+    if (impl_->context.currentBuffer != mjFB_OFFSCREEN) {
+      mjr_freeContext(&impl_->context);
+      mjv_freeScene(&impl_->scene);
+      throw std::runtime_error("MuJoCo: offscreen framebuffer is not available");
+    }
+    impl_->scene.flags[mjRND_SHADOW] = 0;
+    impl_->scene.flags[mjRND_SKYBOX] = 0;
+    impl_->camera.type = mjCAMERA_FIXED;
+    impl_->camera.fixedcamid = mj_name2id(m, mjOBJ_CAMERA, "track");
+    if (impl_->camera.fixedcamid < 0) throw std::logic_error("PointMaze: no camera 'track'");
+    impl_->flip.resize(static_cast<size_t>(s) * s * 3);
+    impl_->render_ready = true;
+  }
+}
+
+PointMaze::~PointMaze() = default;
+
+Eigen::Vector2d PointMaze::Reset(const Eigen::Vector2d& start, const Eigen::Vector2d& goal) {
+  if (!start.allFinite() || !goal.allFinite()) {
+    throw std::invalid_argument("PointMaze::Reset: start and goal must be finite");
+  }
+  mjModel* m = impl_->model.get();
+  mjData* d = impl_->data.get();
+  mj_resetData(m, d);
+  d->qpos[0] = start.x();
+  d->qpos[1] = start.y();
+  mj_forward(m, d);
+  goal_ = goal;
+  steps_ = 0;
+  return state();
+}
+
+Eigen::Vector2d PointMaze::ResetToTask(int task_id, uint64_t seed) {
+  const auto& tasks = map_.Tasks();
+  const auto it = std::find_if(tasks.begin(), tasks.end(),
+                               [task_id](const MazeMap::Task& t) { return t.id == task_id; });
+  if (it == tasks.end()) {
+    throw std::invalid_argument("PointMaze::ResetToTask: no task " + std::to_string(task_id) +
+                                " in maze " + map_.name() + " (valid: 1.." +
+                                std::to_string(tasks.size()) + ")");
+  }
+  std::mt19937_64 rng(seed);
+  Eigen::Vector2d start = map_.CellCenter(it->start);
+  Eigen::Vector2d goal = map_.CellCenter(it->goal);
+  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -0.1, 0.1);  // qpos noise
+  return Reset(start, goal);
+}
+
+Eigen::Vector2d PointMaze::ResetRandom(uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  const std::vector<Cell> free = map_.FreeCells();
+  const std::vector<Cell> vertices = map_.VertexCells();
+  const Cell start_cell = free[internal::UniformIndex(rng, free.size())];
+  const Cell goal_cell = vertices[internal::UniformIndex(rng, vertices.size())];
+  Eigen::Vector2d start = map_.CellCenter(start_cell);
+  Eigen::Vector2d goal = map_.CellCenter(goal_cell);
+  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -0.1, 0.1);  // qpos noise
+  return Reset(start, goal);
+}
+
+Eigen::Vector2d PointMaze::Step(const Eigen::Vector2d& action) {
+  if (!action.allFinite()) {
+    throw std::invalid_argument("PointMaze::Step: action must be finite");
+  }
+  mjModel* m = impl_->model.get();
+  mjData* d = impl_->data.get();
+  for (int k = 0; k < 2; ++k) {
+    d->qpos[k] += kActionScale * std::clamp(action[k], -1.0, 1.0);
+    d->qvel[k] = 0.0;
+  }
+  for (int s = 0; s < kFrameSkip; ++s) mj_step(m, d);
+  ++steps_;
+  return state();
+}
+
+Eigen::Vector2d PointMaze::state() const {
+  const mjData* d = impl_->data.get();
+  return {d->qpos[0], d->qpos[1]};
+}
+
+bool PointMaze::success() const {
+  return (state() - goal_).norm() <= options_.success_radius;
+}
+
+void PointMaze::Render(uint8_t* rgb) const {
+  if (!impl_->render_ready) {
+    throw std::logic_error("PointMaze::Render: construct with enable_rendering = true");
+  }
+  mjModel* m = impl_->model.get();
+  mjData* d = impl_->data.get();
+  impl_->gl->MakeCurrent();
+  // Positions only (no constraint solve), so rendering never changes the
+  // physics state, not even the solver's warm start.
+  mj_kinematics(m, d);
+  mj_comPos(m, d);
+  mj_camlight(m, d);
+  const int s = options_.image_size;
+  const mjrRect viewport = {0, 0, s, s};
+  mjv_updateScene(m, d, &impl_->vopt, nullptr, &impl_->camera, mjCAT_ALL, &impl_->scene);
+  mjr_render(viewport, &impl_->scene, &impl_->context);
+  mjr_readPixels(impl_->flip.data(), nullptr, viewport, &impl_->context);
+  const size_t row = static_cast<size_t>(s) * 3;
+  for (int r = 0; r < s; ++r) {
+    std::memcpy(rgb + r * row, impl_->flip.data() + (s - 1 - r) * row, row);
+  }
+}
+
+std::vector<uint8_t> PointMaze::Render() const {
+  std::vector<uint8_t> rgb(static_cast<size_t>(options_.image_size) * options_.image_size * 3);
+  Render(rgb.data());
+  return rgb;
+}
+
+std::vector<uint8_t> PointMaze::RenderAt(const Eigen::Vector2d& xy) const {
+  mjData* d = impl_->data.get();
+  const double saved[2] = {d->qpos[0], d->qpos[1]};
+  d->qpos[0] = xy.x();
+  d->qpos[1] = xy.y();
+  std::vector<uint8_t> rgb;
+  try {
+    rgb = Render();
+  } catch (...) {
+    d->qpos[0] = saved[0];
+    d->qpos[1] = saved[1];
+    throw;
+  }
+  d->qpos[0] = saved[0];
+  d->qpos[1] = saved[1];
+  mjModel* m = impl_->model.get();
+  mj_kinematics(m, d);
+  mj_comPos(m, d);
+  mj_camlight(m, d);
+  return rgb;
+}
+
+std::vector<uint8_t> PointMaze::RenderGoal() const { return RenderAt(goal_); }
+
+}  // namespace msspr::sim
