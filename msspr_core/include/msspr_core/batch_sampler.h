@@ -1,0 +1,81 @@
+// Goal relabelling (OGBench GCDataset), n-step returns and trajectory
+// chunks, as index arrays into a Dataset. Rewards: 0 when the state equals
+// the goal (exact index equality, as OGBench), else -1. This header does not
+// include torch; the trainer gathers the indexed data into tensors.
+#pragma once
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "msspr_core/dataset.h"
+#include "msspr_core/options.h"
+
+namespace msspr {
+namespace core {
+
+// A batch of B transitions for the critic and actor.
+struct TransitionIndices {
+  std::vector<int64_t> idx;         // [B] state s_t (and action a_t)
+  std::vector<int64_t> next_idx;    // [B] bootstrap state s_{t+m}, m = min(n, steps to trajectory end)
+  std::vector<int64_t> value_goal;  // [B] goal of the critic
+  std::vector<int64_t> actor_goal;  // [B] goal of the actor
+  std::vector<float> ret;           // [B] n-step return R^(n) to value_goal, rewards in {-1, 0}
+  std::vector<float> discount;      // [B] gamma^m, or 0 when the goal is reached within the n steps
+};
+
+// A batch of B chunks for the representation loss. The chunk starting at
+// step t holds states s_t..s_{t+L-1} and actions a_t..a_{t+A-1} with
+// L = max(H, H - 1 + k) + 1 and A = max(H, H - 1 + k) (k = goal horizon);
+// indices past the trajectory's end are clamped to it and masked out.
+struct ChunkIndices {
+  int batch = 0;                     // B
+  int horizon = 0;                   // H
+  int num_states = 0;                // L
+  int num_actions = 0;               // A
+  std::vector<int64_t> states;       // [B, L]
+  std::vector<float> state_mask;     // [B, L] 1 when s_{t+j} is in the trajectory
+  std::vector<int64_t> actions;      // [B, A]
+  std::vector<float> action_mask;    // [B, A] 1 when a_{t+j} has a next state in the trajectory
+  std::vector<int64_t> goal;         // [B] value-relabelled goal of the chunk
+  std::vector<float> mc_return;      // [B, H] Monte Carlo return from s_{t+h} to the goal along
+                                     //        the trajectory; -1/(1-gamma) when never reached
+};
+
+class BatchSampler {
+ public:
+  // Keeps a reference to `data`, which must outlive the sampler.
+  BatchSampler(const Dataset& data, const RelabelOptions& relabel, double gamma, int n_step,
+               int horizon, int goal_horizon);
+
+  // A uniformly drawn step with a next state.
+  int64_t SampleStart(std::mt19937_64& rng) const;
+  // Value goal for step i: current state / future state of i's trajectory
+  // (geometric offset >= 1 with p = 1 - gamma, capped at the trajectory's
+  // end, or uniform in (i, end]) / random dataset state, with the
+  // proportions of RelabelOptions::value_*.
+  int64_t SampleValueGoal(int64_t i, std::mt19937_64& rng) const;
+  // Actor goal for step i (RelabelOptions::actor_*).
+  int64_t SampleActorGoal(int64_t i, std::mt19937_64& rng) const;
+
+  // n-step return and bootstrap of the transition at i toward goal g.
+  void NStep(int64_t i, int64_t g, int64_t* next_idx, float* ret, float* discount) const;
+  // Monte Carlo return from step t to goal g along t's trajectory.
+  float MonteCarloReturn(int64_t t, int64_t g) const;
+
+  TransitionIndices SampleTransitions(int batch, std::mt19937_64& rng) const;
+  ChunkIndices SampleChunks(int batch, std::mt19937_64& rng) const;
+
+ private:
+  int64_t SampleGoal(int64_t i, double p_cur, double p_traj, bool geom, std::mt19937_64& rng) const;
+
+  const Dataset& data_;
+  RelabelOptions relabel_;
+  double gamma_;
+  int n_step_;
+  int horizon_;
+  int goal_horizon_;
+};
+
+}  // namespace core
+}  // namespace msspr

@@ -1,0 +1,225 @@
+// Options of every Ms.PR component, with the defaults of docs/method.md.
+// Each struct lists its fields once in a `Visit` function; the YAML loader,
+// the YAML writer and the checkpoint header all go through that list, so a
+// field added here is loadable, saved and restored without further code.
+// This header does not include torch.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace msspr {
+namespace core {
+
+// Thrown for a bad option value, an unknown key or an unknown preset.
+class OptionsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Sizes of the networks (method.md "Networks"). Dims of the data
+// (obs_dim, action_dim, image sizes) are filled from the dataset.
+struct NetworkOptions {
+  std::string obs_mode = "state";  // "state" (float vector) or "pixels" (uint8 HWC image)
+  int obs_dim = 0;                 // state observation size (state mode)
+  int action_dim = 0;              // action size, actions in [-1, 1]
+  int image_height = 64;           // pixels mode
+  int image_width = 64;            // pixels mode
+  int image_channels = 3;          // per frame; the CNN sees image_channels * frame_stack
+  int frame_stack = 1;             // frames stacked along channels (3 for manipulation)
+  int encoder_hidden = 512;        // E_s MLP hidden width (state mode)
+  int encoder_layers = 2;          // E_s hidden layers
+  int zs_dim = 512;                // z_s
+  int za_dim = 256;                // z_a (action encoder output)
+  int zsa_hidden = 512;            // E_sa hidden width
+  int zsa_dim = 512;               // z_sa
+  int goal_hidden = 512;           // psi hidden width
+  int goal_dim = 128;              // g_rep
+  bool length_normalize = true;    // g_rep = x / ||x|| * sqrt(goal_dim)
+  int critic_hidden = 512;         // Q hidden width
+  int critic_layers = 3;           // Q hidden layers
+  int actor_hidden = 512;          // pi hidden width
+  int actor_layers = 3;            // pi hidden layers
+  int num_bins = 21;               // f_rew two-hot bins over [-1/(1-gamma), 0]
+  int goal_horizon = 5;            // k: f_g-dyn predicts z_s(t+k), f_g-act a_t..a_{t+k-1}
+  double layer_norm_eps = 1e-6;    // Pre-LN epsilon (paper appendix A.2)
+
+  template <class V>
+  void Visit(V& v) {
+    v("obs_mode", obs_mode);
+    v("obs_dim", obs_dim);
+    v("action_dim", action_dim);
+    v("image_height", image_height);
+    v("image_width", image_width);
+    v("image_channels", image_channels);
+    v("frame_stack", frame_stack);
+    v("encoder_hidden", encoder_hidden);
+    v("encoder_layers", encoder_layers);
+    v("zs_dim", zs_dim);
+    v("za_dim", za_dim);
+    v("zsa_hidden", zsa_hidden);
+    v("zsa_dim", zsa_dim);
+    v("goal_hidden", goal_hidden);
+    v("goal_dim", goal_dim);
+    v("length_normalize", length_normalize);
+    v("critic_hidden", critic_hidden);
+    v("critic_layers", critic_layers);
+    v("actor_hidden", actor_hidden);
+    v("actor_layers", actor_layers);
+    v("num_bins", num_bins);
+    v("goal_horizon", goal_horizon);
+    v("layer_norm_eps", layer_norm_eps);
+  }
+};
+
+// Representation loss (Eq. 1) and its optimiser.
+struct RepresentationOptions {
+  int horizon = 5;                 // H: unroll length of the chunk
+  double weight_dyn = 1.0;         // lambda_dyn
+  double weight_rew = 0.3;         // lambda_rew (0.5 pixels)
+  double weight_inv = 0.1;         // lambda_inv
+  double weight_goal_dyn = 0.1;    // lambda_g-dyn (0.3 pixel manipulation)
+  double weight_goal_act = 0.1;    // lambda_g-act
+  std::string reward_loss = "two_hot";  // "two_hot" (cross-entropy) or "mse" (on the decoded value)
+  double lr = 1e-4;                // AdamW learning rate of encoders + predictors
+  double weight_decay = 1e-4;      // AdamW weight decay
+  double updates_per_step = 1.0;   // representation updates per training step (fractions accumulate)
+  double augment_prob = 0.0;       // random-shift augmentation probability (pixels; 0.5 manipulation)
+  int augment_pad = 4;             // random-shift padding in pixels
+
+  template <class V>
+  void Visit(V& v) {
+    v("horizon", horizon);
+    v("weight_dyn", weight_dyn);
+    v("weight_rew", weight_rew);
+    v("weight_inv", weight_inv);
+    v("weight_goal_dyn", weight_goal_dyn);
+    v("weight_goal_act", weight_goal_act);
+    v("reward_loss", reward_loss);
+    v("lr", lr);
+    v("weight_decay", weight_decay);
+    v("updates_per_step", updates_per_step);
+    v("augment_prob", augment_prob);
+    v("augment_pad", augment_pad);
+  }
+};
+
+// Critic (Eq. 2) and actor (Eq. 3).
+struct AgentOptions {
+  double gamma = 0.99;             // discount (0.995 giant / humanoid mazes)
+  int n_step = 3;                  // n-step return, stopped at the first success
+  double huber_delta = 1.0;        // Huber loss threshold
+  double target_noise = 0.2;       // std of the target policy noise
+  double target_noise_clip = 0.1;  // c: noise clipped to [-c, c]
+  bool clip_target = true;         // clamp the TD target to [-1/(1-gamma), 0] (the return's range)
+  double bc_weight = 0.1;          // lambda_BC: 0.01 pointmaze, 0.1 locomotion, 1.0 manipulation
+  double lr = 3e-4;                // AdamW learning rate of critic and actor
+  double weight_decay = 1e-4;      // AdamW weight decay
+  bool critic_grad_to_encoder = false;  // let the critic loss train the encoders too
+  int target_update_every = 250;   // K: hard copy of all target networks
+
+  template <class V>
+  void Visit(V& v) {
+    v("gamma", gamma);
+    v("n_step", n_step);
+    v("huber_delta", huber_delta);
+    v("target_noise", target_noise);
+    v("target_noise_clip", target_noise_clip);
+    v("clip_target", clip_target);
+    v("bc_weight", bc_weight);
+    v("lr", lr);
+    v("weight_decay", weight_decay);
+    v("critic_grad_to_encoder", critic_grad_to_encoder);
+    v("target_update_every", target_update_every);
+  }
+};
+
+// Goal relabelling as OGBench's GCDataset. Proportions of each group must
+// sum to 1. Geometric offsets use p = 1 - gamma (AgentOptions::gamma).
+struct RelabelOptions {
+  double value_p_curgoal = 0.2;    // goal = current state
+  double value_p_trajgoal = 0.5;   // goal = future state of the same trajectory
+  double value_p_randomgoal = 0.3; // goal = random dataset state
+  bool value_geom_sample = true;   // future offset geometric (true) or uniform (false)
+  double actor_p_curgoal = 0.0;
+  double actor_p_trajgoal = 1.0;
+  double actor_p_randomgoal = 0.0;
+  bool actor_geom_sample = false;
+
+  template <class V>
+  void Visit(V& v) {
+    v("value_p_curgoal", value_p_curgoal);
+    v("value_p_trajgoal", value_p_trajgoal);
+    v("value_p_randomgoal", value_p_randomgoal);
+    v("value_geom_sample", value_geom_sample);
+    v("actor_p_curgoal", actor_p_curgoal);
+    v("actor_p_trajgoal", actor_p_trajgoal);
+    v("actor_p_randomgoal", actor_p_randomgoal);
+    v("actor_geom_sample", actor_geom_sample);
+  }
+};
+
+// The training loop.
+struct TrainerOptions {
+  int batch_size = 1024;           // 1024 states, 256 pixels
+  int64_t steps = 1000000;         // 1M states, 500k pixels
+  uint64_t seed = 0;               // seeds torch and the sampler
+  std::string device = "cpu";      // "cpu", "cuda", "cuda:1"
+  int log_every = 100;             // progress / CSV row period (steps)
+  int eval_every = 0;              // evaluator period (steps); 0 = never
+  int checkpoint_every = 0;        // checkpoint period (steps); 0 = only at the end
+
+  template <class V>
+  void Visit(V& v) {
+    v("batch_size", batch_size);
+    v("steps", steps);
+    v("seed", seed);
+    v("device", device);
+    v("log_every", log_every);
+    v("eval_every", eval_every);
+    v("checkpoint_every", checkpoint_every);
+  }
+};
+
+// Everything; the YAML file has one section per member.
+struct MsprOptions {
+  NetworkOptions network;
+  RepresentationOptions representation;
+  AgentOptions agent;
+  RelabelOptions relabel;
+  TrainerOptions trainer;
+};
+
+// Names accepted by MakePreset.
+std::vector<std::string> PresetNames();  // {"mspr", "D", "DI", "DIR"}
+std::vector<std::string> ScaleNames();   // {"paper", "cpu"}
+
+// Returns the options of a preset ("mspr" full; ablations "D", "DI", "DIR"
+// differ only in the representation loss weights) at a scale ("paper": the
+// paper's widths and batch; "cpu": widths 256, latent 256, goal 64, batch
+// 256). Throws OptionsError on an unknown name.
+MsprOptions MakePreset(const std::string& preset, const std::string& scale);
+
+// Applies the YAML text on top of `base`. Top-level keys are the sections
+// network, representation, agent, relabel, trainer, plus optional `preset`
+// and `scale` (which replace `base` by MakePreset(preset, scale) first).
+// Throws OptionsError naming `source` and the key on an unknown key or a
+// value of the wrong type.
+MsprOptions ApplyOptionsYaml(const std::string& yaml_text, const MsprOptions& base,
+                             const std::string& source = "<string>");
+
+// Reads a YAML file and applies it on top of `base` (see ApplyOptionsYaml).
+// Throws OptionsError naming the file when it cannot be read or parsed.
+MsprOptions LoadOptionsFile(const std::string& path, const MsprOptions& base);
+
+// Serialises all options as YAML text that ApplyOptionsYaml reads back.
+std::string OptionsToYaml(const MsprOptions& options);
+
+// Checks consistency (positive sizes, proportions summing to 1, known
+// modes); throws OptionsError naming the field.
+void ValidateOptions(const MsprOptions& options);
+
+}  // namespace core
+}  // namespace msspr

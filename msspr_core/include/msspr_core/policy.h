@@ -1,0 +1,60 @@
+// Inference: the trained goal-conditioned actor (and critic) behind one
+// call, under torch::InferenceMode.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <string>
+#include <vector>
+
+#include "msspr_core/networks.h"
+#include "msspr_core/options.h"
+
+namespace msspr {
+namespace core {
+
+class Policy {
+ public:
+  // Shares the given networks (no copy); they must be on `device`.
+  Policy(const MsprOptions& options, Representation repr, Actor actor, Critic critic,
+         torch::Device device);
+
+  // Loads an inference export (Trainer::ExportPolicy) or a full trainer
+  // checkpoint onto `device`. Throws CheckpointError naming the file.
+  static Policy Load(const std::string& path, torch::Device device = torch::kCPU);
+
+  // Action for observations and goals. State mode: obs, goal [B, obs_dim] or
+  // [obs_dim] float; pixels mode: [B, H, W, C * frame_stack] or
+  // [H, W, C * frame_stack] uint8 (frames stacked oldest first along
+  // channels). Returns [B, action_dim] or [action_dim] float32 in [-1, 1] on
+  // the policy's device. Inputs on another device are moved.
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal);
+  // Single state sample: obs, goal [obs_dim] -> action [action_dim].
+  std::vector<float> Act(const std::vector<float>& obs, const std::vector<float>& goal);
+  // Twin Q values: obs, goal as in Act; action [B, action_dim] or
+  // [action_dim] -> [B, 2] or [2] float32 (returns in [-1/(1-gamma), 0]).
+  torch::Tensor Q(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal);
+
+  const MsprOptions& options() const { return options_; }
+  bool pixels() const { return options_.network.obs_mode == "pixels"; }
+  int obs_dim() const { return options_.network.obs_dim; }
+  int action_dim() const { return options_.network.action_dim; }
+  torch::Device device() const { return device_; }
+
+  Representation& repr() { return repr_; }
+  Actor& actor() { return actor_; }
+  Critic& critic() { return critic_; }
+
+ private:
+  // Adds the batch dim when missing; returns whether it was added.
+  bool Batch(torch::Tensor* obs) const;
+
+  MsprOptions options_;
+  Representation repr_;
+  Actor actor_;
+  Critic critic_;
+  torch::Device device_;
+};
+
+}  // namespace core
+}  // namespace msspr

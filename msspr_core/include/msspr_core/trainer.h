@@ -1,0 +1,162 @@
+// Ms.PR training (Algorithm 1 of the paper, docs/method.md): representation
+// unroll loss (Eq. 1), n-step TD3 critic (Eq. 2) and TD3+BC actor (Eq. 3),
+// hard target copies every K steps, checkpoints that resume exactly.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "msspr_core/batch_sampler.h"
+#include "msspr_core/dataset.h"
+#include "msspr_core/networks.h"
+#include "msspr_core/options.h"
+#include "msspr_core/policy.h"
+
+namespace msspr {
+namespace core {
+
+// Observations below ("obs"): [B, obs_dim] float32 (state mode) or
+// [B, H, W, C * frame_stack] uint8 (pixels mode); goals likewise.
+struct TransitionBatch {
+  torch::Tensor obs;         // [B, ...] s_t
+  torch::Tensor action;      // [B, action_dim] float32 a_t
+  torch::Tensor next_obs;    // [B, ...] bootstrap state s_{t+m}
+  torch::Tensor value_goal;  // [B, ...] goal of the critic
+  torch::Tensor actor_goal;  // [B, ...] goal of the actor
+  torch::Tensor ret;         // [B] float32 n-step return (rewards -1 / 0)
+  torch::Tensor discount;    // [B] float32 gamma^m, 0 after success
+};
+
+struct ChunkBatch {
+  torch::Tensor states;       // [B, L, ...] s_t..s_{t+L-1}
+  torch::Tensor state_mask;   // [B, L] float32
+  torch::Tensor actions;      // [B, A, action_dim] float32
+  torch::Tensor action_mask;  // [B, A] float32
+  torch::Tensor goal;         // [B, ...]
+  torch::Tensor mc_return;    // [B, H] float32 Monte Carlo return to the goal
+};
+
+// Latest losses (NaN when not computed in that step).
+struct LossInfo {
+  double repr = NAN, dyn = NAN, rew = NAN, inv = NAN, goal_dyn = NAN, goal_act = NAN;
+  double critic = NAN, q_mean = NAN, actor = NAN, bc = NAN;
+  std::vector<std::pair<std::string, double>> Named() const;
+};
+
+// Evaluator hook: receives a Policy sharing the trainer's online networks
+// and the step; returns (name, value) pairs, e.g. per-task success rates,
+// that are logged to eval.csv and printed.
+using EvalResult = std::vector<std::pair<std::string, double>>;
+using Evaluator = std::function<EvalResult(Policy& policy, int64_t step)>;
+
+// Where Train writes: out_dir/metrics.csv, out_dir/eval.csv,
+// out_dir/checkpoint.ckpt (every checkpoint_every steps and at the end) and
+// out_dir/policy.pt (inference export at the end). Empty out_dir: no files.
+struct TrainLoopOptions {
+  std::string out_dir;
+  bool quiet = false;  // no progress output
+};
+
+class Trainer {
+ public:
+  // Fills network.obs_dim / action_dim / image sizes from `data` where 0,
+  // validates the options, seeds torch and the sampler with trainer.seed and
+  // builds the networks on trainer.device. Throws OptionsError.
+  Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data);
+
+  const MsprOptions& options() const { return options_; }
+  int64_t step() const { return step_; }
+  torch::Device device() const { return device_; }
+
+  // One step of Algorithm 1: target copy when step % K == 0, representation
+  // updates (updates_per_step, fractions accumulate), one critic and one
+  // actor update. Returns the losses of this step.
+  LossInfo Step();
+
+  // Runs Step() until options().trainer.steps with progress, CSV and the
+  // evaluator every trainer.eval_every steps (and at the end).
+  void Train(const TrainLoopOptions& loop, const Evaluator& evaluator = nullptr);
+
+  // Batches drawn with the trainer's sampler RNG.
+  TransitionBatch SampleTransitions();
+  ChunkBatch SampleChunks();
+  // Gathers indexed steps of `data` (the training set when null) into tensors
+  // on the trainer's device; augment: random shifts (pixels, augment_prob).
+  TransitionBatch MakeTransitionBatch(const TransitionIndices& idx, bool augment,
+                                      const Dataset* data = nullptr);
+  ChunkBatch MakeChunkBatch(const ChunkIndices& idx, bool augment, const Dataset* data = nullptr);
+  // Losses (no update, no augmentation, zero target noise) on `batch`
+  // transitions and chunks of another dataset, e.g. a validation split, drawn
+  // with a generator seeded by `seed`. Needs the same observation layout.
+  LossInfo ValidationLosses(const Dataset& data, int batch, uint64_t seed);
+
+  // Losses (scalar tensors with graph); fill `info` when not null.
+  torch::Tensor RepresentationLoss(const ChunkBatch& batch, LossInfo* info = nullptr);
+  // noise: [B, action_dim] N(0, 1) draws, scaled by target_noise and clipped here.
+  torch::Tensor CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
+                           LossInfo* info = nullptr);
+  torch::Tensor ActorLoss(const TransitionBatch& batch, LossInfo* info = nullptr);
+
+  // Single updates (used by Step; public for tests).
+  void UpdateRepresentation(const ChunkBatch& batch, LossInfo* info = nullptr);
+  void UpdateCritic(const TransitionBatch& batch, const torch::Tensor& noise,
+                    LossInfo* info = nullptr);
+  void UpdateActor(const TransitionBatch& batch, LossInfo* info = nullptr);
+  // Hard copy online -> target for encoders, critic and actor.
+  void UpdateTargets();
+
+  // Networks (online and target).
+  Representation& repr() { return repr_; }
+  Critic& critic() { return critic_; }
+  Actor& actor() { return actor_; }
+  Representation& target_repr() { return target_repr_; }
+  Critic& target_critic() { return target_critic_; }
+  Actor& target_actor() { return target_actor_; }
+
+  // A Policy sharing the online networks (no copy).
+  Policy MakePolicy();
+
+  // Full training state, written atomically (temp file + rename): header
+  // (magic, version, options as YAML, step), networks, targets, optimisers,
+  // torch generator and sampler RNG. Throws CheckpointError naming the file.
+  void SaveCheckpoint(const std::string& path);
+  // Restores a checkpoint written by SaveCheckpoint of a trainer built with
+  // the same network options; the next Step() equals the uninterrupted one.
+  // Throws CheckpointError naming the file on a truncated or foreign file.
+  void LoadCheckpoint(const std::string& path);
+  // Inference export (encoders, goal head, actor, critic) for Policy::Load.
+  void ExportPolicy(const std::string& path);
+
+ private:
+  torch::Tensor GatherObs(const Dataset& data, const std::vector<int64_t>& idx, bool augment);
+  torch::Tensor ToDevice(const torch::Tensor& cpu) const;
+
+  MsprOptions options_;
+  std::shared_ptr<const Dataset> data_;
+  torch::Device device_;
+  std::unique_ptr<BatchSampler> sampler_;
+  std::mt19937_64 rng_;       // batch sampling and augmentation
+  torch::Generator gen_;      // target policy noise (CPU)
+  int64_t step_ = 0;
+  double repr_credit_ = 0.0;  // accumulated fractional representation updates
+  torch::Tensor bins_;        // [num_bins] float32 on device
+
+  Representation repr_{nullptr}, target_repr_{nullptr};
+  Critic critic_{nullptr}, target_critic_{nullptr};
+  Actor actor_{nullptr}, target_actor_{nullptr};
+  std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
+};
+
+// Reads the options stored in a checkpoint's (or policy export's) header.
+// Throws CheckpointError naming the file.
+MsprOptions ReadCheckpointOptions(const std::string& path);
+
+}  // namespace core
+}  // namespace msspr

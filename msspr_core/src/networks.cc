@@ -1,0 +1,216 @@
+#include "msspr_core/networks.h"
+
+#include <cmath>
+
+namespace msspr {
+namespace core {
+namespace nn = torch::nn;
+
+MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer_norm,
+                 double eps) {
+  TORCH_CHECK(sizes.size() >= 2, "Mlp needs at least input and output sizes");
+  net = nn::Sequential();
+  for (size_t j = 0; j + 1 < sizes.size(); ++j) {
+    if (layer_norm && j > 0) {
+      net->push_back(nn::LayerNorm(nn::LayerNormOptions({sizes[j]}).eps(eps)));
+    }
+    net->push_back(nn::Linear(sizes[j], sizes[j + 1]));
+    const bool last = j + 2 == sizes.size();
+    if (!last || output_gelu) net->push_back(nn::GELU());
+  }
+  register_module("net", net);
+}
+
+torch::Tensor MlpImpl::forward(const torch::Tensor& x) { return net->forward(x); }
+
+std::vector<std::string> MlpImpl::LayerKinds() const {
+  std::vector<std::string> kinds;
+  for (const auto& m : net->children()) {
+    if (m->as<nn::Linear>()) kinds.push_back("Linear");
+    else if (m->as<nn::LayerNorm>()) kinds.push_back("LayerNorm");
+    else if (m->as<nn::GELU>()) kinds.push_back("GELU");
+    else kinds.push_back(m->name());
+  }
+  return kinds;
+}
+
+ResidualBlockImpl::ResidualBlockImpl(int64_t in_channels, int64_t features) {
+  cnn1 = register_module("cnn1", nn::Conv2d(nn::Conv2dOptions(in_channels, features, 3).padding(1)));
+  cnn2 = register_module("cnn2", nn::Conv2d(nn::Conv2dOptions(features, features, 3).padding(1)));
+  cnn3 = register_module("cnn3", nn::Conv2d(nn::Conv2dOptions(features, features, 3).padding(1)));
+  max_pool = register_module("max_pool", nn::MaxPool2d(nn::MaxPool2dOptions(3).stride(2).padding(1)));
+}
+
+torch::Tensor ResidualBlockImpl::forward(const torch::Tensor& x) {
+  torch::Tensor x1 = max_pool->forward(cnn1->forward(x));
+  torch::Tensor x2 = cnn2->forward(torch::relu(x1));
+  x2 = cnn3->forward(torch::relu(x2));
+  return x1 + x2;
+}
+
+ImpalaCnnImpl::ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps) {
+  block1 = register_module("block1", ResidualBlock(in_channels, 16));
+  block2 = register_module("block2", ResidualBlock(16, 32));
+  block3 = register_module("block3", ResidualBlock(32, 32));
+  fc = register_module("fc", Mlp(std::vector<int64_t>{2048, out_dim}, true, true, eps));
+}
+
+torch::Tensor ImpalaCnnImpl::forward(const torch::Tensor& images) {
+  TORCH_CHECK(images.dim() == 4, "ImpalaCnn expects [B, H, W, C] images, got ", images.sizes());
+  torch::Tensor x = images.permute({0, 3, 1, 2}).to(torch::kFloat32).div(255.0);  // [B, C, H, W]
+  x = block3->forward(block2->forward(block1->forward(x)));
+  return fc->forward(x.flatten(1));
+}
+
+namespace {
+std::vector<int64_t> Sizes(int64_t in, int64_t hidden, int64_t layers, int64_t out) {
+  std::vector<int64_t> s{in};
+  for (int64_t i = 0; i < layers; ++i) s.push_back(hidden);
+  s.push_back(out);
+  return s;
+}
+}  // namespace
+
+StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) {
+  if (o.obs_mode == "pixels") {
+    cnn = register_module("cnn", ImpalaCnn(o.image_channels * o.frame_stack, o.zs_dim, o.layer_norm_eps));
+  } else {
+    mlp = register_module("mlp", Mlp(Sizes(o.obs_dim, o.encoder_hidden, o.encoder_layers, o.zs_dim),
+                                     true, true, o.layer_norm_eps));
+  }
+}
+
+torch::Tensor StateEncoderImpl::forward(const torch::Tensor& obs) {
+  return cnn ? cnn->forward(obs) : mlp->forward(obs);
+}
+
+GoalHeadImpl::GoalHeadImpl(const NetworkOptions& o) : length_normalize(o.length_normalize) {
+  mlp = register_module("mlp", Mlp(Sizes(2 * o.zs_dim, o.goal_hidden, 2, o.goal_dim), false, true,
+                                   o.layer_norm_eps));
+}
+
+torch::Tensor GoalHeadImpl::forward(const torch::Tensor& zs, const torch::Tensor& zg) {
+  torch::Tensor x = mlp->forward(torch::cat({zs, zg}, -1));
+  if (!length_normalize) return x;
+  const double scale = std::sqrt(static_cast<double>(x.size(-1)));
+  return x / x.norm(2, -1, true).clamp_min(1e-6) * scale;
+}
+
+ActionEncoderImpl::ActionEncoderImpl(const NetworkOptions& o) {
+  linear = register_module("linear", nn::Linear(o.action_dim, o.za_dim));
+}
+
+torch::Tensor ActionEncoderImpl::forward(const torch::Tensor& a) {
+  return torch::gelu(linear->forward(a));
+}
+
+StateActionEncoderImpl::StateActionEncoderImpl(const NetworkOptions& o) {
+  mlp = register_module("mlp", Mlp(Sizes(o.zs_dim + o.za_dim, o.zsa_hidden, 2, o.zsa_dim), false,
+                                   true, o.layer_norm_eps));
+}
+
+torch::Tensor StateActionEncoderImpl::forward(const torch::Tensor& zs, const torch::Tensor& za) {
+  return mlp->forward(torch::cat({zs, za}, -1));
+}
+
+PredictorsImpl::PredictorsImpl(const NetworkOptions& o)
+    : goal_horizon(o.goal_horizon), action_dim(o.action_dim) {
+  dynamics = register_module("dynamics", nn::Linear(o.zsa_dim, o.zs_dim));
+  reward = register_module("reward", nn::Linear(o.zsa_dim + o.goal_dim, o.num_bins));
+  inverse = register_module("inverse", nn::Linear(2 * o.zs_dim, o.action_dim));
+  goal_dynamics = register_module("goal_dynamics", nn::Linear(o.zs_dim + o.goal_dim, o.zs_dim));
+  goal_action = register_module(
+      "goal_action", nn::Linear(o.zs_dim + o.goal_dim, int64_t{o.goal_horizon} * o.action_dim));
+}
+
+torch::Tensor PredictorsImpl::Dynamics(const torch::Tensor& zsa) { return dynamics->forward(zsa); }
+
+torch::Tensor PredictorsImpl::Reward(const torch::Tensor& zsa, const torch::Tensor& grep) {
+  return reward->forward(torch::cat({zsa, grep}, -1));
+}
+
+torch::Tensor PredictorsImpl::Inverse(const torch::Tensor& zs, const torch::Tensor& zs_next) {
+  return inverse->forward(torch::cat({zs, zs_next}, -1));
+}
+
+torch::Tensor PredictorsImpl::GoalDynamics(const torch::Tensor& zs, const torch::Tensor& grep) {
+  return goal_dynamics->forward(torch::cat({zs, grep}, -1));
+}
+
+torch::Tensor PredictorsImpl::GoalActions(const torch::Tensor& zs, const torch::Tensor& grep) {
+  return goal_action->forward(torch::cat({zs, grep}, -1)).view({-1, goal_horizon, action_dim});
+}
+
+RepresentationImpl::RepresentationImpl(const NetworkOptions& o) {
+  state_encoder = register_module("state_encoder", StateEncoder(o));
+  goal_head = register_module("goal_head", GoalHead(o));
+  action_encoder = register_module("action_encoder", ActionEncoder(o));
+  sa_encoder = register_module("sa_encoder", StateActionEncoder(o));
+  predictors = register_module("predictors", Predictors(o));
+}
+
+torch::Tensor RepresentationImpl::Zsa(const torch::Tensor& zs, const torch::Tensor& action) {
+  return sa_encoder->forward(zs, action_encoder->forward(action));
+}
+
+CriticImpl::CriticImpl(const NetworkOptions& o) {
+  const auto sizes = Sizes(o.zsa_dim + o.goal_dim, o.critic_hidden, o.critic_layers, 1);
+  q1 = register_module("q1", Mlp(sizes, false, true, o.layer_norm_eps));
+  q2 = register_module("q2", Mlp(sizes, false, true, o.layer_norm_eps));
+}
+
+torch::Tensor CriticImpl::forward(const torch::Tensor& zsa, const torch::Tensor& grep) {
+  const torch::Tensor x = torch::cat({zsa, grep}, -1);
+  return torch::cat({q1->forward(x), q2->forward(x)}, -1);
+}
+
+ActorImpl::ActorImpl(const NetworkOptions& o) {
+  std::vector<int64_t> sizes{o.zs_dim + o.goal_dim};
+  for (int i = 0; i < o.actor_layers; ++i) sizes.push_back(o.actor_hidden);
+  backbone = register_module("backbone", Mlp(sizes, true, true, o.layer_norm_eps));
+  head = register_module("head", nn::Linear(o.actor_hidden, o.action_dim));
+}
+
+torch::Tensor ActorImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep) {
+  return torch::tanh(head->forward(backbone->forward(torch::cat({zs, grep}, -1))));
+}
+
+torch::Tensor ReturnBins(int64_t num_bins, double gamma) {
+  return torch::linspace(-1.0 / (1.0 - gamma), 0.0, num_bins, torch::kFloat32);
+}
+
+torch::Tensor TwoHotEncode(const torch::Tensor& values, const torch::Tensor& bins) {
+  const int64_t k = bins.size(0);
+  const double lo = bins[0].item<double>(), hi = bins[k - 1].item<double>();
+  const torch::Tensor v = values.clamp(lo, hi);
+  const torch::Tensor pos = (v - lo) / (hi - lo) * (k - 1);  // fractional bin index
+  const torch::Tensor below = pos.floor().clamp(0, k - 2).to(torch::kLong);
+  const torch::Tensor w_above = (pos - below.to(pos.dtype())).unsqueeze(-1);
+  torch::Tensor out = torch::zeros({values.size(0), k}, values.options());
+  out.scatter_(1, below.unsqueeze(-1), 1.0 - w_above);
+  out.scatter_add_(1, below.unsqueeze(-1) + 1, w_above);
+  return out;
+}
+
+torch::Tensor TwoHotDecode(const torch::Tensor& logits, const torch::Tensor& bins) {
+  return (torch::softmax(logits, -1) * bins.to(logits.device())).sum(-1);
+}
+
+void HardUpdate(torch::nn::Module& target, const torch::nn::Module& source) {
+  torch::NoGradGuard no_grad;
+  const auto src_p = source.parameters();
+  auto dst_p = target.parameters();
+  TORCH_CHECK(src_p.size() == dst_p.size(), "HardUpdate: parameter count mismatch");
+  for (size_t i = 0; i < src_p.size(); ++i) dst_p[i].copy_(src_p[i]);
+  const auto src_b = source.buffers();
+  auto dst_b = target.buffers();
+  TORCH_CHECK(src_b.size() == dst_b.size(), "HardUpdate: buffer count mismatch");
+  for (size_t i = 0; i < src_b.size(); ++i) dst_b[i].copy_(src_b[i]);
+}
+
+void SetRequiresGrad(torch::nn::Module& module, bool requires_grad) {
+  for (auto& p : module.parameters()) p.set_requires_grad(requires_grad);
+}
+
+}  // namespace core
+}  // namespace msspr

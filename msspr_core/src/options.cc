@@ -1,0 +1,225 @@
+#include "msspr_core/options.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace msspr {
+namespace core {
+namespace {
+
+// Reads the fields of one section; remembers which keys were consumed.
+class YamlReader {
+ public:
+  YamlReader(const YAML::Node& node, std::string section, std::string source)
+      : node_(node), section_(std::move(section)), source_(std::move(source)) {}
+
+  template <class T>
+  void operator()(const char* key, T& value) {
+    const YAML::Node child = node_[key];
+    if (!child) return;
+    seen_.insert(key);
+    try {
+      value = child.as<T>();
+    } catch (const YAML::Exception& e) {
+      throw OptionsError(source_ + ": bad value for '" + section_ + "." + key + "': " + e.what());
+    }
+  }
+
+  void CheckNoUnknownKeys() const {
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (!seen_.count(key)) {
+        throw OptionsError(source_ + ": unknown key '" + section_ + "." + key + "'");
+      }
+    }
+  }
+
+ private:
+  const YAML::Node& node_;
+  std::string section_;
+  std::string source_;
+  std::set<std::string> seen_;
+};
+
+class YamlWriter {
+ public:
+  explicit YamlWriter(YAML::Emitter& out) : out_(out) {}
+  template <class T>
+  void operator()(const char* key, T& value) {
+    out_ << YAML::Key << key << YAML::Value << value;
+  }
+  void operator()(const char* key, double& value) {
+    // Round-trips exactly: 17 significant digits.
+    std::ostringstream s;
+    s.precision(17);
+    s << value;
+    out_ << YAML::Key << key << YAML::Value << s.str();
+  }
+
+ private:
+  YAML::Emitter& out_;
+};
+
+template <class S>
+void ReadSection(const YAML::Node& root, const char* name, S& section, const std::string& source,
+                 std::set<std::string>& seen) {
+  const YAML::Node node = root[name];
+  if (!node) return;
+  seen.insert(name);
+  if (!node.IsMap()) throw OptionsError(source + ": section '" + name + "' must be a map");
+  YamlReader reader(node, name, source);
+  section.Visit(reader);
+  reader.CheckNoUnknownKeys();
+}
+
+template <class S>
+void WriteSection(YAML::Emitter& out, const char* name, S section) {
+  out << YAML::Key << name << YAML::Value << YAML::BeginMap;
+  YamlWriter writer(out);
+  section.Visit(writer);
+  out << YAML::EndMap;
+}
+
+void Require(bool ok, const std::string& what) {
+  if (!ok) throw OptionsError("invalid options: " + what);
+}
+
+}  // namespace
+
+std::vector<std::string> PresetNames() { return {"mspr", "D", "DI", "DIR"}; }
+std::vector<std::string> ScaleNames() { return {"paper", "cpu"}; }
+
+MsprOptions MakePreset(const std::string& preset, const std::string& scale) {
+  MsprOptions o;
+  if (scale == "paper") {
+    // Defaults of the structs are the paper's.
+  } else if (scale == "cpu") {
+    NetworkOptions& n = o.network;
+    n.encoder_hidden = 256;
+    n.zs_dim = 256;
+    n.za_dim = 128;
+    n.zsa_hidden = 256;
+    n.zsa_dim = 256;
+    n.goal_hidden = 256;
+    n.goal_dim = 64;
+    n.critic_hidden = 256;
+    n.actor_hidden = 256;
+    o.trainer.batch_size = 256;
+    o.trainer.steps = 20000;
+  } else {
+    throw OptionsError("unknown scale '" + scale + "' (expected paper or cpu)");
+  }
+  RepresentationOptions& r = o.representation;
+  if (preset == "mspr") {
+  } else if (preset == "D") {
+    r.weight_inv = r.weight_rew = r.weight_goal_dyn = r.weight_goal_act = 0.0;
+  } else if (preset == "DI") {
+    r.weight_rew = r.weight_goal_dyn = r.weight_goal_act = 0.0;
+  } else if (preset == "DIR") {
+    r.weight_goal_dyn = r.weight_goal_act = 0.0;
+  } else {
+    throw OptionsError("unknown preset '" + preset + "' (expected mspr, D, DI or DIR)");
+  }
+  return o;
+}
+
+MsprOptions ApplyOptionsYaml(const std::string& yaml_text, const MsprOptions& base,
+                             const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw OptionsError(source + ": YAML parse error: " + e.what());
+  }
+  MsprOptions o = base;
+  if (!root || root.IsNull()) return o;
+  if (!root.IsMap()) throw OptionsError(source + ": top level must be a map");
+  std::set<std::string> seen;
+  if (root["preset"] || root["scale"]) {
+    std::string preset = "mspr", scale = "paper";
+    try {
+      if (root["preset"]) preset = root["preset"].as<std::string>();
+      if (root["scale"]) scale = root["scale"].as<std::string>();
+    } catch (const YAML::Exception& e) {
+      throw OptionsError(source + ": bad preset/scale: " + e.what());
+    }
+    try {
+      o = MakePreset(preset, scale);
+    } catch (const OptionsError& e) {
+      throw OptionsError(source + ": " + e.what());
+    }
+    seen.insert("preset");
+    seen.insert("scale");
+  }
+  ReadSection(root, "network", o.network, source, seen);
+  ReadSection(root, "representation", o.representation, source, seen);
+  ReadSection(root, "agent", o.agent, source, seen);
+  ReadSection(root, "relabel", o.relabel, source, seen);
+  ReadSection(root, "trainer", o.trainer, source, seen);
+  for (const auto& kv : root) {
+    const std::string key = kv.first.as<std::string>();
+    if (!seen.count(key)) throw OptionsError(source + ": unknown key '" + key + "'");
+  }
+  return o;
+}
+
+MsprOptions LoadOptionsFile(const std::string& path, const MsprOptions& base) {
+  std::ifstream in(path);
+  if (!in) throw OptionsError(path + ": cannot open options file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return ApplyOptionsYaml(buffer.str(), base, path);
+}
+
+std::string OptionsToYaml(const MsprOptions& options) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  WriteSection(out, "network", options.network);
+  WriteSection(out, "representation", options.representation);
+  WriteSection(out, "agent", options.agent);
+  WriteSection(out, "relabel", options.relabel);
+  WriteSection(out, "trainer", options.trainer);
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+void ValidateOptions(const MsprOptions& o) {
+  const NetworkOptions& n = o.network;
+  Require(n.obs_mode == "state" || n.obs_mode == "pixels",
+          "network.obs_mode must be 'state' or 'pixels', got '" + n.obs_mode + "'");
+  Require(n.obs_mode != "state" || n.obs_dim > 0, "network.obs_dim must be > 0 in state mode");
+  Require(n.action_dim > 0, "network.action_dim must be > 0");
+  Require(n.obs_mode != "pixels" || (n.image_height == 64 && n.image_width == 64),
+          "network.image_height/width must be 64 (Impala CNN small)");
+  Require(n.image_channels > 0 && n.frame_stack > 0, "network.image_channels/frame_stack must be > 0");
+  Require(n.encoder_hidden > 0 && n.encoder_layers >= 0 && n.zs_dim > 0 && n.za_dim > 0 &&
+              n.zsa_hidden > 0 && n.zsa_dim > 0 && n.goal_hidden > 0 && n.goal_dim > 0 &&
+              n.critic_hidden > 0 && n.critic_layers > 0 && n.actor_hidden > 0 &&
+              n.actor_layers > 0,
+          "network widths must be > 0");
+  Require(n.num_bins >= 2, "network.num_bins must be >= 2");
+  Require(n.goal_horizon >= 1, "network.goal_horizon must be >= 1");
+  const RepresentationOptions& r = o.representation;
+  Require(r.horizon >= 1, "representation.horizon must be >= 1");
+  Require(r.reward_loss == "two_hot" || r.reward_loss == "mse",
+          "representation.reward_loss must be 'two_hot' or 'mse'");
+  Require(r.updates_per_step >= 0, "representation.updates_per_step must be >= 0");
+  Require(r.augment_prob >= 0 && r.augment_prob <= 1, "representation.augment_prob in [0, 1]");
+  const AgentOptions& a = o.agent;
+  Require(a.gamma > 0 && a.gamma < 1, "agent.gamma must be in (0, 1)");
+  Require(a.n_step >= 1, "agent.n_step must be >= 1");
+  Require(a.target_update_every >= 1, "agent.target_update_every must be >= 1");
+  const RelabelOptions& l = o.relabel;
+  Require(std::abs(l.value_p_curgoal + l.value_p_trajgoal + l.value_p_randomgoal - 1.0) < 1e-6,
+          "relabel.value_p_* must sum to 1");
+  Require(std::abs(l.actor_p_curgoal + l.actor_p_trajgoal + l.actor_p_randomgoal - 1.0) < 1e-6,
+          "relabel.actor_p_* must sum to 1");
+  Require(o.trainer.batch_size > 0, "trainer.batch_size must be > 0");
+}
+
+}  // namespace core
+}  // namespace msspr

@@ -1,0 +1,107 @@
+#include "msspr_core/policy.h"
+
+#include <sstream>
+
+#include "msspr_core/checkpoint.h"
+
+namespace msspr {
+namespace core {
+
+Policy::Policy(const MsprOptions& options, Representation repr, Actor actor, Critic critic,
+               torch::Device device)
+    : options_(options),
+      repr_(std::move(repr)),
+      actor_(std::move(actor)),
+      critic_(std::move(critic)),
+      device_(device) {}
+
+Policy Policy::Load(const std::string& path, torch::Device device) {
+  const CheckpointFile file = ReadCheckpointFile(path);
+  if (file.kind != "policy" && file.kind != "trainer") {
+    throw CheckpointError(path + ": checkpoint kind '" + file.kind + "' holds no policy");
+  }
+  const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
+  MsprOptions options = header.options;
+  options.trainer.device = device.str();
+  Representation repr(options.network);
+  Actor actor(options.network);
+  Critic critic(options.network);
+  try {
+    torch::serialize::InputArchive archive;
+    archive.load_from(file.payload.data(), file.payload.size(), device);
+    torch::serialize::InputArchive sub;
+    archive.read("repr", sub);
+    repr->load(sub);
+    archive.read("actor", sub);
+    actor->load(sub);
+    archive.read("critic", sub);
+    critic->load(sub);
+  } catch (const c10::Error& e) {
+    throw CheckpointError(path + ": cannot read networks: " + e.what_without_backtrace());
+  }
+  repr->to(device);
+  actor->to(device);
+  critic->to(device);
+  repr->eval();
+  actor->eval();
+  critic->eval();
+  return Policy(options, repr, actor, critic, device);
+}
+
+bool Policy::Batch(torch::Tensor* obs) const {
+  const int64_t single_dim = pixels() ? 3 : 1;
+  if (obs->dim() == single_dim) {
+    *obs = obs->unsqueeze(0);
+    return true;
+  }
+  TORCH_CHECK(obs->dim() == single_dim + 1, "Policy: observation of shape ", obs->sizes(),
+              " does not match obs_mode ", options_.network.obs_mode);
+  return false;
+}
+
+torch::Tensor Policy::Act(const torch::Tensor& obs_in, const torch::Tensor& goal_in) {
+  torch::InferenceMode guard;
+  torch::Tensor obs = obs_in.to(device_), goal = goal_in.to(device_);
+  const bool single = Batch(&obs);
+  Batch(&goal);
+  if (!pixels()) {
+    obs = obs.to(torch::kFloat32);
+    goal = goal.to(torch::kFloat32);
+  }
+  const torch::Tensor zs = repr_->state_encoder->forward(obs);
+  const torch::Tensor zg = repr_->state_encoder->forward(goal);
+  torch::Tensor a = actor_->forward(zs, repr_->goal_head->forward(zs, zg));
+  return single ? a.squeeze(0) : a;
+}
+
+std::vector<float> Policy::Act(const std::vector<float>& obs, const std::vector<float>& goal) {
+  TORCH_CHECK(!pixels(), "Policy::Act(vector): only for state observations");
+  const int64_t d = static_cast<int64_t>(obs.size());
+  TORCH_CHECK(d == obs_dim() && goal.size() == obs.size(), "Policy::Act: expected obs and goal of ",
+              obs_dim(), " values, got ", obs.size(), " and ", goal.size());
+  const torch::Tensor o = torch::from_blob(const_cast<float*>(obs.data()), {d}, torch::kFloat32);
+  const torch::Tensor g = torch::from_blob(const_cast<float*>(goal.data()), {d}, torch::kFloat32);
+  const torch::Tensor a = Act(o, g).to(torch::kCPU).contiguous();
+  return std::vector<float>(a.data_ptr<float>(), a.data_ptr<float>() + a.numel());
+}
+
+torch::Tensor Policy::Q(const torch::Tensor& obs_in, const torch::Tensor& action_in,
+                        const torch::Tensor& goal_in) {
+  torch::InferenceMode guard;
+  torch::Tensor obs = obs_in.to(device_), goal = goal_in.to(device_);
+  torch::Tensor action = action_in.to(device_).to(torch::kFloat32);
+  const bool single = Batch(&obs);
+  Batch(&goal);
+  if (action.dim() == 1) action = action.unsqueeze(0);
+  if (!pixels()) {
+    obs = obs.to(torch::kFloat32);
+    goal = goal.to(torch::kFloat32);
+  }
+  const torch::Tensor zs = repr_->state_encoder->forward(obs);
+  const torch::Tensor zg = repr_->state_encoder->forward(goal);
+  torch::Tensor q = critic_->forward(repr_->Zsa(zs, action), repr_->goal_head->forward(zs, zg));
+  return single ? q.squeeze(0) : q;
+}
+
+}  // namespace core
+}  // namespace msspr

@@ -1,0 +1,587 @@
+#include "msspr_core/trainer.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+#include "msspr_core/checkpoint.h"
+#include "msspr_core/progress.h"
+
+#include <sstream>
+
+namespace msspr {
+namespace core {
+namespace {
+
+// Sets gradients to undefined so that optimisers skip parameters that the
+// next backward does not reach.
+void ClearGrads(torch::nn::Module& m) {
+  for (auto& p : m.parameters()) p.mutable_grad() = torch::Tensor();
+}
+
+// Mean of per-sample losses over the samples with mask 1: [B], [B] -> [].
+torch::Tensor MaskedMean(const torch::Tensor& values, const torch::Tensor& mask) {
+  return (values * mask).sum() / mask.sum().clamp_min(1.0);
+}
+
+torch::Tensor Huber(const torch::Tensor& diff, double delta) {
+  const torch::Tensor a = diff.abs();
+  return torch::where(a <= delta, 0.5 * diff * diff, delta * (a - 0.5 * delta));
+}
+
+// Random shift (DrQ): replicate-pad by `pad` and crop back, in place on
+// one uint8 HWC image.
+void ShiftImage(uint8_t* img, int h, int w, int c, int dy, int dx, std::vector<uint8_t>* scratch) {
+  scratch->assign(img, img + int64_t{h} * w * c);
+  const uint8_t* src = scratch->data();
+  for (int y = 0; y < h; ++y) {
+    const int sy = std::clamp(y + dy, 0, h - 1);
+    for (int x = 0; x < w; ++x) {
+      const int sx = std::clamp(x + dx, 0, w - 1);
+      std::memcpy(img + (int64_t{y} * w + x) * c, src + (int64_t{sy} * w + sx) * c, c);
+    }
+  }
+}
+
+void MakeDirs(const std::string& dir) {
+  std::string partial;
+  for (size_t i = 0; i <= dir.size(); ++i) {
+    if (i == dir.size() || dir[i] == '/') {
+      if (!partial.empty()) mkdir(partial.c_str(), 0755);
+    }
+    if (i < dir.size()) partial.push_back(dir[i]);
+  }
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, double>> LossInfo::Named() const {
+  return {{"repr", repr},   {"dyn", dyn},           {"rew", rew},       {"inv", inv},
+          {"gdyn", goal_dyn}, {"gact", goal_act},   {"critic", critic}, {"q", q_mean},
+          {"actor", actor}, {"bc", bc}};
+}
+
+Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data)
+    : options_(options),
+      data_(std::move(data)),
+      device_(options.trainer.device),
+      rng_(options.trainer.seed),
+      gen_(at::make_generator<at::CPUGeneratorImpl>(options.trainer.seed)) {
+  if (!data_) throw OptionsError("Trainer: no dataset");
+  NetworkOptions& n = options_.network;
+  if (n.action_dim == 0) n.action_dim = data_->action_dim();
+  if (n.obs_mode == "state" && n.obs_dim == 0) n.obs_dim = data_->obs_dim();
+  if (n.obs_mode == "pixels" && data_->has_images()) {
+    n.image_height = data_->image_shape().height;
+    n.image_width = data_->image_shape().width;
+    n.image_channels = data_->image_shape().channels;
+  }
+  ValidateOptions(options_);
+  if (n.action_dim != data_->action_dim()) {
+    throw OptionsError("network.action_dim " + std::to_string(n.action_dim) +
+                       " != dataset action_dim " + std::to_string(data_->action_dim()));
+  }
+  if (n.obs_mode == "state" && n.obs_dim != data_->obs_dim()) {
+    throw OptionsError("network.obs_dim " + std::to_string(n.obs_dim) + " != dataset obs_dim " +
+                       std::to_string(data_->obs_dim()));
+  }
+  if (n.obs_mode == "pixels" && !data_->has_images()) {
+    throw OptionsError("network.obs_mode is 'pixels' but the dataset has no images");
+  }
+  sampler_ = std::make_unique<BatchSampler>(*data_, options_.relabel, options_.agent.gamma,
+                                            options_.agent.n_step, options_.representation.horizon,
+                                            n.goal_horizon);
+  torch::manual_seed(options_.trainer.seed);
+  repr_ = Representation(n);
+  critic_ = Critic(n);
+  actor_ = Actor(n);
+  target_repr_ = Representation(n);
+  target_critic_ = Critic(n);
+  target_actor_ = Actor(n);
+  for (torch::nn::Module* m :
+       std::vector<torch::nn::Module*>{repr_.get(), critic_.get(), actor_.get(), target_repr_.get(),
+                                       target_critic_.get(), target_actor_.get()}) {
+    m->to(device_);
+  }
+  UpdateTargets();
+  SetRequiresGrad(*target_repr_, false);
+  SetRequiresGrad(*target_critic_, false);
+  SetRequiresGrad(*target_actor_, false);
+  const RepresentationOptions& r = options_.representation;
+  const AgentOptions& a = options_.agent;
+  repr_opt_ = std::make_unique<torch::optim::AdamW>(
+      repr_->parameters(), torch::optim::AdamWOptions(r.lr).weight_decay(r.weight_decay));
+  critic_opt_ = std::make_unique<torch::optim::AdamW>(
+      critic_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
+  actor_opt_ = std::make_unique<torch::optim::AdamW>(
+      actor_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
+  bins_ = ReturnBins(n.num_bins, a.gamma).to(device_);
+}
+
+torch::Tensor Trainer::ToDevice(const torch::Tensor& cpu) const {
+  return device_.is_cpu() ? cpu : cpu.to(device_, /*non_blocking=*/false);
+}
+
+torch::Tensor Trainer::GatherObs(const Dataset& data, const std::vector<int64_t>& idx,
+                                 bool augment) {
+  const int64_t n = static_cast<int64_t>(idx.size());
+  const NetworkOptions& o = options_.network;
+  if (o.obs_mode == "state") {
+    torch::Tensor t = torch::empty({n, o.obs_dim}, torch::kFloat32);
+    data.GatherStates(idx.data(), n, t.data_ptr<float>());
+    return t;
+  }
+  const int c = o.image_channels * o.frame_stack;
+  torch::Tensor t = torch::empty({n, o.image_height, o.image_width, c}, torch::kUInt8);
+  uint8_t* out = t.data_ptr<uint8_t>();
+  data.GatherImages(idx.data(), n, o.frame_stack, out);
+  const RepresentationOptions& r = options_.representation;
+  if (augment && r.augment_prob > 0) {
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::uniform_int_distribution<int> shift(-r.augment_pad, r.augment_pad);
+    std::vector<uint8_t> scratch;
+    const int64_t stride = int64_t{o.image_height} * o.image_width * c;
+    for (int64_t k = 0; k < n; ++k) {
+      if (unit(rng_) >= r.augment_prob) continue;
+      const int dy = shift(rng_), dx = shift(rng_);
+      ShiftImage(out + k * stride, o.image_height, o.image_width, c, dy, dx, &scratch);
+    }
+  }
+  return t;
+}
+
+TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool augment,
+                                             const Dataset* data) {
+  const Dataset& d = data ? *data : *data_;
+  const int64_t b = static_cast<int64_t>(idx.idx.size());
+  TransitionBatch batch;
+  batch.obs = ToDevice(GatherObs(d, idx.idx, augment));
+  batch.next_obs = ToDevice(GatherObs(d, idx.next_idx, augment));
+  batch.value_goal = ToDevice(GatherObs(d, idx.value_goal, false));
+  batch.actor_goal = ToDevice(GatherObs(d, idx.actor_goal, false));
+  torch::Tensor act = torch::empty({b, d.action_dim()}, torch::kFloat32);
+  d.GatherActions(idx.idx.data(), b, act.data_ptr<float>());
+  batch.action = ToDevice(act);
+  batch.ret = ToDevice(torch::from_blob(const_cast<float*>(idx.ret.data()), {b}, torch::kFloat32).clone());
+  batch.discount =
+      ToDevice(torch::from_blob(const_cast<float*>(idx.discount.data()), {b}, torch::kFloat32).clone());
+  return batch;
+}
+
+ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const Dataset* data) {
+  const Dataset& d = data ? *data : *data_;
+  const int64_t b = idx.batch, l = idx.num_states, a = idx.num_actions;
+  ChunkBatch batch;
+  torch::Tensor states = GatherObs(d, idx.states, augment);  // [B * L, ...]
+  std::vector<int64_t> shape{b, l};
+  for (int64_t d = 1; d < states.dim(); ++d) shape.push_back(states.size(d));
+  batch.states = ToDevice(states.view(shape));
+  batch.state_mask = ToDevice(
+      torch::from_blob(const_cast<float*>(idx.state_mask.data()), {b, l}, torch::kFloat32).clone());
+  torch::Tensor act = torch::empty({b * a, d.action_dim()}, torch::kFloat32);
+  d.GatherActions(idx.actions.data(), b * a, act.data_ptr<float>());
+  batch.actions = ToDevice(act.view({b, a, d.action_dim()}));
+  batch.action_mask = ToDevice(
+      torch::from_blob(const_cast<float*>(idx.action_mask.data()), {b, a}, torch::kFloat32).clone());
+  batch.goal = ToDevice(GatherObs(d, idx.goal, false));
+  batch.mc_return = ToDevice(
+      torch::from_blob(const_cast<float*>(idx.mc_return.data()), {b, idx.horizon}, torch::kFloat32)
+          .clone());
+  return batch;
+}
+
+TransitionBatch Trainer::SampleTransitions() {
+  const bool augment = options_.network.obs_mode == "pixels";
+  return MakeTransitionBatch(sampler_->SampleTransitions(options_.trainer.batch_size, rng_), augment);
+}
+
+ChunkBatch Trainer::SampleChunks() {
+  const bool augment = options_.network.obs_mode == "pixels";
+  return MakeChunkBatch(sampler_->SampleChunks(options_.trainer.batch_size, rng_), augment);
+}
+
+torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
+  const RepresentationOptions& r = options_.representation;
+  const int64_t k = options_.network.goal_horizon;
+  const int64_t b = batch.states.size(0), l = batch.states.size(1);
+  const int64_t horizon = batch.mc_return.size(1);
+  auto& pred = repr_->predictors;
+
+  torch::Tensor targets;  // [B, L, zs] target-encoder latents of the chunk's states
+  {
+    torch::NoGradGuard no_grad;
+    targets = target_repr_->state_encoder->forward(batch.states.flatten(0, 1)).view({b, l, -1});
+  }
+  torch::Tensor zg = repr_->state_encoder->forward(batch.goal);                          // [B, zs]
+  torch::Tensor z = repr_->state_encoder->forward(batch.states.select(1, 0));            // [B, zs]
+  torch::Tensor total = torch::zeros({}, z.options());
+  double sum_dyn = 0, sum_rew = 0, sum_inv = 0, sum_gdyn = 0, sum_gact = 0;
+  for (int64_t h = 0; h < horizon; ++h) {
+    const torch::Tensor a_h = batch.actions.select(1, h);      // [B, act]
+    const torch::Tensor m_h = batch.action_mask.select(1, h);  // [B]
+    const torch::Tensor grep = repr_->goal_head->forward(z, zg);  // [B, goal]
+    const torch::Tensor zsa = repr_->Zsa(z, a_h);                 // [B, zsa]
+    const torch::Tensor z_next = pred->Dynamics(zsa);             // [B, zs]
+    const torch::Tensor target_next = targets.select(1, h + 1);   // [B, zs]
+
+    const torch::Tensor dyn = MaskedMean((z_next - target_next).pow(2).mean(-1), m_h);
+    const torch::Tensor inv =
+        MaskedMean((pred->Inverse(z, target_next) - a_h).pow(2).mean(-1), m_h);
+    const torch::Tensor logits = pred->Reward(zsa, grep);  // [B, bins]
+    const torch::Tensor ret = batch.mc_return.select(1, h);  // [B]
+    torch::Tensor rew;
+    if (r.reward_loss == "mse") {
+      rew = MaskedMean((TwoHotDecode(logits, bins_) - ret).pow(2), m_h);
+    } else {
+      const torch::Tensor two_hot = TwoHotEncode(ret, bins_);
+      rew = MaskedMean(-(two_hot * torch::log_softmax(logits, -1)).sum(-1), m_h);
+    }
+    const torch::Tensor gd_mask = batch.state_mask.select(1, h + k);  // [B]
+    const torch::Tensor gdyn = MaskedMean(
+        (pred->GoalDynamics(z, grep) - targets.select(1, h + k)).pow(2).mean(-1), gd_mask);
+    const torch::Tensor ga_pred = pred->GoalActions(z, grep);           // [B, k, act]
+    const torch::Tensor ga_true = batch.actions.narrow(1, h, k);         // [B, k, act]
+    const torch::Tensor ga_mask = batch.action_mask.narrow(1, h, k);     // [B, k]
+    const torch::Tensor gact = (ga_pred - ga_true).pow(2).mean(-1).mul(ga_mask).sum() /
+                               ga_mask.sum().clamp_min(1.0);
+
+    total = total + r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv +
+            r.weight_goal_dyn * gdyn + r.weight_goal_act * gact;
+    if (info) {
+      sum_dyn += dyn.item<double>();
+      sum_rew += rew.item<double>();
+      sum_inv += inv.item<double>();
+      sum_gdyn += gdyn.item<double>();
+      sum_gact += gact.item<double>();
+    }
+    z = z_next;
+  }
+  if (info) {
+    info->repr = total.item<double>();
+    info->dyn = sum_dyn;
+    info->rew = sum_rew;
+    info->inv = sum_inv;
+    info->goal_dyn = sum_gdyn;
+    info->goal_act = sum_gact;
+  }
+  return total;
+}
+
+torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
+                                  LossInfo* info) {
+  const AgentOptions& a = options_.agent;
+  torch::Tensor y;  // [B] TD target
+  {
+    torch::NoGradGuard no_grad;
+    const torch::Tensor zs_next = target_repr_->state_encoder->forward(batch.next_obs);
+    const torch::Tensor zg = target_repr_->state_encoder->forward(batch.value_goal);
+    const torch::Tensor grep_next = target_repr_->goal_head->forward(zs_next, zg);
+    const torch::Tensor eps =
+        (noise.to(device_) * a.target_noise).clamp(-a.target_noise_clip, a.target_noise_clip);
+    const torch::Tensor a_next = (target_actor_->forward(zs_next, grep_next) + eps).clamp(-1.0, 1.0);
+    const torch::Tensor q_next =
+        std::get<0>(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next).min(-1));
+    y = batch.ret + batch.discount * q_next;
+    if (a.clip_target) y = y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
+  }
+  torch::Tensor zsa, grep;
+  {
+    // Decoupled by default: the critic reads the encoders' outputs detached.
+    torch::AutoGradMode grad_mode(a.critic_grad_to_encoder && torch::GradMode::is_enabled());
+    const torch::Tensor zs = repr_->state_encoder->forward(batch.obs);
+    const torch::Tensor zg = repr_->state_encoder->forward(batch.value_goal);
+    grep = repr_->goal_head->forward(zs, zg);
+    zsa = repr_->Zsa(zs, batch.action);
+  }
+  const torch::Tensor q = critic_->forward(zsa, grep);  // [B, 2]
+  const torch::Tensor loss = Huber(q - y.unsqueeze(-1), a.huber_delta).mean(0).sum();
+  if (info) {
+    info->critic = loss.item<double>();
+    info->q_mean = q.mean().item<double>();
+  }
+  return loss;
+}
+
+torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, LossInfo* info) {
+  const AgentOptions& a = options_.agent;
+  torch::Tensor zs, grep;
+  {
+    torch::NoGradGuard no_grad;
+    zs = repr_->state_encoder->forward(batch.obs);
+    const torch::Tensor zg = repr_->state_encoder->forward(batch.actor_goal);
+    grep = repr_->goal_head->forward(zs, zg);
+  }
+  const torch::Tensor pi = actor_->forward(zs, grep);  // [B, act]
+  const torch::Tensor q = std::get<0>(critic_->forward(repr_->Zsa(zs, pi), grep).min(-1));  // [B]
+  const torch::Tensor scale = q.abs().mean().detach().clamp_min(1e-6);
+  const torch::Tensor q_loss = -q.mean() / scale;
+  const torch::Tensor bc = (pi - batch.action).pow(2).sum(-1).mean();
+  const torch::Tensor loss = q_loss + a.bc_weight * bc;
+  if (info) {
+    info->actor = loss.item<double>();
+    info->bc = bc.item<double>();
+  }
+  return loss;
+}
+
+void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
+  ClearGrads(*repr_);
+  RepresentationLoss(batch, info).backward();
+  repr_opt_->step();
+}
+
+void Trainer::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& noise,
+                           LossInfo* info) {
+  ClearGrads(*critic_);
+  const bool through = options_.agent.critic_grad_to_encoder;
+  if (through) ClearGrads(*repr_);
+  CriticLoss(batch, noise, info).backward();
+  critic_opt_->step();
+  if (through) repr_opt_->step();
+}
+
+void Trainer::UpdateActor(const TransitionBatch& batch, LossInfo* info) {
+  // Gradients only for the actor's parameters: the critic and E_sa are
+  // differentiated through but not updated by the actor loss.
+  const torch::Tensor loss = ActorLoss(batch, info);
+  std::vector<torch::Tensor> params = actor_->parameters();
+  std::vector<torch::Tensor> grads = torch::autograd::grad({loss}, params);
+  for (size_t i = 0; i < params.size(); ++i) params[i].mutable_grad() = grads[i];
+  actor_opt_->step();
+}
+
+void Trainer::UpdateTargets() {
+  HardUpdate(*target_repr_, *repr_);
+  HardUpdate(*target_critic_, *critic_);
+  HardUpdate(*target_actor_, *actor_);
+}
+
+LossInfo Trainer::Step() {
+  LossInfo info;
+  ++step_;
+  if (step_ % options_.agent.target_update_every == 0) UpdateTargets();
+  repr_credit_ += options_.representation.updates_per_step;
+  while (repr_credit_ >= 1.0 - 1e-9) {
+    UpdateRepresentation(SampleChunks(), &info);
+    repr_credit_ -= 1.0;
+  }
+  const TransitionBatch batch = SampleTransitions();
+  const torch::Tensor noise =
+      torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+  UpdateCritic(batch, noise, &info);
+  UpdateActor(batch, &info);
+  return info;
+}
+
+LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed) {
+  const MsprOptions& o = options_;
+  BatchSampler sampler(data, o.relabel, o.agent.gamma, o.agent.n_step, o.representation.horizon,
+                       o.network.goal_horizon);
+  std::mt19937_64 rng(seed);
+  torch::NoGradGuard no_grad;
+  LossInfo info;
+  RepresentationLoss(MakeChunkBatch(sampler.SampleChunks(batch, rng), false, &data), &info);
+  const TransitionBatch tb = MakeTransitionBatch(sampler.SampleTransitions(batch, rng), false, &data);
+  CriticLoss(tb, torch::zeros({tb.action.size(0), tb.action.size(1)}), &info);
+  ActorLoss(tb, &info);
+  return info;
+}
+
+Policy Trainer::MakePolicy() { return Policy(options_, repr_, actor_, critic_, device_); }
+
+void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
+  const TrainerOptions& t = options_.trainer;
+  const int64_t total = t.steps;
+  std::unique_ptr<CsvWriter> metrics_csv, eval_csv;
+  const LossInfo names;
+  if (!loop.out_dir.empty()) {
+    MakeDirs(loop.out_dir);
+    std::vector<std::string> cols{"step", "wall_s", "steps_per_s"};
+    for (const auto& kv : names.Named()) cols.push_back(kv.first);
+    metrics_csv = std::make_unique<CsvWriter>(loop.out_dir + "/metrics.csv", cols);
+    eval_csv = std::make_unique<CsvWriter>(loop.out_dir + "/eval.csv",
+                                           std::vector<std::string>{"step", "name", "value"});
+  }
+  ProgressBar bar(step_, total);
+  const auto start = std::chrono::steady_clock::now();
+  auto run_eval = [&]() {
+    if (!evaluator) return;
+    Policy policy = MakePolicy();
+    const EvalResult res = evaluator(policy, step_);
+    std::string line = "eval step " + std::to_string(step_) + ":";
+    for (const auto& kv : res) {
+      line += " " + kv.first + "=" + std::to_string(kv.second);
+      if (eval_csv) eval_csv->WriteRow({std::to_string(step_), kv.first, std::to_string(kv.second)});
+    }
+    if (!loop.quiet) bar.Message(line);
+  };
+  LossInfo last;
+  while (step_ < total) {
+    const LossInfo info = Step();
+    // Keep the last representation losses on steps without a representation update.
+    LossInfo merged = info;
+    if (std::isnan(info.repr)) {
+      merged.repr = last.repr;
+      merged.dyn = last.dyn;
+      merged.rew = last.rew;
+      merged.inv = last.inv;
+      merged.goal_dyn = last.goal_dyn;
+      merged.goal_act = last.goal_act;
+    }
+    last = merged;
+    if (t.log_every > 0 && (step_ % t.log_every == 0 || step_ == total)) {
+      if (!loop.quiet) {
+        bar.Update(step_, {{"critic", merged.critic}, {"actor", merged.actor}, {"repr", merged.repr},
+                           {"q", merged.q_mean}});
+      }
+      if (metrics_csv) {
+        const double wall =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::vector<double> row{static_cast<double>(step_), wall, bar.steps_per_second()};
+        if (loop.quiet) row[2] = wall > 0 ? step_ / wall : 0.0;
+        for (const auto& kv : merged.Named()) row.push_back(kv.second);
+        metrics_csv->Write(row);
+      }
+    }
+    if (t.eval_every > 0 && step_ % t.eval_every == 0) run_eval();
+    if (!loop.out_dir.empty() && t.checkpoint_every > 0 && step_ % t.checkpoint_every == 0) {
+      SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
+    }
+  }
+  if (!loop.quiet) bar.Finish();
+  if (evaluator && (t.eval_every <= 0 || step_ % t.eval_every != 0)) run_eval();
+  if (!loop.out_dir.empty()) {
+    SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
+    ExportPolicy(loop.out_dir + "/policy.pt");
+  }
+}
+
+namespace {
+
+void WriteModule(torch::serialize::OutputArchive& archive, const std::string& key,
+                 const torch::nn::Module& module) {
+  torch::serialize::OutputArchive sub;
+  module.save(sub);
+  archive.write(key, sub);
+}
+
+void ReadModule(torch::serialize::InputArchive& archive, const std::string& key,
+                torch::nn::Module& module) {
+  torch::serialize::InputArchive sub;
+  archive.read(key, sub);
+  module.load(sub);
+}
+
+// The network section alone, to check that a checkpoint fits this trainer.
+std::string NetworkYaml(const NetworkOptions& n) {
+  MsprOptions o;
+  o.network = n;
+  return OptionsToYaml(o);
+}
+
+}  // namespace
+
+void Trainer::SaveCheckpoint(const std::string& path) {
+  CheckpointHeader header;
+  header.options = options_;
+  header.step = step_;
+  header.repr_credit = repr_credit_;
+  std::ostringstream rng;
+  rng << rng_;
+  header.sampler_rng = rng.str();
+  CheckpointFile file;
+  file.kind = "trainer";
+  file.version = kCheckpointFormatVersion;
+  file.header = CheckpointHeaderToYaml(header);
+  torch::serialize::OutputArchive archive;
+  WriteModule(archive, "repr", *repr_);
+  WriteModule(archive, "critic", *critic_);
+  WriteModule(archive, "actor", *actor_);
+  WriteModule(archive, "target_repr", *target_repr_);
+  WriteModule(archive, "target_critic", *target_critic_);
+  WriteModule(archive, "target_actor", *target_actor_);
+  {
+    torch::serialize::OutputArchive sub;
+    repr_opt_->save(sub);
+    archive.write("repr_opt", sub);
+  }
+  {
+    torch::serialize::OutputArchive sub;
+    critic_opt_->save(sub);
+    archive.write("critic_opt", sub);
+  }
+  {
+    torch::serialize::OutputArchive sub;
+    actor_opt_->save(sub);
+    archive.write("actor_opt", sub);
+  }
+  archive.write("torch_generator", gen_.get_state());
+  std::ostringstream payload;
+  archive.save_to(payload);
+  file.payload = payload.str();
+  WriteCheckpointFile(path, file);
+}
+
+void Trainer::LoadCheckpoint(const std::string& path) {
+  const CheckpointFile file = ReadCheckpointFile(path, "trainer");
+  const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
+  if (NetworkYaml(header.options.network) != NetworkYaml(options_.network)) {
+    throw CheckpointError(path + ": network options differ from this trainer's");
+  }
+  try {
+    torch::serialize::InputArchive archive;
+    archive.load_from(file.payload.data(), file.payload.size(), device_);
+    ReadModule(archive, "repr", *repr_);
+    ReadModule(archive, "critic", *critic_);
+    ReadModule(archive, "actor", *actor_);
+    ReadModule(archive, "target_repr", *target_repr_);
+    ReadModule(archive, "target_critic", *target_critic_);
+    ReadModule(archive, "target_actor", *target_actor_);
+    torch::serialize::InputArchive sub;
+    archive.read("repr_opt", sub);
+    repr_opt_->load(sub);
+    archive.read("critic_opt", sub);
+    critic_opt_->load(sub);
+    archive.read("actor_opt", sub);
+    actor_opt_->load(sub);
+    torch::Tensor gen_state;
+    archive.read("torch_generator", gen_state);
+    gen_.set_state(gen_state.to(torch::kCPU));
+  } catch (const c10::Error& e) {
+    throw CheckpointError(path + ": cannot restore training state: " + e.what_without_backtrace());
+  }
+  std::istringstream rng(header.sampler_rng);
+  rng >> rng_;
+  if (!rng) throw CheckpointError(path + ": bad sampler RNG state in header");
+  step_ = header.step;
+  repr_credit_ = header.repr_credit;
+}
+
+void Trainer::ExportPolicy(const std::string& path) {
+  CheckpointHeader header;
+  header.options = options_;
+  header.step = step_;
+  CheckpointFile file;
+  file.kind = "policy";
+  file.version = kCheckpointFormatVersion;
+  file.header = CheckpointHeaderToYaml(header);
+  torch::serialize::OutputArchive archive;
+  WriteModule(archive, "repr", *repr_);
+  WriteModule(archive, "actor", *actor_);
+  WriteModule(archive, "critic", *critic_);
+  std::ostringstream payload;
+  archive.save_to(payload);
+  file.payload = payload.str();
+  WriteCheckpointFile(path, file);
+}
+
+MsprOptions ReadCheckpointOptions(const std::string& path) {
+  const CheckpointFile file = ReadCheckpointFile(path);
+  return ParseCheckpointHeader(file.header, path).options;
+}
+
+}  // namespace core
+}  // namespace msspr

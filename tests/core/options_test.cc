@@ -1,0 +1,172 @@
+#include "msspr_core/options.h"
+
+#include <dirent.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "test_util.h"
+
+namespace msspr {
+namespace core {
+namespace {
+
+using testing_util::TempDir;
+using testing_util::WriteText;
+
+TEST(OptionsTest, DefaultsFollowMethodMd) {
+  const MsprOptions o = MakePreset("mspr", "paper");
+  EXPECT_EQ(o.network.zs_dim, 512);
+  EXPECT_EQ(o.network.za_dim, 256);
+  EXPECT_EQ(o.network.zsa_dim, 512);
+  EXPECT_EQ(o.network.goal_dim, 128);
+  EXPECT_EQ(o.network.num_bins, 21);
+  EXPECT_EQ(o.network.goal_horizon, 5);
+  EXPECT_EQ(o.representation.horizon, 5);
+  EXPECT_DOUBLE_EQ(o.representation.weight_dyn, 1.0);
+  EXPECT_DOUBLE_EQ(o.representation.weight_rew, 0.3);
+  EXPECT_DOUBLE_EQ(o.representation.weight_inv, 0.1);
+  EXPECT_DOUBLE_EQ(o.representation.weight_goal_dyn, 0.1);
+  EXPECT_DOUBLE_EQ(o.representation.weight_goal_act, 0.1);
+  EXPECT_DOUBLE_EQ(o.representation.lr, 1e-4);
+  EXPECT_DOUBLE_EQ(o.agent.lr, 3e-4);
+  EXPECT_DOUBLE_EQ(o.agent.weight_decay, 1e-4);
+  EXPECT_DOUBLE_EQ(o.agent.gamma, 0.99);
+  EXPECT_EQ(o.agent.n_step, 3);
+  EXPECT_DOUBLE_EQ(o.agent.target_noise, 0.2);
+  EXPECT_DOUBLE_EQ(o.agent.target_noise_clip, 0.1);
+  EXPECT_EQ(o.agent.target_update_every, 250);
+  EXPECT_FALSE(o.agent.critic_grad_to_encoder);
+  EXPECT_DOUBLE_EQ(o.relabel.value_p_curgoal, 0.2);
+  EXPECT_DOUBLE_EQ(o.relabel.value_p_trajgoal, 0.5);
+  EXPECT_DOUBLE_EQ(o.relabel.value_p_randomgoal, 0.3);
+  EXPECT_EQ(o.trainer.batch_size, 1024);
+  const MsprOptions c = MakePreset("mspr", "cpu");
+  EXPECT_EQ(c.network.zs_dim, 256);
+  EXPECT_EQ(c.network.goal_dim, 64);
+  EXPECT_LE(c.trainer.batch_size, 256);
+}
+
+// Everything but the representation loss weights, as YAML.
+std::string WithoutLossWeights(MsprOptions o) {
+  o.representation.weight_dyn = o.representation.weight_rew = o.representation.weight_inv =
+      o.representation.weight_goal_dyn = o.representation.weight_goal_act = 0.0;
+  return OptionsToYaml(o);
+}
+
+TEST(OptionsTest, AblationPresetsDifferOnlyInLossWeights) {
+  for (const std::string& scale : ScaleNames()) {
+    const MsprOptions full = MakePreset("mspr", scale);
+    for (const std::string& name : PresetNames()) {
+      const MsprOptions p = MakePreset(name, scale);
+      EXPECT_EQ(WithoutLossWeights(p), WithoutLossWeights(full)) << name << " " << scale;
+    }
+    const auto& d = MakePreset("D", scale).representation;
+    EXPECT_GT(d.weight_dyn, 0);
+    EXPECT_EQ(d.weight_inv + d.weight_rew + d.weight_goal_dyn + d.weight_goal_act, 0);
+    const auto& di = MakePreset("DI", scale).representation;
+    EXPECT_GT(di.weight_inv, 0);
+    EXPECT_EQ(di.weight_rew + di.weight_goal_dyn + di.weight_goal_act, 0);
+    const auto& dir = MakePreset("DIR", scale).representation;
+    EXPECT_GT(dir.weight_rew, 0);
+    EXPECT_EQ(dir.weight_goal_dyn + dir.weight_goal_act, 0);
+    const auto& m = full.representation;
+    EXPECT_GT(m.weight_goal_dyn, 0);
+    EXPECT_GT(m.weight_goal_act, 0);
+  }
+  EXPECT_THROW(MakePreset("DIRX", "cpu"), OptionsError);
+  EXPECT_THROW(MakePreset("mspr", "tiny"), OptionsError);
+}
+
+TEST(OptionsTest, YamlRoundTrip) {
+  MsprOptions o = MakePreset("DI", "cpu");
+  o.network.obs_dim = 7;
+  o.agent.gamma = 0.995;
+  o.representation.lr = 1.2345678901234567e-4;
+  o.trainer.seed = 1234567890123ULL;
+  o.trainer.device = "cuda:1";
+  const MsprOptions back = ApplyOptionsYaml(OptionsToYaml(o), MsprOptions());
+  EXPECT_EQ(OptionsToYaml(back), OptionsToYaml(o));
+  EXPECT_EQ(back.representation.lr, o.representation.lr);
+  EXPECT_EQ(back.trainer.seed, o.trainer.seed);
+}
+
+TEST(OptionsTest, UnknownKeyNamesFileAndKey) {
+  TempDir dir;
+  const std::string path = dir.File("bad.yaml");
+  WriteText(path, "network:\n  zs_dim: 64\n  hiden_dim: 3\n");
+  try {
+    LoadOptionsFile(path, MsprOptions());
+    FAIL() << "no exception";
+  } catch (const OptionsError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("network.hiden_dim"), std::string::npos) << e.what();
+  }
+  WriteText(path, "netwrk:\n  zs_dim: 64\n");
+  try {
+    LoadOptionsFile(path, MsprOptions());
+    FAIL() << "no exception";
+  } catch (const OptionsError& e) {
+    EXPECT_NE(std::string(e.what()).find("netwrk"), std::string::npos) << e.what();
+  }
+  WriteText(path, "agent:\n  gamma: high\n");
+  try {
+    LoadOptionsFile(path, MsprOptions());
+    FAIL() << "no exception";
+  } catch (const OptionsError& e) {
+    EXPECT_NE(std::string(e.what()).find("agent.gamma"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(LoadOptionsFile(dir.File("missing.yaml"), MsprOptions()), OptionsError);
+}
+
+TEST(OptionsTest, OverridesApplyOnTopOfPreset) {
+  const MsprOptions o =
+      ApplyOptionsYaml("preset: DIR\nscale: cpu\nagent:\n  bc_weight: 0.01\n", MsprOptions());
+  EXPECT_EQ(o.network.zs_dim, 256);
+  EXPECT_DOUBLE_EQ(o.agent.bc_weight, 0.01);
+  EXPECT_EQ(o.representation.weight_goal_act, 0.0);
+}
+
+TEST(OptionsTest, ValidateRejectsBadValues) {
+  MsprOptions o = MakePreset("mspr", "cpu");
+  o.network.obs_dim = 2;
+  o.network.action_dim = 2;
+  EXPECT_NO_THROW(ValidateOptions(o));
+  MsprOptions bad = o;
+  bad.relabel.value_p_curgoal = 0.5;
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad = o;
+  bad.network.obs_mode = "lidar";
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad = o;
+  bad.agent.gamma = 1.0;
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+}
+
+TEST(OptionsTest, EveryShippedConfigLoads) {
+  std::vector<std::string> files;
+  DIR* d = opendir(MSSPR_CONFIG_DIR);
+  ASSERT_NE(d, nullptr) << MSSPR_CONFIG_DIR;
+  while (dirent* e = readdir(d)) {
+    const std::string name = e->d_name;
+    if (name.size() > 5 && name.substr(name.size() - 5) == ".yaml") files.push_back(name);
+  }
+  closedir(d);
+  std::sort(files.begin(), files.end());
+  ASSERT_GE(files.size(), 4u);
+  for (const std::string& f : files) {
+    SCOPED_TRACE(f);
+    MsprOptions o;
+    ASSERT_NO_THROW(o = LoadOptionsFile(std::string(MSSPR_CONFIG_DIR) + "/" + f, MsprOptions()));
+    o.network.obs_dim = 4;  // from the data at training time
+    o.network.action_dim = 2;
+    EXPECT_NO_THROW(ValidateOptions(o));
+  }
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace msspr
