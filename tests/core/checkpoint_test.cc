@@ -1,1 +1,136 @@
+#include "msspr_core/checkpoint.h"
 
+#include <gtest/gtest.h>
+
+#include "msspr_core/trainer.h"
+#include "test_util.h"
+#include "torch_test_util.h"
+
+namespace msspr {
+namespace core {
+namespace {
+
+using testing_util::Flat;
+using testing_util::RandomStateDataset;
+using testing_util::ReadText;
+using testing_util::TempDir;
+using testing_util::TinyOptions;
+using testing_util::WriteText;
+
+MsprOptions ResumeOptions() {
+  MsprOptions o = TinyOptions();
+  o.agent.target_update_every = 3;         // target copies inside both halves
+  o.representation.updates_per_step = 0.5;  // fractional credit carried over
+  return o;
+}
+
+void ExpectSameState(Trainer& a, Trainer& b) {
+  EXPECT_EQ(a.step(), b.step());
+  EXPECT_TRUE(torch::equal(Flat(*a.repr()), Flat(*b.repr())));
+  EXPECT_TRUE(torch::equal(Flat(*a.critic()), Flat(*b.critic())));
+  EXPECT_TRUE(torch::equal(Flat(*a.actor()), Flat(*b.actor())));
+  EXPECT_TRUE(torch::equal(Flat(*a.target_repr()), Flat(*b.target_repr())));
+  EXPECT_TRUE(torch::equal(Flat(*a.target_critic()), Flat(*b.target_critic())));
+  EXPECT_TRUE(torch::equal(Flat(*a.target_actor()), Flat(*b.target_actor())));
+}
+
+TEST(CheckpointTest, RoundTripRestoresEverything) {
+  TempDir dir;
+  auto data = RandomStateDataset();
+  Trainer a(ResumeOptions(), data);
+  for (int i = 0; i < 4; ++i) a.Step();
+  a.SaveCheckpoint(dir.File("a.ckpt"));
+  MsprOptions other = ResumeOptions();
+  other.trainer.seed = 99;  // different init: everything must come from the file
+  Trainer b(other, data);
+  b.LoadCheckpoint(dir.File("a.ckpt"));
+  ExpectSameState(a, b);
+  const MsprOptions stored = ReadCheckpointOptions(dir.File("a.ckpt"));
+  EXPECT_EQ(OptionsToYaml(stored), OptionsToYaml(a.options()));
+  // No temporary file is left behind.
+  EXPECT_FALSE(std::ifstream(dir.File("a.ckpt.tmp")).good());
+}
+
+TEST(CheckpointTest, ResumedRunEqualsUninterruptedRun) {
+  TempDir dir;
+  auto data = RandomStateDataset();
+  Trainer straight(ResumeOptions(), data);
+  for (int i = 0; i < 8; ++i) straight.Step();
+
+  {
+    Trainer first(ResumeOptions(), data);
+    for (int i = 0; i < 5; ++i) first.Step();
+    first.SaveCheckpoint(dir.File("half.ckpt"));
+  }
+  Trainer resumed(ResumeOptions(), data);
+  resumed.LoadCheckpoint(dir.File("half.ckpt"));
+  EXPECT_EQ(resumed.step(), 5);
+  LossInfo last;
+  for (int i = 0; i < 3; ++i) last = resumed.Step();
+  ExpectSameState(straight, resumed);
+}
+
+void ExpectErrorNamesFile(const std::string& path, const std::function<void()>& load) {
+  try {
+    load();
+    FAIL() << "no exception for " << path;
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
+TEST(CheckpointTest, TruncatedForeignAndCorruptFilesNameTheFile) {
+  TempDir dir;
+  auto data = RandomStateDataset();
+  Trainer t(ResumeOptions(), data);
+  t.Step();
+  t.SaveCheckpoint(dir.File("good.ckpt"));
+  const std::string good = ReadText(dir.File("good.ckpt"));
+  const std::string truncated = dir.File("truncated.ckpt");
+  WriteText(truncated, good.substr(0, good.size() * 2 / 3));
+  ExpectErrorNamesFile(truncated, [&] { t.LoadCheckpoint(truncated); });
+  WriteText(truncated, good.substr(0, 12));
+  ExpectErrorNamesFile(truncated, [&] { t.LoadCheckpoint(truncated); });
+  const std::string foreign = dir.File("foreign.ckpt");
+  WriteText(foreign, "PK\x03\x04 this is some other file format entirely");
+  ExpectErrorNamesFile(foreign, [&] { t.LoadCheckpoint(foreign); });
+  ExpectErrorNamesFile(foreign, [&] { Policy::Load(foreign); });
+  std::string flipped = good;
+  flipped[flipped.size() / 2] ^= 0x5a;
+  const std::string corrupt = dir.File("corrupt.ckpt");
+  WriteText(corrupt, flipped);
+  ExpectErrorNamesFile(corrupt, [&] { t.LoadCheckpoint(corrupt); });
+  const std::string missing = dir.File("missing.ckpt");
+  ExpectErrorNamesFile(missing, [&] { t.LoadCheckpoint(missing); });
+  // A policy export is not a trainer checkpoint.
+  t.ExportPolicy(dir.File("policy.pt"));
+  ExpectErrorNamesFile(dir.File("policy.pt"), [&] { t.LoadCheckpoint(dir.File("policy.pt")); });
+  // A checkpoint of other network sizes does not fit.
+  MsprOptions wider = ResumeOptions();
+  wider.network.critic_hidden = 48;
+  Trainer w(wider, data);
+  ExpectErrorNamesFile(dir.File("good.ckpt"), [&] { w.LoadCheckpoint(dir.File("good.ckpt")); });
+}
+
+TEST(CheckpointTest, ContainerRejectsWrongVersionAndKind) {
+  TempDir dir;
+  CheckpointFile f;
+  f.kind = "policy";
+  f.version = kCheckpointFormatVersion;
+  f.header = "step: 1\n";
+  f.payload = std::string("\0\1\2\3", 4);
+  WriteCheckpointFile(dir.File("c.ckpt"), f);
+  const CheckpointFile back = ReadCheckpointFile(dir.File("c.ckpt"));
+  EXPECT_EQ(back.kind, "policy");
+  EXPECT_EQ(back.header, f.header);
+  EXPECT_EQ(back.payload, f.payload);
+  ExpectErrorNamesFile(dir.File("c.ckpt"), [&] { ReadCheckpointFile(dir.File("c.ckpt"), "trainer"); });
+  std::string bytes = ReadText(dir.File("c.ckpt"));
+  bytes[8] = 99;  // format version
+  WriteText(dir.File("v.ckpt"), bytes);
+  ExpectErrorNamesFile(dir.File("v.ckpt"), [&] { ReadCheckpointFile(dir.File("v.ckpt")); });
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace msspr

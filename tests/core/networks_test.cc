@@ -1,1 +1,146 @@
+#include "msspr_core/networks.h"
 
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "torch_test_util.h"
+
+namespace msspr {
+namespace core {
+namespace {
+
+NetworkOptions StateNet() {
+  NetworkOptions n = testing_util::TinyOptions().network;
+  n.obs_dim = 5;
+  n.action_dim = 3;
+  return n;
+}
+
+TEST(NetworksTest, MlpPreLayerNormPlacement) {
+  torch::manual_seed(0);
+  Mlp mlp(std::vector<int64_t>{4, 8, 8, 3}, /*output_gelu=*/false);
+  EXPECT_EQ(mlp->LayerKinds(), (std::vector<std::string>{"Linear", "GELU", "LayerNorm", "Linear",
+                                                         "GELU", "LayerNorm", "Linear"}));
+  Mlp enc(std::vector<int64_t>{4, 8, 6}, /*output_gelu=*/true);
+  EXPECT_EQ(enc->LayerKinds(),
+            (std::vector<std::string>{"Linear", "GELU", "LayerNorm", "Linear", "GELU"}));
+  Mlp plain(std::vector<int64_t>{4, 8, 6}, false, /*layer_norm=*/false);
+  EXPECT_EQ(plain->LayerKinds(), (std::vector<std::string>{"Linear", "GELU", "Linear"}));
+  // The LayerNorm's epsilon is the paper's 1e-6.
+  auto ln = mlp->net->ptr(2)->as<torch::nn::LayerNorm>();
+  ASSERT_NE(ln, nullptr);
+  EXPECT_DOUBLE_EQ(ln->options.eps(), 1e-6);
+  EXPECT_EQ(mlp->forward(torch::randn({7, 4})).sizes(), (std::vector<int64_t>{7, 3}));
+}
+
+TEST(NetworksTest, StateModuleShapes) {
+  torch::manual_seed(0);
+  const NetworkOptions n = StateNet();
+  const int64_t B = 6;
+  Representation repr(n);
+  const torch::Tensor obs = torch::randn({B, n.obs_dim});
+  const torch::Tensor a = torch::rand({B, n.action_dim}) * 2 - 1;
+  const torch::Tensor zs = repr->state_encoder->forward(obs);
+  EXPECT_EQ(zs.sizes(), (std::vector<int64_t>{B, n.zs_dim}));
+  const torch::Tensor grep = repr->goal_head->forward(zs, zs.flip(0));
+  EXPECT_EQ(grep.sizes(), (std::vector<int64_t>{B, n.goal_dim}));
+  const torch::Tensor za = repr->action_encoder->forward(a);
+  EXPECT_EQ(za.sizes(), (std::vector<int64_t>{B, n.za_dim}));
+  const torch::Tensor zsa = repr->sa_encoder->forward(zs, za);
+  EXPECT_EQ(zsa.sizes(), (std::vector<int64_t>{B, n.zsa_dim}));
+  EXPECT_TRUE(torch::equal(zsa, repr->Zsa(zs, a)));
+  auto& p = repr->predictors;
+  EXPECT_EQ(p->Dynamics(zsa).sizes(), (std::vector<int64_t>{B, n.zs_dim}));
+  EXPECT_EQ(p->Reward(zsa, grep).sizes(), (std::vector<int64_t>{B, n.num_bins}));
+  EXPECT_EQ(p->Inverse(zs, zs).sizes(), (std::vector<int64_t>{B, n.action_dim}));
+  EXPECT_EQ(p->GoalDynamics(zs, grep).sizes(), (std::vector<int64_t>{B, n.zs_dim}));
+  EXPECT_EQ(p->GoalActions(zs, grep).sizes(),
+            (std::vector<int64_t>{B, n.goal_horizon, n.action_dim}));
+  Critic critic(n);
+  EXPECT_EQ(critic->forward(zsa, grep).sizes(), (std::vector<int64_t>{B, 2}));
+  Actor actor(n);
+  const torch::Tensor pi = actor->forward(zs, grep);
+  EXPECT_EQ(pi.sizes(), (std::vector<int64_t>{B, n.action_dim}));
+  EXPECT_LE(pi.abs().max().item<float>(), 1.0f);
+}
+
+TEST(NetworksTest, PixelEncoderShapes) {
+  torch::manual_seed(0);
+  NetworkOptions n = StateNet();
+  n.obs_mode = "pixels";
+  n.frame_stack = 3;
+  StateEncoder enc(n);
+  ASSERT_TRUE(enc->cnn);
+  const torch::Tensor img = torch::randint(0, 256, {2, 64, 64, 9}, torch::kUInt8);
+  EXPECT_EQ(enc->forward(img).sizes(), (std::vector<int64_t>{2, n.zs_dim}));
+  // 64x64 gives 8x8x32 = 2048 features before the projection.
+  torch::Tensor x = img.permute({0, 3, 1, 2}).to(torch::kFloat32) / 255.0;
+  x = enc->cnn->block3->forward(enc->cnn->block2->forward(enc->cnn->block1->forward(x)));
+  EXPECT_EQ(x.sizes(), (std::vector<int64_t>{2, 32, 8, 8}));
+  // Inputs are scaled by 1/255: an all-255 image equals a float image of ones.
+  const torch::Tensor white = torch::full({1, 64, 64, 9}, 255, torch::kUInt8);
+  torch::Tensor ones = torch::ones({1, 9, 64, 64});
+  ones = enc->cnn->block3->forward(enc->cnn->block2->forward(enc->cnn->block1->forward(ones)));
+  EXPECT_TRUE(torch::allclose(enc->forward(white), enc->cnn->fc->forward(ones.flatten(1))));
+}
+
+TEST(NetworksTest, GoalVectorsHaveNormSqrtDim) {
+  torch::manual_seed(1);
+  const NetworkOptions n = StateNet();
+  GoalHead psi(n);
+  const torch::Tensor g = psi->forward(torch::randn({10, n.zs_dim}) * 5, torch::randn({10, n.zs_dim}));
+  const torch::Tensor norms = g.norm(2, -1);
+  EXPECT_TRUE(torch::allclose(norms, torch::full({10}, std::sqrt(double(n.goal_dim))), 1e-5, 1e-5));
+}
+
+TEST(NetworksTest, TwoHotRoundTrip) {
+  const double gamma = 0.99;
+  const torch::Tensor bins = ReturnBins(21, gamma);
+  EXPECT_FLOAT_EQ(bins[0].item<float>(), -100.0f);
+  EXPECT_FLOAT_EQ(bins[20].item<float>(), 0.0f);
+  const torch::Tensor values = torch::tensor({-100.0f, -99.9f, -37.3f, -5.0f, -0.01f, 0.0f});
+  const torch::Tensor enc = TwoHotEncode(values, bins);
+  EXPECT_TRUE(torch::allclose(enc.sum(-1), torch::ones({6})));
+  EXPECT_LE((enc > 0).sum(-1).max().item<int64_t>(), 2);
+  // Expected value of the two-hot distribution is the value itself.
+  EXPECT_TRUE(torch::allclose((enc * bins).sum(-1), values, 1e-4, 1e-4));
+  // Decoding logits that put exactly that distribution back.
+  const torch::Tensor decoded = TwoHotDecode(torch::log(enc + 1e-30), bins);
+  EXPECT_TRUE(torch::allclose(decoded, values, 1e-3, 1e-3));
+  // Out of range values clamp to the end bins.
+  const torch::Tensor clamped = TwoHotEncode(torch::tensor({-500.0f, 3.0f}), bins);
+  EXPECT_FLOAT_EQ(clamped[0][0].item<float>(), 1.0f);
+  EXPECT_FLOAT_EQ(clamped[1][20].item<float>(), 1.0f);
+}
+
+TEST(NetworksTest, StableCheckpointKeys) {
+  Representation repr(StateNet());
+  std::vector<std::string> keys;
+  for (const auto& kv : repr->named_parameters()) keys.push_back(kv.key());
+  for (const char* k : {"state_encoder.mlp.net.0.weight", "goal_head.mlp.net.2.weight",
+                        "action_encoder.linear.weight", "sa_encoder.mlp.net.0.weight",
+                        "predictors.dynamics.weight", "predictors.reward.bias",
+                        "predictors.inverse.weight", "predictors.goal_dynamics.weight",
+                        "predictors.goal_action.weight"}) {
+    EXPECT_NE(std::find(keys.begin(), keys.end(), k), keys.end()) << k;
+  }
+  Critic critic(StateNet());
+  EXPECT_TRUE(critic->named_parameters().contains("q1.net.0.weight"));
+  EXPECT_TRUE(critic->named_parameters().contains("q2.net.9.bias"));
+  Actor actor(StateNet());
+  EXPECT_TRUE(actor->named_parameters().contains("backbone.net.0.weight"));
+  EXPECT_TRUE(actor->named_parameters().contains("head.weight"));
+}
+
+TEST(NetworksTest, HardUpdateCopies) {
+  torch::manual_seed(0);
+  Critic a(StateNet()), b(StateNet());
+  EXPECT_FALSE(torch::equal(testing_util::Flat(*a), testing_util::Flat(*b)));
+  HardUpdate(*b, *a);
+  EXPECT_TRUE(torch::equal(testing_util::Flat(*a), testing_util::Flat(*b)));
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace msspr

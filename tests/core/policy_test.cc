@@ -1,1 +1,86 @@
+#include "msspr_core/policy.h"
 
+#include <gtest/gtest.h>
+
+#include "msspr_core/trainer.h"
+#include "test_util.h"
+#include "torch_test_util.h"
+
+namespace msspr {
+namespace core {
+namespace {
+
+using testing_util::RandomImageDataset;
+using testing_util::RandomStateDataset;
+using testing_util::TempDir;
+using testing_util::TinyOptions;
+
+TEST(PolicyTest, StateActSingleAndBatch) {
+  Trainer t(TinyOptions(), RandomStateDataset());
+  t.Step();
+  Policy p = t.MakePolicy();
+  EXPECT_FALSE(p.pixels());
+  EXPECT_EQ(p.obs_dim(), 3);
+  EXPECT_EQ(p.action_dim(), 2);
+  torch::manual_seed(5);
+  const torch::Tensor obs = torch::randn({7, 3}), goal = torch::randn({7, 3});
+  const torch::Tensor a = p.Act(obs, goal);
+  EXPECT_EQ(a.sizes(), (std::vector<int64_t>{7, 2}));
+  EXPECT_LE(a.abs().max().item<float>(), 1.0f);
+  EXPECT_FALSE(a.requires_grad());
+  const torch::Tensor a3 = p.Act(obs[3], goal[3]);
+  EXPECT_EQ(a3.sizes(), (std::vector<int64_t>{2}));
+  EXPECT_TRUE(torch::allclose(a3, a[3], 1e-5, 1e-6));
+  const std::vector<float> v = p.Act(std::vector<float>{obs[3][0].item<float>(), obs[3][1].item<float>(),
+                                                        obs[3][2].item<float>()},
+                                     std::vector<float>{goal[3][0].item<float>(),
+                                                        goal[3][1].item<float>(),
+                                                        goal[3][2].item<float>()});
+  ASSERT_EQ(v.size(), 2u);
+  EXPECT_NEAR(v[0], a[3][0].item<float>(), 1e-5);
+  const torch::Tensor q = p.Q(obs, a, goal);
+  EXPECT_EQ(q.sizes(), (std::vector<int64_t>{7, 2}));
+  EXPECT_EQ(p.Q(obs[0], a[0], goal[0]).sizes(), (std::vector<int64_t>{2}));
+  EXPECT_THROW(p.Act(torch::randn({2, 2, 3}), torch::randn({2, 2, 3})), c10::Error);
+}
+
+TEST(PolicyTest, ExportLoadsAndActsTheSame) {
+  TempDir dir;
+  Trainer t(TinyOptions(), RandomStateDataset());
+  for (int i = 0; i < 2; ++i) t.Step();
+  t.ExportPolicy(dir.File("policy.pt"));
+  t.SaveCheckpoint(dir.File("trainer.ckpt"));
+  Policy live = t.MakePolicy();
+  Policy loaded = Policy::Load(dir.File("policy.pt"));
+  Policy from_ckpt = Policy::Load(dir.File("trainer.ckpt"), torch::kCPU);
+  const torch::Tensor obs = torch::randn({5, 3}), goal = torch::randn({5, 3});
+  EXPECT_TRUE(torch::equal(live.Act(obs, goal), loaded.Act(obs, goal)));
+  EXPECT_TRUE(torch::equal(live.Act(obs, goal), from_ckpt.Act(obs, goal)));
+  const torch::Tensor a = torch::zeros({5, 2});
+  EXPECT_TRUE(torch::equal(live.Q(obs, a, goal), loaded.Q(obs, a, goal)));
+  EXPECT_EQ(loaded.options().network.obs_mode, "state");
+}
+
+TEST(PolicyTest, PixelActSingleAndBatch) {
+  TempDir dir;
+  MsprOptions o = TinyOptions();
+  o.network.obs_mode = "pixels";
+  o.network.frame_stack = 3;
+  o.trainer.batch_size = 2;
+  Trainer t(o, RandomImageDataset());
+  t.ExportPolicy(dir.File("pixels.pt"));
+  Policy p = Policy::Load(dir.File("pixels.pt"));
+  EXPECT_TRUE(p.pixels());
+  const torch::Tensor obs = torch::randint(0, 256, {3, 64, 64, 9}, torch::kUInt8);
+  const torch::Tensor goal = torch::randint(0, 256, {3, 64, 64, 9}, torch::kUInt8);
+  const torch::Tensor a = p.Act(obs, goal);
+  EXPECT_EQ(a.sizes(), (std::vector<int64_t>{3, 2}));
+  const torch::Tensor a1 = p.Act(obs[1], goal[1]);
+  EXPECT_EQ(a1.sizes(), (std::vector<int64_t>{2}));
+  EXPECT_TRUE(torch::allclose(a1, a[1], 1e-4, 1e-5));
+  EXPECT_EQ(p.Q(obs, a, goal).sizes(), (std::vector<int64_t>{3, 2}));
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace msspr
