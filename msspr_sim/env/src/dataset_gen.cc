@@ -4,6 +4,17 @@
 #include <stdexcept>
 
 namespace msspr::sim {
+namespace {
+
+// double -> float32 rounding that the optimiser cannot drop: GCC 12 -O2 was
+// seen to fold (double)(float)x back to x in the loop below (no conversion
+// instruction emitted), which broke replay of the stored data.
+float RoundToFloat(double x) {
+  volatile float f = static_cast<float>(x);
+  return f;
+}
+
+}  // namespace
 
 Episode CollectEpisode(PointMaze& env, const CollectOptions& options, uint64_t index) {
   if (env.map().name() != options.maze) {
@@ -33,12 +44,16 @@ Episode CollectEpisode(PointMaze& env, const CollectOptions& options, uint64_t i
   CollectionExpert expert(env.map(), options.kind, options.noise_std, ep.seed);
   for (size_t t = 0; t < n; ++t) {
     // Stored as float32 and stepped with exactly the stored value (a ROS
-    // Action carries float32 too), so a replay of the data reproduces it.
-    const Eigen::Vector2d a = expert.Act(s).cast<float>().cast<double>();
-    ep.observations[2 * t] = static_cast<float>(s.x());
-    ep.observations[2 * t + 1] = static_cast<float>(s.y());
-    ep.actions[2 * t] = static_cast<float>(a.x());
-    ep.actions[2 * t + 1] = static_cast<float>(a.y());
+    // Action carries float32 too), so a replay of the data reproduces it. The
+    // expert sees the float32 state, as the expert node does over ROS.
+    const float sx = RoundToFloat(s.x()), sy = RoundToFloat(s.y());
+    const Eigen::Vector2d raw = expert.Act(Eigen::Vector2d(sx, sy));
+    const float ax = RoundToFloat(raw.x()), ay = RoundToFloat(raw.y());
+    const Eigen::Vector2d a(static_cast<double>(ax), static_cast<double>(ay));
+    ep.observations[2 * t] = sx;
+    ep.observations[2 * t + 1] = sy;
+    ep.actions[2 * t] = ax;
+    ep.actions[2 * t + 1] = ay;
     if (options.images) env.Render(ep.images.data() + t * image_bytes);
     if (t + 1 < n) s = env.Step(a);
   }

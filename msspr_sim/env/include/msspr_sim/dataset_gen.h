@@ -37,8 +37,10 @@ struct Episode {
 // Collects episode `index`: env.ResetRandom(EpisodeSeed(seed, index));
 // expert = CollectionExpert(map, kind, noise, EpisodeSeed(seed, index));
 // for t in [0, length): a = expert.Act(s); record (s, a[, image]);
-// if t < length - 1: s = env.Step(a), with a rounded to float32 (the stored
-// value, as a ROS Action carries it).
+// if t < length - 1: s = env.Step(a). As over ROS (float32 messages), the
+// expert sees s rounded to float32 and env.Step gets a rounded to float32
+// (exactly the stored value), so replaying the stored actions from `start`
+// reproduces the stored observations bit for bit.
 // Throws std::invalid_argument if env's maze differs from options.maze, if
 // episode_length < 1, or if images are asked of a non-rendering env.
 Episode CollectEpisode(PointMaze& env, const CollectOptions& options, uint64_t index);
