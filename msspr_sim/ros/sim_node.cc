@@ -6,6 +6,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <rosgraph_msgs/Clock.h>
 
+#include "dataset_bag.h"
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr_sim/expert.h"

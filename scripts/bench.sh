@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# make bench: writes JSON figures under build/bench/ and a merged build/bench/bench.json.
+set -euo pipefail
+BUILD=${1:-build}
+cd "$(dirname "$0")/.."
+source scripts/ros_env.sh
+OUT=$PWD/$BUILD/bench
+BIN=$PWD/$BUILD/devel/lib/msspr
+mkdir -p "$OUT"
+echo "[bench] environment (steps/s, frames/s)"
+"$BIN/msspr_bench_env" --out "$OUT/env.json"
+echo "[bench] collection into a bag (100 episodes x 1001 steps, states)"
+t0=$(date +%s.%N)
+"$BIN/msspr_collect" --maze medium --episodes 100 --val-episodes 0 --quiet --out "$OUT/collect.bag"
+t1=$(date +%s.%N)
+python3 -c "import json;t=$t1-$t0;json.dump({'collect_bag_transitions_per_s': round(100*1001/t,1),'collect_bag_seconds_100_episodes': round(t,3)},open('$OUT/collect.json','w'))"
+rm -f "$OUT/collect.bag"
+echo "[bench] lockstep round trip over ROS"
+rosmaster --core -p "$MSSPR_PORT" >/dev/null 2>&1 &
+MASTER=$!
+trap 'kill $SIM $MASTER 2>/dev/null || true' EXIT
+sleep 1.5
+ROS_NAMESPACE=msspr "$BIN/msspr_sim_node" _republish_timeout:=100.0 >/dev/null 2>&1 &
+SIM=$!
+ROS_NAMESPACE=msspr "$BIN/msspr_bench_lockstep" --steps 5000 --label state --out "$OUT/lockstep_state.json"
+kill $SIM; wait $SIM 2>/dev/null || true
+ROS_NAMESPACE=msspr "$BIN/msspr_sim_node" _observation_mode:=both _republish_timeout:=100.0 >/dev/null 2>&1 &
+SIM=$!
+ROS_NAMESPACE=msspr "$BIN/msspr_bench_lockstep" --steps 2000 --label both --out "$OUT/lockstep_pixels.json"
+if [ -x "$BIN/msspr_bench_core" ]; then
+  echo "[bench] msspr_core (training steps/s, act latency, memory)"
+  "$BIN/msspr_bench_core" --out "$OUT/core.json"
+fi
+python3 - "$OUT" <<'PY'
+import json, sys, glob, os
+out = sys.argv[1]
+merged = {}
+for f in sorted(glob.glob(os.path.join(out, '*.json'))):
+    if os.path.basename(f) == 'bench.json':
+        continue
+    merged[os.path.basename(f)[:-5]] = json.load(open(f))
+json.dump(merged, open(os.path.join(out, 'bench.json'), 'w'), indent=2)
+print(json.dumps(merged, indent=2))
+PY
+echo "[bench] wrote $OUT/bench.json"

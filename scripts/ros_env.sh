@@ -1,0 +1,16 @@
+# Sourced by the scripts: the built package's environment and a private master
+# port, so that demos, benches and tests never collide with a running roscore.
+export PATH=/usr/bin:/bin:$PATH
+BUILD=${BUILD:-build}
+if [ ! -f "$BUILD/devel/setup.bash" ]; then
+  echo "no $BUILD/devel/setup.bash: run 'make build' first" >&2
+  exit 1
+fi
+# shellcheck disable=SC1091
+source "$BUILD/devel/setup.bash"
+export ROS_HOME=${ROS_HOME:-$PWD/$BUILD/ros_home}
+export ROS_LOG_DIR=${ROS_LOG_DIR:-$ROS_HOME/log}
+mkdir -p "$ROS_LOG_DIR"
+MSSPR_PORT=${MSSPR_PORT:-$((20000 + $$ % 20000))}
+export ROS_MASTER_URI=http://127.0.0.1:$MSSPR_PORT
+export ROS_IP=127.0.0.1
