@@ -7,6 +7,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <thread>
 
 namespace msspr::sim {
 namespace {
@@ -211,6 +212,33 @@ TEST(PointMazeRenderTest, OtherImageSizes) {
   std::vector<uint8_t> img(32 * 32 * 3);
   env.Render(img.data());
   EXPECT_GT(Variance(img), 50.0);
+}
+
+TEST(PointMazeRenderTest, RendersFromOtherThreads) {
+  // Constructed here, rendered in a worker, then here again; plus two
+  // threads each with their own env at the same time.
+  PointMaze env(Options("medium", true));
+  env.ResetToTask(2, 5);
+  const std::vector<uint8_t> here = env.Render();
+  std::vector<uint8_t> worker;
+  std::thread([&] { worker = env.Render(); }).join();
+  EXPECT_EQ(worker, here);
+  EXPECT_EQ(env.Render(), here);
+  std::vector<uint8_t> a, b;
+  std::thread ta([&] {
+    PointMaze e(Options("medium", true));
+    e.ResetToTask(2, 5);
+    for (int k = 0; k < 20; ++k) a = e.Render();
+  });
+  std::thread tb([&] {
+    PointMaze e(Options("medium", true));
+    e.ResetToTask(2, 5);
+    for (int k = 0; k < 20; ++k) b = e.Render();
+  });
+  ta.join();
+  tb.join();
+  EXPECT_EQ(a, here);
+  EXPECT_EQ(b, here);
 }
 
 }  // namespace

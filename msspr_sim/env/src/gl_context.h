@@ -17,6 +17,8 @@ class GlContext {
   GlContext& operator=(const GlContext&) = delete;
   // Makes the context current on the calling thread; throws on failure.
   void MakeCurrent();
+  // Releases it from the calling thread (so another thread may take it).
+  void Release();
   // "EGL" or "OSMESA".
   static const char* Backend();
 

@@ -100,6 +100,12 @@ void GlContext::MakeCurrent() {
   }
 }
 
+void GlContext::Release() {
+  if (eglGetCurrentContext() == impl_->context) {
+    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  }
+}
+
 const char* GlContext::Backend() { return "EGL"; }
 
 }  // namespace msspr::sim::internal

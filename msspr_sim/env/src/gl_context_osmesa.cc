@@ -34,6 +34,12 @@ void GlContext::MakeCurrent() {
   }
 }
 
+void GlContext::Release() {
+  if (OSMesaGetCurrentContext() == impl_->context) {
+    OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
+  }
+}
+
 const char* GlContext::Backend() { return "OSMESA"; }
 
 }  // namespace msspr::sim::internal

@@ -81,6 +81,7 @@ struct PointMaze::Impl {
       gl->MakeCurrent();
       mjr_freeContext(&context);
       mjv_freeScene(&scene);
+      gl->Release();
     }
   }
 };
@@ -121,6 +122,8 @@ PointMaze::PointMaze(const PointMazeOptions& options)
     if (impl_->camera.fixedcamid < 0) throw std::logic_error("PointMaze: no camera 'track'");
     impl_->flip.resize(static_cast<size_t>(s) * s * 3);
     impl_->render_ready = true;
+    // Not left current: another thread may render with this env later.
+    impl_->gl->Release();
   }
 }
 
@@ -214,6 +217,9 @@ void PointMaze::Render(uint8_t* rgb) const {
   mjv_updateScene(m, d, &impl_->vopt, nullptr, &impl_->camera, mjCAT_ALL, &impl_->scene);
   mjr_render(viewport, &impl_->scene, &impl_->context);
   mjr_readPixels(impl_->flip.data(), nullptr, viewport, &impl_->context);
+  // Released after every frame so that any thread may render next (a
+  // context can be current in one thread only).
+  impl_->gl->Release();
   const size_t row = static_cast<size_t>(s) * 3;
   for (int r = 0; r < s; ++r) {
     std::memcpy(rgb + r * row, impl_->flip.data() + (s - 1 - r) * row, row);
