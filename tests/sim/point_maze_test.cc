@@ -1,5 +1,7 @@
 #include "msspr_sim/point_maze.h"
 
+#include <mujoco/mujoco.h>
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -7,6 +9,8 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <filesystem>
+#include <fstream>
 #include <thread>
 
 namespace msspr::sim {
@@ -50,6 +54,45 @@ TEST(PointMazeTest, OneStepMovesByPointTwoTimesActionInFreeSpace) {
   const Eigen::Vector2d s2 = env.Step({5, -5});
   EXPECT_NEAR(s2.x(), s.x() + 0.2, 1e-6);
   EXPECT_NEAR(s2.y(), s.y() - 0.2, 1e-6);
+}
+
+// The physics-only MJCF (no floor tiles, no unreachable wall blocks) steps
+// like the full one.
+TEST(PointMazeTest, PhysicsModelMatchesFullModel) {
+  const MazeMap map = MazeMap::FromName("medium");
+  const std::filesystem::path dir = MSSPR_TEST_TMPDIR;
+  std::filesystem::create_directories(dir);
+  mjModel* models[2];
+  for (int v = 0; v < 2; ++v) {
+    const std::string path = (dir / ("model_" + std::to_string(v) + ".xml")).string();
+    std::ofstream(path) << map.ToMjcf(64, v == 1);
+    char err[512] = {0};
+    models[v] = mj_loadXML(path.c_str(), nullptr, err, sizeof(err));
+    ASSERT_NE(models[v], nullptr) << err;
+  }
+  EXPECT_LT(models[0]->ngeom, models[1]->ngeom);
+  mjData* data[2] = {mj_makeData(models[0]), mj_makeData(models[1])};
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double max_diff = 0;
+  for (int t = 0; t < 3000; ++t) {
+    const double a[2] = {u(rng), u(rng)};
+    for (int v = 0; v < 2; ++v) {
+      for (int k = 0; k < 2; ++k) {
+        data[v]->qpos[k] += 0.2 * a[k];
+        data[v]->qvel[k] = 0;
+      }
+      for (int s = 0; s < 5; ++s) mj_step(models[v], data[v]);
+    }
+    for (int k = 0; k < 2; ++k) {
+      max_diff = std::max(max_diff, std::abs(data[0]->qpos[k] - data[1]->qpos[k]));
+    }
+  }
+  EXPECT_LT(max_diff, 1e-9);
+  for (int v = 0; v < 2; ++v) {
+    mj_deleteData(data[v]);
+    mj_deleteModel(models[v]);
+  }
 }
 
 TEST(PointMazeTest, NonFiniteActionThrows) {

@@ -183,7 +183,7 @@ std::vector<Cell> MazeMap::ShortestPath(Cell from, Cell to) const {
   return path;
 }
 
-std::string MazeMap::ToMjcf(int image_size) const {
+std::string MazeMap::ToMjcf(int image_size, bool visuals) const {
   if (image_size < 1) throw std::invalid_argument("ToMjcf: image_size must be >= 1");
   const int buf = std::max(image_size, 64);
   std::ostringstream x;
@@ -211,7 +211,7 @@ std::string MazeMap::ToMjcf(int image_size) const {
   const double x_min = -kCellSize * 1.5, x_span = kCellSize * cols_;
   const double y_min = -kCellSize * 1.5, y_span = kCellSize * rows_;
   const double half_tile = kCellSize / 4.0;
-  for (int i = 0; i < rows_; ++i) {
+  for (int i = 0; i < rows_ && visuals; ++i) {
     for (int j = 0; j < cols_; ++j) {
       if (IsWall({i, j})) continue;
       const Eigen::Vector2d c = CellCenter({i, j});
@@ -228,10 +228,19 @@ std::string MazeMap::ToMjcf(int image_size) const {
       }
     }
   }
-  // Walls: 4 x 4 x 2 m blocks.
+  // Walls: 4 x 4 x 2 m blocks (the physics model keeps only those next to
+  // a free cell, 8-neighbourhood: the agent cannot reach the others).
+  const auto touches_free = [this](int i, int j) {
+    for (int di = -1; di <= 1; ++di) {
+      for (int dj = -1; dj <= 1; ++dj) {
+        if (!IsWall({i + di, j + dj})) return true;
+      }
+    }
+    return false;
+  };
   for (int i = 0; i < rows_; ++i) {
     for (int j = 0; j < cols_; ++j) {
-      if (!IsWall({i, j})) continue;
+      if (!IsWall({i, j}) || (!visuals && !touches_free(i, j))) continue;
       const Eigen::Vector2d c = CellCenter({i, j});
       x << "    <geom name=\"wall_" << i << '_' << j << "\" type=\"box\" pos=\"" << Fmt(c.x()) << ' '
         << Fmt(c.y()) << ' ' << Fmt(kWallHeight / 2) << "\" size=\"" << Fmt(kCellSize / 2) << ' '

@@ -65,9 +65,13 @@ std::unique_ptr<mjModel, ModelDeleter> LoadInlineModel(const std::string& xml,
 }  // namespace
 
 struct PointMaze::Impl {
+  // Physics: the model without visual-only geoms.
   std::unique_ptr<mjModel, ModelDeleter> model;
   std::unique_ptr<mjData, DataDeleter> data;
-  // Rendering (only with enable_rendering).
+  // Rendering (only with enable_rendering): the full model, posed from the
+  // physics qpos before each frame.
+  std::unique_ptr<mjModel, ModelDeleter> render_model;
+  std::unique_ptr<mjData, DataDeleter> render_data;
   std::unique_ptr<internal::GlContext> gl;
   bool render_ready = false;
   mjvScene scene;
@@ -93,7 +97,8 @@ PointMaze::PointMaze(const PointMazeOptions& options)
                                 std::to_string(options_.image_size));
   }
   InstallMujocoHandlers();
-  impl_->model = LoadInlineModel(map_.ToMjcf(options_.image_size), "pointmaze_" + map_.name());
+  impl_->model = LoadInlineModel(map_.ToMjcf(options_.image_size, /*visuals=*/false),
+                                 "pointmaze_" + map_.name() + "_physics");
   mjModel* m = impl_->model.get();
   if (m->nq != 2 || m->nv != 2) throw std::logic_error("PointMaze: model must have nq = nv = 2");
   impl_->data.reset(mj_makeData(m));
@@ -102,6 +107,12 @@ PointMaze::PointMaze(const PointMazeOptions& options)
 
   if (options_.enable_rendering) {
     const int s = options_.image_size;
+    impl_->render_model = LoadInlineModel(map_.ToMjcf(s), "pointmaze_" + map_.name());
+    m = impl_->render_model.get();
+    if (m->nq != 2) throw std::logic_error("PointMaze: render model must have nq = 2");
+    impl_->render_data.reset(mj_makeData(m));
+    if (!impl_->render_data) throw std::runtime_error("MuJoCo: mj_makeData failed");
+    mj_forward(m, impl_->render_data.get());
     impl_->gl = std::make_unique<internal::GlContext>(s, s);
     mjv_defaultScene(&impl_->scene);
     mjv_defaultCamera(&impl_->camera);
@@ -201,17 +212,23 @@ bool PointMaze::success() const {
 }
 
 void PointMaze::Render(uint8_t* rgb) const {
+  const mjData* d = impl_->data.get();
+  RenderPose(d->qpos[0], d->qpos[1], rgb);
+}
+
+void PointMaze::RenderPose(double x, double y, uint8_t* rgb) const {
   if (!impl_->render_ready) {
     throw std::logic_error("PointMaze::Render: construct with enable_rendering = true");
   }
-  mjModel* m = impl_->model.get();
-  mjData* d = impl_->data.get();
-  impl_->gl->MakeCurrent();
-  // Positions only (no constraint solve), so rendering never changes the
-  // physics state, not even the solver's warm start.
+  mjModel* m = impl_->render_model.get();
+  mjData* d = impl_->render_data.get();
+  d->qpos[0] = x;
+  d->qpos[1] = y;
+  // Positions only: the render model never steps.
   mj_kinematics(m, d);
   mj_comPos(m, d);
   mj_camlight(m, d);
+  impl_->gl->MakeCurrent();
   const int s = options_.image_size;
   const mjrRect viewport = {0, 0, s, s};
   mjv_updateScene(m, d, &impl_->vopt, nullptr, &impl_->camera, mjCAT_ALL, &impl_->scene);
@@ -233,24 +250,9 @@ std::vector<uint8_t> PointMaze::Render() const {
 }
 
 std::vector<uint8_t> PointMaze::RenderAt(const Eigen::Vector2d& xy) const {
-  mjData* d = impl_->data.get();
-  const double saved[2] = {d->qpos[0], d->qpos[1]};
-  d->qpos[0] = xy.x();
-  d->qpos[1] = xy.y();
-  std::vector<uint8_t> rgb;
-  try {
-    rgb = Render();
-  } catch (...) {
-    d->qpos[0] = saved[0];
-    d->qpos[1] = saved[1];
-    throw;
-  }
-  d->qpos[0] = saved[0];
-  d->qpos[1] = saved[1];
-  mjModel* m = impl_->model.get();
-  mj_kinematics(m, d);
-  mj_comPos(m, d);
-  mj_camlight(m, d);
+  // The physics state is never touched: only the render model is posed.
+  std::vector<uint8_t> rgb(static_cast<size_t>(options_.image_size) * options_.image_size * 3);
+  RenderPose(xy.x(), xy.y(), rgb.data());
   return rgb;
 }
 

@@ -82,6 +82,8 @@ class PointMaze {
   std::vector<uint8_t> RenderGoal() const;
 
  private:
+  void RenderPose(double x, double y, uint8_t* rgb) const;
+
   struct Impl;
   PointMazeOptions options_;
   MazeMap map_;
