@@ -9,10 +9,13 @@ OUT=$PWD/$BUILD/demo
 mkdir -p "$OUT"
 rm -f "$OUT/results.json"
 echo "[demo] pointmaze-medium, scripted expert (noise-free) in lockstep over ROS; master on $ROS_MASTER_URI"
-roslaunch -p "$MSSPR_PORT" msspr expert_demo.launch out_dir:="$OUT" episodes:="${DEMO_EPISODES:-20}" 2>&1 \
-  | grep -v -E '^\s*$|^(started roslaunch|process\[|setting /run_id|\.\.\. logging|Checking log|auto-starting|ros_comm|NODES|PARAMETERS|SUMMARY|=+|CORE SERVICE|  \*|    )' || true
+LOG=$OUT/roslaunch.log
+echo "[demo] running sim + agent + evaluator (log: $LOG) ..."
+roslaunch -p "$MSSPR_PORT" msspr expert_demo.launch out_dir:="$OUT" episodes:="${DEMO_EPISODES:-20}" >"$LOG" 2>&1 || true
+grep -E "msspr_eval: task" "$LOG" | sed -E 's/^.*(msspr_eval: task)/[demo] \1/; s/\x1b\[[0-9;]*m//g' || true
 if [ ! -s "$OUT/results.json" ]; then
   echo "[demo] failed: no $OUT/results.json (see logs in $ROS_LOG_DIR)" >&2
   exit 1
 fi
+python3 scripts/print_results.py "$OUT/results.json"
 echo "[demo] wrote $OUT/results.json and $OUT/trajectories.png"

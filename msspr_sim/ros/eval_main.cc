@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 
 #include <chrono>
+#include <deque>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
@@ -92,10 +93,9 @@ int main(int argc, char** argv) {
   const double step_timeout = args->GetDouble("step-timeout", 10.0);
 
   ros::NodeHandle nh;
-  msspr::Observation::ConstPtr latest;
-  uint64_t received = 0;
+  std::deque<msspr::Observation::ConstPtr> inbox;  // every observation, in order
   ros::Subscriber sub = nh.subscribe<msspr::Observation>(
-      "observation", 100, [&](const msspr::Observation::ConstPtr& o) { latest = o; ++received; },
+      "observation", 1000, [&](const msspr::Observation::ConstPtr& o) { inbox.push_back(o); },
       ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   ros::ServiceClient reset = nh.serviceClient<msspr::Reset>("reset");
   ROS_INFO("msspr_eval: waiting for the sim's reset service %s", reset.getService().c_str());
@@ -126,24 +126,32 @@ int main(int argc, char** argv) {
       const uint32_t id = first.episode_id;
       uint32_t last_step = 0;
       auto last_progress = ros::WallTime::now();
-      while (ros::ok()) {
+      bool finished = false;
+      while (ros::ok() && !finished) {
         ros::spinOnce();
-        if (latest && latest->episode_id == id && latest->step > last_step) {
-          last_step = latest->step;
-          r.path.emplace_back(latest->state[0], latest->state[1]);
-          last_progress = ros::WallTime::now();
-          if (latest->success) {
-            r.success = true;
+        if (inbox.empty()) {
+          if ((ros::WallTime::now() - last_progress).toSec() > step_timeout) {
+            r.stalled = true;
+            ROS_WARN("msspr_eval: task %d episode %d stalled at step %u (no observation for %.0f s)",
+                     tasks[ti], e, last_step, step_timeout);
             break;
           }
-          if (static_cast<int>(latest->step) >= max_steps || latest->last) break;
-        } else if ((ros::WallTime::now() - last_progress).toSec() > step_timeout) {
-          r.stalled = true;
-          ROS_WARN("msspr_eval: task %d episode %d stalled at step %u (no observation for %.0f s)",
-                   tasks[ti], e, last_step, step_timeout);
-          break;
-        } else {
           ros::WallDuration(0.0002).sleep();
+          continue;
+        }
+        while (!inbox.empty() && !finished) {
+          const auto o = inbox.front();
+          inbox.pop_front();
+          if (o->episode_id != id || o->step <= last_step) continue;  // older episode or re-send
+          last_step = o->step;
+          r.path.emplace_back(o->state[0], o->state[1]);
+          last_progress = ros::WallTime::now();
+          if (o->success) {
+            r.success = true;
+            finished = true;
+          } else if (static_cast<int>(o->step) >= max_steps || o->last) {
+            finished = true;
+          }
         }
       }
       r.steps = static_cast<int>(last_step);

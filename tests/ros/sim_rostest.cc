@@ -32,20 +32,29 @@ msspr::Reset::Response CallReset(ros::NodeHandle& nh, int task, uint64_t seed) {
   return srv.response;
 }
 
-// sim + expert (goal mode) in lockstep reach the goal of every medium task.
+// sim + expert (goal mode) in lockstep reach the goal of every task of the maze
+// (~maze) in >= 95% of ~episodes episodes per task, within 1000 steps.
 TEST(SimExpertLockstep, ReachesGoals) {
   RosTestHelper h;
+  ros::NodeHandle pnh("~");
+  const int episodes = pnh.param("episodes", 4);
   ASSERT_TRUE(h.WaitForSim());
   for (int task = 1; task <= 5; ++task) {
-    const auto res = CallReset(h.nh(), task, 100 + task);
-    ASSERT_TRUE(res.ok) << res.message;
-    const uint32_t id = res.observation.episode_id;
-    const bool reached = h.WaitFor(
-        [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->success; }, 60.0);
-    ASSERT_TRUE(reached) << "task " << task << " not reached; last step "
-                         << (h.latest() ? h.latest()->step : 0);
-    EXPECT_LT(h.latest()->step, 1000u);
-    EXPECT_GT(h.latest()->step, 5u);  // it really drove there
+    int reached = 0;
+    for (int e = 0; e < episodes; ++e) {
+      const auto res = CallReset(h.nh(), task, 100 * task + e);
+      ASSERT_TRUE(res.ok) << res.message;
+      const uint32_t id = res.observation.episode_id;
+      const bool ok = h.WaitFor([&] {
+        return h.latest() && h.latest()->episode_id == id && (h.latest()->success || h.latest()->last);
+      }, 60.0);
+      ASSERT_TRUE(ok) << "task " << task << " episode " << e << " stalled";
+      if (h.latest()->success) {
+        ++reached;
+        EXPECT_GT(h.latest()->step, 5u);  // it really drove there
+      }
+    }
+    EXPECT_GE(reached, std::ceil(0.95 * episodes)) << "task " << task;
   }
 }
 

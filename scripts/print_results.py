@@ -1,0 +1,14 @@
+#!/usr/bin/env python3
+"""Prints the per-task table of an msspr results JSON (msspr_eval --out)."""
+import json
+import sys
+
+r = json.load(open(sys.argv[1]))
+print(f"\n  {r.get('env', '?')} / {r.get('agent', '?')}: {r.get('episodes_per_task', '?')} episodes per task, "
+      f"{r.get('max_steps', '?')} steps at most")
+print("  task  start -> goal     success   mean steps to goal")
+for t in r["tasks"]:
+    s, g = t.get("start_cell", ["?", "?"]), t.get("goal_cell", ["?", "?"])
+    print(f"  {t['task_id']:>4}  ({s[0]},{s[1]}) -> ({g[0]},{g[1]})   {100 * t['success']:6.1f}%   "
+          f"{t.get('mean_steps_successful', 0):8.1f}")
+print(f"  mean success: {100 * r['mean_success']:.1f}%   (wall time {r.get('wall_time_s', 0):.1f} s)\n")
