@@ -224,7 +224,9 @@ DatasetBagReader::DatasetBagReader(std::string path)
   try {
     bag_->open(path_, rosbag::bagmode::Read);
   } catch (const rosbag::BagException& e) {
-    throw BagError(path_ + ": cannot open as a rosbag: " + e.what());
+    throw BagError(path_ + ": cannot open as a rosbag: " + e.what() +
+                   " (not a bag, or truncated; a recording cut short may be repaired with"
+                   " 'rosbag reindex')");
   }
 }
 
