@@ -47,8 +47,7 @@ TEST(DatasetGenTest, StoredActionsReplayTheObservations) {
   PointMaze replay(eo);
   replay.Reset(ep.start, ep.goal);
   for (int t = 0; t + 1 < ep.length; ++t) {
-    const Eigen::Vector2d s =
-        replay.Step({ep.actions[2 * t], ep.actions[2 * t + 1]});
+    const Eigen::Vector2d s = replay.Step({ep.actions[2 * t], ep.actions[2 * t + 1]});
     ASSERT_EQ(static_cast<float>(s.x()), ep.observations[2 * (t + 1)]) << t;
     ASSERT_EQ(static_cast<float>(s.y()), ep.observations[2 * (t + 1) + 1]) << t;
   }

@@ -174,8 +174,7 @@ TEST(MazeMapTest, BfsMatchesFloydWarshallAndPathsAreShortest) {
         for (size_t k = 0; k < path.size(); ++k) {
           ASSERT_FALSE(m.IsWall(path[k]));
           if (k > 0) {
-            ASSERT_EQ(std::abs(path[k].i - path[k - 1].i) + std::abs(path[k].j - path[k - 1].j),
-                      1);
+            ASSERT_EQ(std::abs(path[k].i - path[k - 1].i) + std::abs(path[k].j - path[k - 1].j), 1);
           }
         }
       }

@@ -1,16 +1,15 @@
 #include "msspr_sim/point_maze.h"
 
-#include <mujoco/mujoco.h>
-
 #include <gtest/gtest.h>
+#include <mujoco/mujoco.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <random>
 #include <stdexcept>
-#include <filesystem>
-#include <fstream>
 #include <thread>
 
 namespace msspr::sim {
@@ -25,9 +24,8 @@ double DistanceToWalls(const MazeMap& m, const Eigen::Vector2d& p) {
     for (int dj = -2; dj <= 2; ++dj) {
       const Cell w{c.i + di, c.j + dj};
       if (!m.IsWall(w)) continue;
-      const Eigen::Vector2d d = ((p - m.CellCenter(w)).cwiseAbs().array() - kCellSize / 2)
-                                    .cwiseMax(0.0)
-                                    .matrix();
+      const Eigen::Vector2d d =
+          ((p - m.CellCenter(w)).cwiseAbs().array() - kCellSize / 2).cwiseMax(0.0).matrix();
       best = std::min(best, d.norm());
     }
   }

@@ -68,7 +68,10 @@ std::string DatasetKindName(DatasetKind kind) {
 
 CollectionExpert::CollectionExpert(const MazeMap& map, DatasetKind kind, double noise_std,
                                    uint64_t episode_seed)
-    : map_(&map), kind_(kind), noise_std_(noise_std), rng_(internal::Mix64(episode_seed ^ kExpertSalt)) {
+    : map_(&map),
+      kind_(kind),
+      noise_std_(noise_std),
+      rng_(internal::Mix64(episode_seed ^ kExpertSalt)) {
   if (!(noise_std >= 0.0)) throw std::invalid_argument("CollectionExpert: noise_std must be >= 0");
 }
 

@@ -242,9 +242,9 @@ std::string MazeMap::ToMjcf(int image_size, bool visuals) const {
     for (int j = 0; j < cols_; ++j) {
       if (!IsWall({i, j}) || (!visuals && !touches_free(i, j))) continue;
       const Eigen::Vector2d c = CellCenter({i, j});
-      x << "    <geom name=\"wall_" << i << '_' << j << "\" type=\"box\" pos=\"" << Fmt(c.x()) << ' '
-        << Fmt(c.y()) << ' ' << Fmt(kWallHeight / 2) << "\" size=\"" << Fmt(kCellSize / 2) << ' '
-        << Fmt(kCellSize / 2) << ' ' << Fmt(kWallHeight / 2)
+      x << "    <geom name=\"wall_" << i << '_' << j << "\" type=\"box\" pos=\"" << Fmt(c.x())
+        << ' ' << Fmt(c.y()) << ' ' << Fmt(kWallHeight / 2) << "\" size=\"" << Fmt(kCellSize / 2)
+        << ' ' << Fmt(kCellSize / 2) << ' ' << Fmt(kWallHeight / 2)
         << "\" rgba=\"0.42 0.42 0.46 1\" contype=\"1\" conaffinity=\"1\"/>\n";
     }
   }

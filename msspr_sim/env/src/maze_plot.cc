@@ -1,11 +1,10 @@
 #include "msspr_sim/maze_plot.h"
 
+#include <algorithm>
+#include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <algorithm>
-#include <cmath>
 #include <stdexcept>
 
 namespace msspr::sim {
@@ -23,7 +22,8 @@ void SaveTrajectoryPlot(const MazeMap& map,
   for (int i = 0; i < map.rows(); ++i) {
     for (int j = 0; j < map.cols(); ++j) {
       if (map.IsWall({i, j})) {
-        cv::rectangle(img, cv::Rect(j * ppc, i * ppc, ppc, ppc), cv::Scalar(70, 70, 70), cv::FILLED);
+        cv::rectangle(img, cv::Rect(j * ppc, i * ppc, ppc, ppc), cv::Scalar(70, 70, 70),
+                      cv::FILLED);
       }
     }
   }

@@ -207,9 +207,7 @@ Eigen::Vector2d PointMaze::state() const {
   return {d->qpos[0], d->qpos[1]};
 }
 
-bool PointMaze::success() const {
-  return (state() - goal_).norm() <= options_.success_radius;
-}
+bool PointMaze::success() const { return (state() - goal_).norm() <= options_.success_radius; }
 
 void PointMaze::Render(uint8_t* rgb) const {
   const mjData* d = impl_->data.get();

@@ -70,7 +70,8 @@ int main(int argc, char** argv) {
     copt.maze = maze;
     const int kEpisodes = 100;
     t0 = Clock::now();
-    for (int k = 0; k < kEpisodes; ++k) checksum += sim::CollectEpisode(env, copt, k).observations[0];
+    for (int k = 0; k < kEpisodes; ++k)
+      checksum += sim::CollectEpisode(env, copt, k).observations[0];
     const double collect_per_s = kEpisodes * copt.episode_length / Seconds(t0, Clock::now());
     copt.images = true;
     const int kImageEpisodes = 3;

@@ -2,11 +2,10 @@
 #ifndef MSSPR_SIM_DATASET_GEN_H_
 #define MSSPR_SIM_DATASET_GEN_H_
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "msspr_sim/expert.h"
 #include "msspr_sim/point_maze.h"
@@ -29,7 +28,7 @@ struct Episode {
   // [length, 2] float32; the action at step t was taken from observation t;
   // the last action has no next state (OGBench convention).
   std::vector<float> actions;
-  std::vector<uint8_t> images;  // [length, S, S, 3] uint8 if images, else empty
+  std::vector<uint8_t> images;                      // [length, S, S, 3] uint8 if images, else empty
   Eigen::Vector2d start = Eigen::Vector2d::Zero();  // env reset start state
   Eigen::Vector2d goal = Eigen::Vector2d::Zero();   // env goal
 };

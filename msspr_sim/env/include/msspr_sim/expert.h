@@ -3,11 +3,10 @@
 #ifndef MSSPR_SIM_EXPERT_H_
 #define MSSPR_SIM_EXPERT_H_
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <random>
 #include <string>
-
-#include <Eigen/Core>
 
 #include "msspr_sim/maze_map.h"
 

@@ -3,10 +3,9 @@
 #ifndef MSSPR_SIM_MAZE_MAP_H_
 #define MSSPR_SIM_MAZE_MAP_H_
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace msspr::sim {
 

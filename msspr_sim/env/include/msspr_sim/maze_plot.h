@@ -2,11 +2,10 @@
 #ifndef MSSPR_SIM_MAZE_PLOT_H_
 #define MSSPR_SIM_MAZE_PLOT_H_
 
+#include <Eigen/Core>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "msspr_sim/maze_map.h"
 

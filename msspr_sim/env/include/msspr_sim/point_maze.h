@@ -7,12 +7,11 @@
 #ifndef MSSPR_SIM_POINT_MAZE_H_
 #define MSSPR_SIM_POINT_MAZE_H_
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "msspr_sim/maze_map.h"
 

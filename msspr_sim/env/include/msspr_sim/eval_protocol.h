@@ -1,0 +1,55 @@
+// The evaluation protocol shared by msspr_eval (over ROS) and the trainer's
+// in-process evaluator, so that both see the same episodes.
+#ifndef MSSPR_SIM_EVAL_PROTOCOL_H_
+#define MSSPR_SIM_EVAL_PROTOCOL_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "msspr_sim/expert.h"
+#include "msspr_sim/maze_map.h"
+
+namespace msspr::sim {
+
+// Seed of episode `episode` (0-based) of evaluation task `task` (1..5):
+// PointMaze::ResetToTask(task, EvalEpisodeSeed(seed, task, episode)).
+inline uint64_t EvalEpisodeSeed(uint64_t seed, int task, int episode) {
+  return EpisodeSeed(seed, static_cast<uint64_t>(task) * 100000u + static_cast<uint64_t>(episode));
+}
+
+struct TaskResult {
+  int task_id = 0;
+  double success = 0.0;              // fraction of episodes that reached the goal
+  int episodes = 0;
+  double mean_steps_successful = 0;  // steps to the goal, over the successful episodes
+  std::vector<double> start, goal;   // custom tasks only: exact start and goal (x, y)
+};
+
+// The results of one evaluation, as msspr_eval and the trainer write them.
+struct EvalReport {
+  std::string env;                   // "pointmaze-medium"
+  std::string agent;
+  int episodes_per_task = 0, max_steps = 1000;
+  uint64_t seed = 0;
+  std::vector<TaskResult> tasks;
+  double mean_success = 0.0;         // mean over tasks, in [0, 1]
+  int stalled_episodes = 0;
+  double wall_time_s = 0.0;
+};
+
+// Fills mean_success from the tasks.
+void FinalizeReport(EvalReport* report);
+// The results JSON ({env, agent, ..., tasks: [{task_id, start_cell, goal_cell, success, ...}],
+// mean_success}); task cells come from `map`.
+std::string EvalReportJson(const MazeMap& map, const EvalReport& report);
+// A per-task table for terminals.
+std::string EvalReportTable(const MazeMap& map, const EvalReport& report);
+// Writes text to path, creating parent directories; throws std::runtime_error naming the path.
+void WriteTextFile(const std::string& path, const std::string& text);
+// Bar chart of success per task (PNG, OpenCV); throws std::runtime_error naming the path.
+void SaveSuccessPlot(const EvalReport& report, const std::string& png_path);
+
+}  // namespace msspr::sim
+
+#endif  // MSSPR_SIM_EVAL_PROTOCOL_H_
