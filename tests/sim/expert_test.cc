@@ -89,9 +89,20 @@ TEST(ExpertTest, NavigateRedrawsVertexGoals) {
     Eigen::Vector2d s = env.ResetRandom(EpisodeSeed(3, 0));
     CollectionExpert expert(m, DatasetKind::kNavigate, noise, EpisodeSeed(3, 0));
     std::set<std::pair<int, int>> goals;
+    Cell previous_goal{-1, -1};
+    int previous_count = 0;
     for (int t = 0; t < 1001; ++t) {
       const Eigen::Vector2d a = expert.Act(s);
       ASSERT_LE(a.cwiseAbs().maxCoeff(), 1.0);
+      if (expert.num_goals() != previous_count) {
+        // A new goal only when the old one was reached (within 1 m of its centre).
+        ASSERT_EQ(expert.num_goals(), previous_count + 1);
+        if (previous_count > 0) {
+          ASSERT_LE((s - m.CellCenter(previous_goal)).norm(), 1.0);
+        }
+        previous_count = expert.num_goals();
+      }
+      previous_goal = expert.goal_cell();
       ASSERT_NE(std::find(vertices.begin(), vertices.end(), expert.goal_cell()), vertices.end());
       goals.insert({expert.goal_cell().i, expert.goal_cell().j});
       s = env.Step(a);

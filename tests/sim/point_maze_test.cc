@@ -245,6 +245,16 @@ TEST(PointMazeRenderTest, FloorGradientEncodesPosition) {
   EXPECT_GT(red_b, red_a);
 }
 
+TEST(PointMazeRenderTest, EveryMazeBuildsAndRenders) {
+  for (const std::string& name : MazeMap::Names()) {
+    PointMaze env(Options(name, true));
+    for (const MazeMap::Task& task : env.map().Tasks()) {
+      env.ResetToTask(task.id, 1);
+      EXPECT_GT(Variance(env.Render()), 100.0) << name << " task " << task.id;
+    }
+  }
+}
+
 TEST(PointMazeRenderTest, OtherImageSizes) {
   PointMazeOptions o = Options("large", true);
   o.image_size = 32;
