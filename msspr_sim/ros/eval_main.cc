@@ -10,14 +10,16 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include <ros/ros.h>
+#include <yaml-cpp/yaml.h>
 
 #include "cli_args.h"
 #include "msspr/Observation.h"
 #include "msspr/Reset.h"
-#include "msspr_sim/expert.h"
+#include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/maze_plot.h"
 
@@ -32,7 +34,12 @@ Evaluates the agent that answers the sim's observations (lockstep), by OGBench's
   --seed S            evaluation seed (default 0)
   --agent NAME        label written into the results (default "agent")
   --out FILE.json     results JSON (default: none)
-  --plot FILE.png     trajectories drawn on the maze (default: none)
+  --plot FILE.png     trajectories drawn on the maze, 5 per task (default: none)
+  --success-plot F    bar chart of success per task (PNG)
+  --tasks-file YAML   custom tasks instead of the maze's five, e.g.
+                        tasks:
+                          - {id: 1, start: [0.0, 0.0], goal: [8.0, 0.0]}
+                      (start/goal in metres; sent through reset + set_goal)
   --step-timeout S    seconds without a new observation before an episode counts as stalled (default 10)
 )";
 
@@ -43,22 +50,35 @@ struct EpisodeResult {
   Eigen::Vector2d start, goal;
 };
 
-std::string Dir(const std::string& path) {
-  const auto p = path.find_last_of('/');
-  return p == std::string::npos ? "" : path.substr(0, p);
-}
-
-void MakeDirs(const std::string& dir) {
-  if (dir.empty()) return;
-  std::string cur;
-  std::stringstream ss(dir);
-  std::string part;
-  if (dir[0] == '/') cur = "/";
-  while (std::getline(ss, part, '/')) {
-    if (part.empty()) continue;
-    cur += part + "/";
-    mkdir(cur.c_str(), 0755);
+// Reads custom tasks: "tasks: [{id: 1, start: [x, y], goal: [x, y]}, ...]". Throws
+// std::runtime_error naming the file and what is wrong.
+std::map<int, std::pair<std::vector<float>, std::vector<float>>> LoadTasksFile(const std::string& path) {
+  std::map<int, std::pair<std::vector<float>, std::vector<float>>> out;
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path + ": " + e.what());
   }
+  if (!root["tasks"] || !root["tasks"].IsSequence() || root["tasks"].size() == 0)
+    throw std::runtime_error(path + ": needs a non-empty list 'tasks'");
+  for (const auto& t : root["tasks"]) {
+    for (const auto& kv : t) {
+      const std::string k = kv.first.as<std::string>();
+      if (k != "id" && k != "start" && k != "goal")
+        throw std::runtime_error(path + ": unknown key '" + k + "' in a task (expected id, start, goal)");
+    }
+    if (!t["id"] || !t["start"] || !t["goal"])
+      throw std::runtime_error(path + ": every task needs id, start and goal");
+    const int id = t["id"].as<int>();
+    auto s = t["start"].as<std::vector<float>>();
+    auto g = t["goal"].as<std::vector<float>>();
+    if (s.size() != 2 || g.size() != 2)
+      throw std::runtime_error(path + ": task " + std::to_string(id) + ": start and goal need 2 numbers");
+    if (!out.emplace(id, std::make_pair(s, g)).second)
+      throw std::runtime_error(path + ": task id " + std::to_string(id) + " appears twice");
+  }
+  return out;
 }
 
 }  // namespace
@@ -70,7 +90,8 @@ int main(int argc, char** argv) {
   try {
     args = std::make_unique<CliArgs>(argc, argv, std::set<std::string>{"help"},
                                      std::set<std::string>{"maze", "tasks", "episodes", "max-steps", "seed",
-                                                           "agent", "out", "plot", "step-timeout"});
+                                                           "agent", "out", "plot", "success-plot", "step-timeout",
+                                                           "tasks-file"});
   } catch (const std::exception& e) {
     std::cerr << "msspr_eval: " << e.what() << "\n" << kUsage;
     return 2;
@@ -82,10 +103,25 @@ int main(int argc, char** argv) {
   const std::string maze = args->Get("maze", "medium");
   const auto map = msspr::sim::MazeMap::FromName(maze);
   std::vector<int> tasks;
-  {
-    std::stringstream ss(args->Get("tasks", "1,2,3,4,5"));
-    std::string t;
-    while (std::getline(ss, t, ',')) tasks.push_back(std::stoi(t));
+  std::map<int, std::pair<std::vector<float>, std::vector<float>>> custom;  // id -> start, goal
+  try {
+    if (args->Has("tasks-file")) {
+      custom = LoadTasksFile(args->Get("tasks-file", ""));
+      for (const auto& kv : custom) tasks.push_back(kv.first);
+    } else {
+      std::stringstream ss(args->Get("tasks", "1,2,3,4,5"));
+      std::string t;
+      while (std::getline(ss, t, ',')) {
+        const int id = std::stoi(t);
+        if (id < 1 || id > static_cast<int>(map.Tasks().size()))
+          throw std::invalid_argument("task " + t + " is not one of the maze's tasks 1.." +
+                                      std::to_string(map.Tasks().size()));
+        tasks.push_back(id);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_eval: " << e.what() << "\n";
+    return 2;
   }
   const int episodes = static_cast<int>(args->GetInt("episodes", 50));
   const int max_steps = static_cast<int>(args->GetInt("max-steps", 1000));
@@ -112,8 +148,11 @@ int main(int argc, char** argv) {
     for (int e = 0; e < episodes && ros::ok(); ++e) {
       msspr::Reset srv;
       srv.request.task_id = tasks[ti];
-      srv.request.seed = (
-          msspr::sim::EpisodeSeed(seed, static_cast<uint64_t>(tasks[ti]) * 100000 + e));
+      srv.request.seed = msspr::sim::EvalEpisodeSeed(seed, tasks[ti], e);
+      if (custom.count(tasks[ti])) {
+        srv.request.start = custom[tasks[ti]].first;
+        srv.request.goal = custom[tasks[ti]].second;
+      }
       if (!reset.call(srv) || !srv.response.ok) {
         ROS_FATAL_STREAM("msspr_eval: reset of task " << tasks[ti] << " failed: " << srv.response.message);
         return 1;
@@ -164,55 +203,46 @@ int main(int argc, char** argv) {
   if (!ros::ok()) return 1;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
-  // Table and JSON.
-  std::ostringstream table, json;
-  table << "\n  task  start -> goal       success   mean steps (successful)\n";
-  json << std::fixed << std::setprecision(4);
-  json << "{\n  \"env\": \"pointmaze-" << maze << "\",\n  \"agent\": \"" << args->Get("agent", "agent")
-       << "\",\n  \"episodes_per_task\": " << episodes << ",\n  \"max_steps\": " << max_steps
-       << ",\n  \"seed\": " << seed << ",\n  \"tasks\": [\n";
-  double mean = 0.0;
-  int stalled = 0;
+  msspr::sim::EvalReport report;
+  report.env = "pointmaze-" + maze;
+  report.agent = args->Get("agent", "agent");
+  report.episodes_per_task = episodes;
+  report.max_steps = max_steps;
+  report.seed = seed;
+  report.wall_time_s = wall;
   for (size_t ti = 0; ti < tasks.size(); ++ti) {
-    const auto& task = map.Tasks().at(static_cast<size_t>(tasks[ti] - 1));
+    msspr::sim::TaskResult t;
+    t.task_id = tasks[ti];
+    t.episodes = static_cast<int>(results[ti].size());
     int ok = 0;
     double steps = 0;
     for (auto& r : results[ti]) {
       ok += r.success;
-      stalled += r.stalled;
+      report.stalled_episodes += r.stalled;
       if (r.success) steps += r.steps;
     }
-    const double rate = results[ti].empty() ? 0.0 : double(ok) / results[ti].size();
-    mean += rate / tasks.size();
-    char line[160];
-    std::snprintf(line, sizeof line, "  %4d  (%d,%d) -> (%d,%d)   %3d/%-3zu %5.1f%%   %.0f\n", tasks[ti],
-                  task.start.i, task.start.j, task.goal.i, task.goal.j, ok, results[ti].size(),
-                  100 * rate, ok ? steps / ok : 0.0);
-    table << line;
-    json << "    {\"task_id\": " << tasks[ti] << ", \"start_cell\": [" << task.start.i << ", "
-         << task.start.j << "], \"goal_cell\": [" << task.goal.i << ", " << task.goal.j
-         << "], \"success\": " << rate << ", \"episodes\": " << results[ti].size()
-         << ", \"mean_steps_successful\": " << (ok ? steps / ok : 0.0) << "}"
-         << (ti + 1 < tasks.size() ? "," : "") << "\n";
-  }
-  char line[120];
-  std::snprintf(line, sizeof line, "  mean success: %.1f%%  (%d episodes, %.1f s)\n", 100 * mean,
-                episodes * static_cast<int>(tasks.size()), wall);
-  table << line;
-  json << "  ],\n  \"mean_success\": " << mean << ",\n  \"stalled_episodes\": " << stalled
-       << ",\n  \"wall_time_s\": " << wall << "\n}\n";
-  std::cout << table.str() << std::flush;
-
-  if (args->Has("out")) {
-    const std::string out = args->Get("out", "");
-    MakeDirs(Dir(out));
-    std::ofstream f(out);
-    f << json.str();
-    if (!f) {
-      ROS_FATAL("msspr_eval: cannot write %s", out.c_str());
-      return 1;
+    t.success = t.episodes ? double(ok) / t.episodes : 0.0;
+    t.mean_steps_successful = ok ? steps / ok : 0.0;
+    if (custom.count(t.task_id)) {
+      t.start.assign(custom[t.task_id].first.begin(), custom[t.task_id].first.end());
+      t.goal.assign(custom[t.task_id].second.begin(), custom[t.task_id].second.end());
     }
-    std::cout << "  results: " << out << "\n";
+    report.tasks.push_back(t);
+  }
+  msspr::sim::FinalizeReport(&report);
+  std::cout << msspr::sim::EvalReportTable(map, report) << std::flush;
+  try {
+    if (args->Has("out")) {
+      msspr::sim::WriteTextFile(args->Get("out", ""), msspr::sim::EvalReportJson(map, report));
+      std::cout << "  results: " << args->Get("out", "") << "\n";
+    }
+    if (args->Has("success-plot")) {
+      msspr::sim::SaveSuccessPlot(report, args->Get("success-plot", ""));
+      std::cout << "  success per task: " << args->Get("success-plot", "") << "\n";
+    }
+  } catch (const std::exception& e) {
+    ROS_FATAL("msspr_eval: %s", e.what());
+    return 1;
   }
   if (args->Has("plot")) {
     std::vector<std::vector<Eigen::Vector2d>> paths;
@@ -225,7 +255,6 @@ int main(int argc, char** argv) {
         ok.push_back(task_results[k].success);
       }
     const std::string png = args->Get("plot", "");
-    MakeDirs(Dir(png));
     msspr::sim::SaveTrajectoryPlot(map, paths, sg, ok, png);
     std::cout << "  picture: " << png << "\n";
   }

@@ -97,10 +97,13 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
                                          << ")");
 }
 
-void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split) {
+void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
+                           const Eigen::Vector2d* start, const Eigen::Vector2d& goal) {
   ++episode_id_;
   ++tick_;
-  if (task_id == 0)
+  if (start != nullptr)
+    env_->Reset(*start, goal);
+  else if (task_id == 0)
     env_->ResetRandom(seed);
   else
     env_->ResetToTask(task_id, seed);
@@ -271,6 +274,27 @@ void SimNode::OnWatchdog(const ros::WallTimerEvent&) {
 }
 
 bool SimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
+  const bool explicit_start = !req.start.empty() || !req.goal.empty();
+  if (explicit_start) {
+    if (req.start.size() != 2 || req.goal.size() != 2 || !AllFinite(req.start) || !AllFinite(req.goal)) {
+      res.ok = false;
+      res.message = "start and goal must both be 2 finite numbers (x, y)";
+      return true;
+    }
+    const Eigen::Vector2d s(req.start[0], req.start[1]);
+    if (env_->map().IsWall(env_->map().XYToCell(s))) {
+      res.ok = false;
+      res.message = "start (" + std::to_string(s.x()) + ", " + std::to_string(s.y()) + ") is inside a wall";
+      return true;
+    }
+    started_ = true;
+    StartEpisode(req.task_id, req.seed, "", &s, Eigen::Vector2d(req.goal[0], req.goal[1]));
+    res.ok = true;
+    res.message = "episode " + std::to_string(episode_id_);
+    res.observation = MakeObservation();
+    res.goal = ToFloatVector(env_->goal());
+    return true;
+  }
   if (req.task_id < 0 || req.task_id > 5) {
     res.ok = false;
     res.message = "task_id must be 0 (random) or 1..5, got " + std::to_string(req.task_id);

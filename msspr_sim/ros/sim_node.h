@@ -69,8 +69,11 @@ class SimNode {
   void OnWatchdog(const ros::WallTimerEvent&);
   void OnDiagnostics(const ros::WallTimerEvent&);
 
-  // Starts episode `episode_id_` (already chosen): task 1..5 or 0 random.
-  void StartEpisode(int task_id, uint64_t seed, const std::string& split);
+  // Starts the next episode: task 1..5 or 0 random.
+  // With `start`, the episode starts exactly there with `goal` (custom tasks).
+  void StartEpisode(int task_id, uint64_t seed, const std::string& split,
+                    const Eigen::Vector2d* start = nullptr,
+                    const Eigen::Vector2d& goal = Eigen::Vector2d::Zero());
   void DoStep(const Eigen::Vector2d& action);
   msspr::Observation MakeObservation() const;
   void Publish();
