@@ -2,6 +2,7 @@
 // with timeouts, and reads the sim's diagnostics counters.
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <map>
 #include <string>
@@ -24,9 +25,11 @@ class RosTestHelper {
         });
     diag_sub_ = nh_.subscribe<diagnostic_msgs::DiagnosticArray>(
         "/diagnostics", 10, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& d) {
-          for (const auto& st : d->status)
+          for (const auto& st : d->status) {
+            for (const auto& kv : st.values) statuses_[st.name][kv.key] = kv.value;
             if (st.name.find("actions") != std::string::npos)
               for (const auto& kv : st.values) counters_[kv.key] = std::stoull(kv.value);
+          }
         });
     action_pub_ = nh_.advertise<msspr::Action>("action", 100);
   }
@@ -61,6 +64,26 @@ class RosTestHelper {
     return it == counters_.end() ? 0 : it->second;
   }
 
+  // Latest value of `key` in a diagnostics status whose name contains
+  // `status_part` (e.g. "policy"), or "" when none was received yet.
+  std::string DiagValue(const std::string& status_part, const std::string& key) const {
+    for (const auto& [name, values] : statuses_) {
+      if (name.find(status_part) == std::string::npos) continue;
+      auto it = values.find(key);
+      if (it != values.end()) return it->second;
+    }
+    return "";
+  }
+  // DiagValue as a number; NaN when missing or not a number.
+  double DiagNumber(const std::string& status_part, const std::string& key) const {
+    const std::string v = DiagValue(status_part, key);
+    try {
+      return v.empty() ? NAN : std::stod(v);
+    } catch (const std::exception&) {
+      return NAN;
+    }
+  }
+
   ros::NodeHandle& nh() { return nh_; }
   msspr::Observation::ConstPtr latest() const { return latest_; }
   uint64_t observations() const { return observations_; }
@@ -72,6 +95,7 @@ class RosTestHelper {
   msspr::Observation::ConstPtr latest_;
   uint64_t observations_ = 0;
   std::map<std::string, uint64_t> counters_;
+  std::map<std::string, std::map<std::string, std::string>> statuses_;  // status name -> key -> value
 };
 
 }  // namespace msspr::testing

@@ -1,0 +1,19 @@
+#include <exception>
+
+#include <ros/ros.h>
+
+#include "policy_node.h"
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "msspr_policy_node");
+  ros::NodeHandle nh, pnh("~");
+  try {
+    const auto options = msspr::ros_bridge::LoadPolicyNodeOptions(pnh);
+    msspr::ros_bridge::PolicyNode node(nh, pnh, options, msspr::ros_bridge::LoadPolicyForNode(options));
+    ros::spin();
+  } catch (const std::exception& e) {
+    ROS_FATAL_STREAM("msspr_policy_node: " << e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,392 @@
+// rostest scenarios of msspr_policy_node (one suite per .test file, see
+// tests/ros/policy_*.test).
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/image_encodings.h>
+
+#include "msg_conversion.h"
+#include "msspr/Reset.h"
+#include "msspr/SetGoal.h"
+#include "ros_test_helper.h"
+
+namespace msspr::testing {
+namespace {
+
+constexpr char kPolicyStatus[] = "policy";  // the policy node's diagnostics status name contains this
+
+// Talks to a policy node as a sim would: observations (and camera images) out,
+// actions in; reads the node's diagnostics through RosTestHelper.
+class PolicyClient {
+ public:
+  explicit PolicyClient(bool pixels = false) : pixels_(pixels) {
+    ros::NodeHandle& nh = h_.nh();
+    obs_pub_ = nh.advertise<msspr::Observation>("observation", 100);
+    action_sub_ = nh.subscribe<msspr::Action>("action", 100, [this](const msspr::Action::ConstPtr& a) {
+      actions_.push_back(a);
+    });
+    if (pixels_) {
+      image_pub_ = nh.advertise<sensor_msgs::Image>("camera/image", 100);
+      goal_pub_ = nh.advertise<sensor_msgs::Image>("goal_image", 1, /*latch=*/true);
+    }
+  }
+
+  // Waits until the node is connected both ways and has published diagnostics.
+  bool WaitForPolicy(double timeout_s = 60.0) {
+    const bool ok = h_.WaitFor([&] {
+      return obs_pub_.getNumSubscribers() > 0 && action_sub_.getNumPublishers() > 0 &&
+             (!pixels_ || (image_pub_.getNumSubscribers() > 0 && goal_pub_.getNumSubscribers() > 0)) &&
+             !h_.DiagValue(kPolicyStatus, "actions").empty();
+    }, timeout_s);
+    ros::WallDuration(0.3).sleep();  // first messages on new connections can be lost
+    return ok;
+  }
+
+  static ros::Time Stamp(uint32_t episode, uint32_t step) { return ros::Time(100.0 * episode + 0.1 * step + 1.0); }
+
+  void SendObservation(uint32_t episode, uint32_t step, std::vector<float> state, std::vector<float> goal) {
+    msspr::Observation o;
+    o.header.stamp = Stamp(episode, step);
+    o.header.frame_id = "world";
+    o.episode_id = episode;
+    o.step = step;
+    o.state = std::move(state);
+    o.goal = std::move(goal);
+    obs_pub_.publish(o);
+  }
+
+  // An image of size x size with `encoding` (rgb8: 3 bytes a pixel, else as given), constant colour.
+  static sensor_msgs::Image Image(int size, const std::string& encoding, uint8_t value, const ros::Time& stamp) {
+    std::vector<uint8_t> rgb(static_cast<size_t>(size) * size * 3, value);
+    sensor_msgs::Image img = ros_bridge::ToImageMsg(rgb.data(), size, stamp, "camera");
+    img.encoding = encoding;
+    return img;
+  }
+  void SendImage(const sensor_msgs::Image& img) { image_pub_.publish(img); }
+  void SendGoalImage(const sensor_msgs::Image& img) { goal_pub_.publish(img); }
+
+  // The action answering (episode, step), or null when none came within timeout_s.
+  msspr::Action::ConstPtr WaitForAction(uint32_t episode, uint32_t step, double timeout_s) {
+    msspr::Action::ConstPtr found;
+    h_.WaitFor([&] {
+      for (const auto& a : actions_)
+        if (a->episode_id == episode && a->step == step) found = a;
+      return found != nullptr;
+    }, timeout_s);
+    return found;
+  }
+
+  double Diag(const std::string& key) const { return h_.DiagNumber(kPolicyStatus, key); }
+  // Waits until the diagnostics counter `key` reaches at least n.
+  bool WaitForCounter(const std::string& key, double n, double timeout_s = 10.0) {
+    return h_.WaitFor([&] { return Diag(key) >= n; }, timeout_s);
+  }
+
+  RosTestHelper& helper() { return h_; }
+  size_t num_actions() const { return actions_.size(); }
+
+ private:
+  bool pixels_;
+  RosTestHelper h_;
+  ros::Publisher obs_pub_, image_pub_, goal_pub_;
+  ros::Subscriber action_sub_;
+  std::vector<msspr::Action::ConstPtr> actions_;
+};
+
+void ExpectValidAction(const msspr::Action& a) {
+  ASSERT_EQ(a.action.size(), 2u);
+  for (float v : a.action) {
+    EXPECT_TRUE(std::isfinite(v));
+    EXPECT_LE(std::abs(v), 1.0f + 1e-6f);
+  }
+}
+
+bool CallSetGoal(ros::NodeHandle& nh, const std::string& service, std::vector<float> goal,
+                 msspr::SetGoal::Response* res) {
+  ros::ServiceClient c = nh.serviceClient<msspr::SetGoal>(service);
+  if (!c.waitForExistence(ros::Duration(30.0))) return false;
+  msspr::SetGoal srv;
+  srv.request.goal = std::move(goal);
+  if (!c.call(srv)) return false;
+  *res = srv.response;
+  return true;
+}
+
+// State input: NaN / Inf, wrong dimension and missing goal are rejected and
+// counted per reason; good input afterwards is answered with the same
+// (episode_id, step); ~set_goal and goal_state override the observation's goal
+// until cleared.
+TEST(PolicyBadInput, RejectsCountsAndKeepsServing) {
+  PolicyClient c;
+  ASSERT_TRUE(c.WaitForPolicy()) << "policy node not up";
+  EXPECT_EQ(c.helper().DiagValue(kPolicyStatus, "goal_source"), "observation");
+  c.SendObservation(3, 0, {NAN, 0.f}, {1.f, 1.f});        // NaN state
+  c.SendObservation(3, 1, {0.f, 0.f, 0.f}, {1.f, 1.f});   // wrong state dimension
+  c.SendObservation(3, 2, {0.f, 0.f}, {});                // no goal anywhere
+  c.SendObservation(3, 3, {0.f, 0.f}, {1.f, INFINITY});   // Inf goal
+  c.SendObservation(3, 4, {0.f, 0.f}, {1.f});             // wrong goal dimension
+  ASSERT_TRUE(c.helper().WaitFor([&] {
+    return c.Diag("rejected_nonfinite") >= 2 && c.Diag("rejected_wrong_dim") >= 2 && c.Diag("rejected_no_goal") >= 1;
+  }, 10.0)) << "nonfinite=" << c.Diag("rejected_nonfinite") << " wrong_dim=" << c.Diag("rejected_wrong_dim")
+            << " no_goal=" << c.Diag("rejected_no_goal");
+  EXPECT_EQ(c.Diag("rejected_nonfinite"), 2);
+  EXPECT_EQ(c.Diag("rejected_wrong_dim"), 2);
+  EXPECT_EQ(c.Diag("rejected_no_goal"), 1);
+  EXPECT_EQ(c.Diag("rejected_bad_image"), 0);
+  EXPECT_EQ(c.num_actions(), 0u) << "a rejected observation was answered";
+
+  // Good input is served again, answering the same (episode_id, step).
+  c.SendObservation(7, 5, {0.5f, 0.5f}, {4.f, 0.f});
+  auto a = c.WaitForAction(7, 5, 10.0);
+  ASSERT_TRUE(a) << "no action for a good observation after bad ones";
+  ExpectValidAction(*a);
+  c.SendObservation(7, 6, {0.6f, 0.5f}, {4.f, 0.f});
+  ASSERT_TRUE(c.WaitForAction(7, 6, 10.0));
+  EXPECT_EQ(c.num_actions(), 2u);
+  // Diagnostics: actions, latency percentiles and a value estimate in the return's range.
+  ASSERT_TRUE(c.WaitForCounter("actions", 2));
+  ASSERT_TRUE(c.helper().WaitFor([&] { return std::isfinite(c.Diag("value_estimate")); }, 10.0))
+      << "value_estimate " << c.helper().DiagValue(kPolicyStatus, "value_estimate");
+  EXPECT_LE(c.Diag("value_estimate"), 1e-3);
+  EXPECT_GE(c.Diag("latency_p50_ms"), 0.0);
+  EXPECT_GE(c.Diag("latency_p99_ms"), c.Diag("latency_p50_ms"));
+
+  // ~set_goal overrides the observation's (here missing) goal until cleared.
+  ros::NodeHandle& nh = c.helper().nh();
+  msspr::SetGoal::Response res;
+  ASSERT_TRUE(CallSetGoal(nh, "policy/set_goal", {1.f}, &res));
+  EXPECT_FALSE(res.ok);
+  EXPECT_NE(res.message.find("2 finite numbers"), std::string::npos) << res.message;
+  ASSERT_TRUE(CallSetGoal(nh, "policy/set_goal", {4.f, 0.f}, &res));
+  EXPECT_TRUE(res.ok) << res.message;
+  c.SendObservation(8, 0, {0.f, 0.f}, {});
+  a = c.WaitForAction(8, 0, 10.0);
+  ASSERT_TRUE(a) << "no action with the goal from ~set_goal";
+  ExpectValidAction(*a);
+  ASSERT_TRUE(c.helper().WaitFor([&] { return c.helper().DiagValue(kPolicyStatus, "goal_source") == "set_goal"; },
+                                 5.0));
+  ASSERT_TRUE(CallSetGoal(nh, "policy/set_goal", {}, &res));  // clear
+  EXPECT_TRUE(res.ok);
+  c.SendObservation(8, 1, {0.f, 0.f}, {});
+  ASSERT_TRUE(c.WaitForCounter("rejected_no_goal", 2)) << "an empty goal after clearing was not rejected";
+  EXPECT_FALSE(c.WaitForAction(8, 1, 0.5));
+
+  // The goal_state topic (an Observation's state field) overrides as well.
+  ros::Publisher goal_pub = nh.advertise<msspr::Observation>("goal_state", 1, /*latch=*/true);
+  msspr::Observation g;
+  g.state = {0.f, 4.f};
+  goal_pub.publish(g);
+  ASSERT_TRUE(c.helper().WaitFor(
+      [&] { return c.helper().DiagValue(kPolicyStatus, "goal_source") == "goal_state"; }, 10.0));
+  c.SendObservation(8, 2, {0.f, 0.f}, {});
+  ASSERT_TRUE(c.WaitForAction(8, 2, 10.0)) << "no action with the goal from goal_state";
+}
+
+// Pixels input: a wrong image size or encoding is rejected (rejected_bad_image),
+// an observation before any goal image is rejected (rejected_no_goal); a good
+// image + observation pair is then answered with the same (episode_id, step).
+TEST(PolicyBadInputPixels, RejectsCountsAndKeepsServing) {
+  PolicyClient c(/*pixels=*/true);
+  ASSERT_TRUE(c.WaitForPolicy()) << "policy node not up";
+  // No goal image yet.
+  c.SendImage(PolicyClient::Image(64, "rgb8", 120, PolicyClient::Stamp(2, 0)));
+  c.SendObservation(2, 0, {0.f, 0.f}, {1.f, 1.f});
+  ASSERT_TRUE(c.WaitForCounter("rejected_no_goal", 1)) << "no_goal=" << c.Diag("rejected_no_goal");
+  // Wrong size, wrong encoding.
+  c.SendImage(PolicyClient::Image(32, "rgb8", 120, PolicyClient::Stamp(2, 1)));
+  c.SendObservation(2, 1, {0.f, 0.f}, {1.f, 1.f});
+  c.SendImage(PolicyClient::Image(64, "bgr8", 120, PolicyClient::Stamp(2, 2)));
+  c.SendObservation(2, 2, {0.f, 0.f}, {1.f, 1.f});
+  sensor_msgs::Image mono = PolicyClient::Image(64, "mono8", 120, PolicyClient::Stamp(2, 3));
+  mono.step = 64;
+  mono.data.resize(64 * 64);
+  c.SendImage(mono);
+  ASSERT_TRUE(c.WaitForCounter("rejected_bad_image", 3)) << "bad_image=" << c.Diag("rejected_bad_image");
+  EXPECT_EQ(c.num_actions(), 0u);
+  // A bad goal image does not replace the goal either.
+  c.SendGoalImage(PolicyClient::Image(48, "rgb8", 10, PolicyClient::Stamp(2, 3)));
+  ASSERT_TRUE(c.WaitForCounter("rejected_bad_image", 4));
+  // With a goal image, a good pair is answered.
+  c.SendGoalImage(PolicyClient::Image(64, "rgb8", 10, PolicyClient::Stamp(4, 0)));
+  ros::WallDuration(0.2).sleep();
+  c.SendImage(PolicyClient::Image(64, "rgb8", 200, PolicyClient::Stamp(4, 2)));
+  c.SendObservation(4, 2, {0.f, 0.f}, {1.f, 1.f});
+  auto a = c.WaitForAction(4, 2, 10.0);
+  ASSERT_TRUE(a) << "no action for a good image + observation pair";
+  ExpectValidAction(*a);
+  // The observation may come first; the pair is matched by stamp.
+  c.SendObservation(4, 3, {0.f, 0.f}, {1.f, 1.f});
+  ros::WallDuration(0.05).sleep();
+  c.SendImage(PolicyClient::Image(64, "rgb8", 201, PolicyClient::Stamp(4, 3)));
+  ASSERT_TRUE(c.WaitForAction(4, 3, 10.0));
+  EXPECT_EQ(c.Diag("rejected_no_goal"), 1);
+  EXPECT_EQ(c.Diag("rejected_wrong_dim"), 0);
+  EXPECT_EQ(c.helper().DiagValue(kPolicyStatus, "observation_mode"), "pixels");
+  // ~set_goal takes states; in pixels mode it refuses with a message.
+  msspr::SetGoal::Response res;
+  ASSERT_TRUE(CallSetGoal(c.helper().nh(), "policy/set_goal", {1.f, 1.f}, &res));
+  EXPECT_FALSE(res.ok);
+  EXPECT_NE(res.message.find("goal_image"), std::string::npos) << res.message;
+}
+
+// The sim and the policy node in lockstep reach an easy goal: task 1 of
+// pointmaze-medium (start in cell (1,1), around (0, 0)) with the goal moved by
+// the sim's set_goal to (3, 0), along the free corridor toward cell (1,2).
+TEST(PolicyReachesGoal, EasyGoalInLockstep) {
+  RosTestHelper h;
+  ros::NodeHandle pnh("~");
+  const int episodes = pnh.param("episodes", 3);
+  const int max_steps = pnh.param("max_steps", 300);
+  const double gx = pnh.param("goal_x", 3.0), gy = pnh.param("goal_y", 0.0);
+  ASSERT_TRUE(h.WaitForSim());
+  ASSERT_TRUE(h.WaitFor([&] { return !h.DiagValue(kPolicyStatus, "actions").empty(); }, 60.0))
+      << "policy node not up";
+  ros::ServiceClient reset = h.nh().serviceClient<msspr::Reset>("reset");
+  ASSERT_TRUE(reset.waitForExistence(ros::Duration(30.0)));
+  int reached = 0;
+  for (int e = 0; e < episodes; ++e) {
+    msspr::Reset r;
+    r.request.task_id = 1;
+    r.request.seed = 500 + e;
+    ASSERT_TRUE(reset.call(r));
+    ASSERT_TRUE(r.response.ok) << r.response.message;
+    const uint32_t id = r.response.observation.episode_id;
+    msspr::SetGoal::Response res;
+    ASSERT_TRUE(CallSetGoal(h.nh(), "set_goal", {static_cast<float>(gx), static_cast<float>(gy)}, &res));
+    ASSERT_TRUE(res.ok) << res.message;
+    const bool ended = h.WaitFor([&] {
+      const auto& o = h.latest();
+      return o && o->episode_id == id &&
+             (o->success || o->last || o->step >= static_cast<uint32_t>(max_steps));
+    }, 120.0);
+    ASSERT_TRUE(ended) << "episode " << e << " stalled at step " << (h.latest() ? h.latest()->step : 0);
+    const auto o = h.latest();
+    const bool ok = o->success && o->step <= static_cast<uint32_t>(max_steps);
+    std::printf("episode %d: start (%.2f, %.2f) goal (%.2f, %.2f): %s at step %u, at (%.2f, %.2f)\n", e,
+                r.response.observation.state[0], r.response.observation.state[1], gx, gy,
+                ok ? "reached" : "not reached", o->step, o->state[0], o->state[1]);
+    reached += ok;
+  }
+  EXPECT_GE(reached, std::min(2, episodes)) << reached << " of " << episodes << " episodes reached the goal";
+  EXPECT_TRUE(std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")));
+  EXPECT_EQ(h.DiagNumber(kPolicyStatus, "rejected_no_goal"), 0);
+}
+
+// Runs the policy node with private params (`_name:=value`) and returns its exit
+// status (-1: did not exit within timeout_s and was stopped); output gets its
+// stdout and stderr.
+int RunPolicyNode(const std::vector<std::string>& params, std::string* output, double timeout_s = 60.0) {
+  int fds[2];
+  if (pipe(fds) != 0) return -2;
+  static int run = 0;  // a fresh node name per run: private params stay on the server
+  const std::string name = "__name:=policy_startup_check_" + std::to_string(run++);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    dup2(fds[1], STDOUT_FILENO);
+    dup2(fds[1], STDERR_FILENO);
+    close(fds[0]);
+    std::vector<std::string> args = {"rosrun", "msspr", "msspr_policy_node", name};
+    args.insert(args.end(), params.begin(), params.end());
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execvp("rosrun", argv.data());
+    _exit(127);
+  }
+  close(fds[1]);
+  const auto end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  char buf[4096];
+  bool timed_out = false;
+  for (;;) {
+    const int left_ms = static_cast<int>((end - ros::WallTime::now()).toSec() * 1000);
+    if (left_ms <= 0) {
+      timed_out = true;
+      kill(pid, SIGINT);
+      break;
+    }
+    pollfd p{fds[0], POLLIN, 0};
+    if (poll(&p, 1, left_ms) <= 0) continue;
+    const ssize_t n = read(fds[0], buf, sizeof buf);
+    if (n <= 0) break;
+    output->append(buf, static_cast<size_t>(n));
+  }
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (timed_out) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::string TempPath(const std::string& name) {
+  const char* dir = std::getenv("ROS_LOG_DIR");
+  return std::string(dir ? dir : "/tmp") + "/" + name + "_" + std::to_string(getpid());
+}
+
+// A missing, corrupt or truncated checkpoint, a missing ~checkpoint and a
+// ~observation_mode that does not match the checkpoint stop the node at start
+// with an error naming the file (or the parameter) and a non-zero exit.
+TEST(PolicyStartup, RefusesBadCheckpointsAndModeMismatch) {
+  ros::NodeHandle pnh("~");
+  std::string state_ckpt;
+  ASSERT_TRUE(pnh.getParam("state_checkpoint", state_ckpt));
+  ASSERT_TRUE(std::ifstream(state_ckpt).good()) << state_ckpt;
+
+  std::string out;
+  EXPECT_EQ(RunPolicyNode({}, &out), 1) << out;
+  EXPECT_NE(out.find("~checkpoint is required"), std::string::npos) << out;
+
+  out.clear();
+  const std::string missing = TempPath("no_such_policy") + ".pt";
+  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + missing}, &out), 1) << out;
+  EXPECT_NE(out.find(missing), std::string::npos) << out;
+
+  out.clear();
+  const std::string corrupt = TempPath("corrupt_policy") + ".pt";
+  std::ofstream(corrupt) << "this is not a checkpoint\n";
+  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + corrupt}, &out), 1) << out;
+  EXPECT_NE(out.find(corrupt), std::string::npos) << out;
+
+  out.clear();
+  const std::string truncated = TempPath("truncated_policy") + ".pt";
+  {
+    std::ifstream in(state_ckpt, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(truncated, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + truncated}, &out), 1) << out;
+  EXPECT_NE(out.find(truncated), std::string::npos) << out;
+
+  out.clear();
+  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + state_ckpt, "_observation_mode:=pixels"}, &out), 1) << out;
+  EXPECT_NE(out.find("~observation_mode is 'pixels'"), std::string::npos) << out;
+  EXPECT_NE(out.find(state_ckpt), std::string::npos) << out;
+
+  out.clear();
+  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + state_ckpt, "_mode:=sometimes"}, &out), 1) << out;
+  EXPECT_NE(out.find("~mode"), std::string::npos) << out;
+
+  std::remove(corrupt.c_str());
+  std::remove(truncated.c_str());
+}
+
+}  // namespace
+}  // namespace msspr::testing
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "msspr_policy_rostest", ros::init_options::AnonymousName);
+  ros::Time::init();
+  return RUN_ALL_TESTS();
+}
