@@ -241,6 +241,36 @@ TEST(PolicyBadInputPixels, RejectsCountsAndKeepsServing) {
   EXPECT_NE(res.message.find("goal_image"), std::string::npos) << res.message;
 }
 
+// Rate mode: the node acts at ~rate Hz on the latest observation (answering its
+// episode_id / step), switches to a newer one, and stops acting once the latest
+// observation is older than ~observation_timeout.
+TEST(PolicyRate, ActsAtRateOnLatestObservation) {
+  PolicyClient c;
+  ASSERT_TRUE(c.WaitForPolicy()) << "policy node not up";
+  ros::NodeHandle pnh("~");
+  const double rate = pnh.param("rate", 20.0), timeout = pnh.param("observation_timeout", 0.5);
+  EXPECT_EQ(c.helper().DiagValue(kPolicyStatus, "mode"), "rate");
+  // Keep one observation fresh for ~1 s: about `rate` actions, all answering it.
+  const ros::WallTime begin = ros::WallTime::now();
+  while ((ros::WallTime::now() - begin).toSec() < 1.0) {
+    c.SendObservation(5, 0, {0.f, 0.f}, {4.f, 0.f});
+    c.helper().WaitFor([] { return false; }, 0.1);
+  }
+  const size_t n0 = c.num_actions();
+  EXPECT_GE(n0, static_cast<size_t>(0.5 * rate)) << "rate mode published " << n0 << " actions in 1 s";
+  EXPECT_LE(n0, static_cast<size_t>(1.5 * rate + 2));
+  ASSERT_TRUE(c.WaitForAction(5, 0, 1.0));
+  // A newer observation is the one answered from then on.
+  c.SendObservation(5, 1, {0.2f, 0.f}, {4.f, 0.f});
+  ASSERT_TRUE(c.WaitForAction(5, 1, 2.0));
+  // Without new observations the node stops acting after observation_timeout.
+  c.helper().WaitFor([] { return false; }, timeout + 2.0 / rate + 0.2);
+  const size_t n1 = c.num_actions();
+  c.helper().WaitFor([] { return false; }, 0.5);
+  EXPECT_EQ(c.num_actions(), n1) << "acted on an observation older than ~observation_timeout";
+  ASSERT_TRUE(c.helper().WaitFor([&] { return c.Diag("action_rate_hz") >= 0.0; }, 5.0));
+}
+
 // The sim and the policy node in lockstep reach an easy goal: task 1 of
 // pointmaze-medium (start in cell (1,1), around (0, 0)) with the goal moved by
 // the sim's set_goal to (3, 0), along the free corridor toward cell (1,2).
