@@ -314,6 +314,39 @@ TEST(PolicyReachesGoal, EasyGoalInLockstep) {
   EXPECT_EQ(h.DiagNumber(kPolicyStatus, "rejected_no_goal"), 0);
 }
 
+// The sim (pixels) and the policy node (pixels) in lockstep: camera images and
+// observations are paired by stamp, every step is answered, nothing is rejected.
+// Any pixel checkpoint will do (the test does not ask for success).
+TEST(PolicySimPixels, LockstepLoopRuns) {
+  RosTestHelper h;
+  ros::NodeHandle pnh("~");
+  const int steps = pnh.param("steps", 100);
+  ASSERT_TRUE(h.WaitForSim());
+  ASSERT_TRUE(h.WaitFor([&] { return !h.DiagValue(kPolicyStatus, "actions").empty(); }, 60.0))
+      << "policy node not up";
+  ros::WallDuration(0.5).sleep();
+  // The reset publishes the goal image while the policy is subscribed.
+  ros::ServiceClient reset = h.nh().serviceClient<msspr::Reset>("reset");
+  ASSERT_TRUE(reset.waitForExistence(ros::Duration(30.0)));
+  msspr::Reset r;
+  r.request.task_id = 1;
+  r.request.seed = 1;
+  ASSERT_TRUE(reset.call(r));
+  ASSERT_TRUE(r.response.ok) << r.response.message;
+  const uint32_t id = r.response.observation.episode_id;
+  const ros::WallTime t0 = ros::WallTime::now();
+  ASSERT_TRUE(h.WaitFor([&] {
+    return h.latest() && h.latest()->episode_id == id && h.latest()->step >= static_cast<uint32_t>(steps);
+  }, 120.0)) << "stalled at step " << (h.latest() ? h.latest()->step : 0);
+  const double s = (ros::WallTime::now() - t0).toSec();
+  std::printf("%d pixel lockstep steps in %.2f s (%.1f steps/s)\n", steps, s, steps / s);
+  ASSERT_TRUE(h.WaitFor([&] { return h.DiagNumber(kPolicyStatus, "actions") >= steps; }, 5.0));
+  for (const char* k : {"rejected_wrong_dim", "rejected_nonfinite", "rejected_no_goal", "rejected_bad_image",
+                        "inference_errors"})
+    EXPECT_EQ(h.DiagNumber(kPolicyStatus, k), 0) << k;
+  EXPECT_TRUE(std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")));
+}
+
 // Runs the policy node with private params (`_name:=value`) and returns its exit
 // status (-1: did not exit within timeout_s and was stopped); output gets its
 // stdout and stderr.
