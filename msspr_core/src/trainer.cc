@@ -218,7 +218,7 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
   torch::Tensor zg = repr_->state_encoder->forward(batch.goal);                          // [B, zs]
   torch::Tensor z = repr_->state_encoder->forward(batch.states.select(1, 0));            // [B, zs]
   torch::Tensor total = torch::zeros({}, z.options());
-  double sum_dyn = 0, sum_rew = 0, sum_inv = 0, sum_gdyn = 0, sum_gact = 0;
+  torch::Tensor terms = torch::zeros({5}, z.options());  // detached sums over h, for logging
   for (int64_t h = 0; h < horizon; ++h) {
     const torch::Tensor a_h = batch.actions.select(1, h);      // [B, act]
     const torch::Tensor m_h = batch.action_mask.select(1, h);  // [B]
@@ -250,22 +250,19 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
 
     total = total + r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv +
             r.weight_goal_dyn * gdyn + r.weight_goal_act * gact;
-    if (info) {
-      sum_dyn += dyn.item<double>();
-      sum_rew += rew.item<double>();
-      sum_inv += inv.item<double>();
-      sum_gdyn += gdyn.item<double>();
-      sum_gact += gact.item<double>();
-    }
+    if (info) terms = terms + torch::stack({dyn, rew, inv, gdyn, gact}).detach();
     z = z_next;
   }
   if (info) {
-    info->repr = total.item<double>();
-    info->dyn = sum_dyn;
-    info->rew = sum_rew;
-    info->inv = sum_inv;
-    info->goal_dyn = sum_gdyn;
-    info->goal_act = sum_gact;
+    // One device-to-host copy (a sync on GPU) instead of one per term.
+    const torch::Tensor host = torch::cat({terms, total.detach().view({1})}).to(torch::kCPU, torch::kFloat64);
+    const double* v = host.data_ptr<double>();
+    info->dyn = v[0];
+    info->rew = v[1];
+    info->inv = v[2];
+    info->goal_dyn = v[3];
+    info->goal_act = v[4];
+    info->repr = v[5];
   }
   return total;
 }
@@ -419,7 +416,17 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     if (!loop.quiet) bar.Message(line);
   };
   LossInfo last;
+  auto out_of_time = [&]() {
+    return t.time_limit_s > 0 &&
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= t.time_limit_s;
+  };
   while (step_ < total) {
+    if (out_of_time()) {
+      if (!loop.quiet)
+        bar.Message("time limit of " + std::to_string(static_cast<int>(t.time_limit_s)) +
+                    " s reached at step " + std::to_string(step_) + ": stopping");
+      break;
+    }
     const LossInfo info = Step();
     // Keep the last representation losses on steps without a representation update.
     LossInfo merged = info;

@@ -1,1 +1,211 @@
-int main() { return 0; }
+// msspr_bench_core: training throughput and inference latency of the core
+// on synthetic data, written as JSON.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "msspr_core/trainer.h"
+
+namespace {
+
+using namespace msspr::core;
+using Clock = std::chrono::steady_clock;
+
+const char kUsage[] =
+    "usage: msspr_bench_core --out FILE.json [--device cpu|cuda] [--threads N] [--quick]\n"
+    "\n"
+    "Times training steps (CPU and paper scale, states and pixels) and single-sample\n"
+    "Policy::Act latency on synthetic data; writes JSON (also printed).\n"
+    "  --quick   fewer timed steps (for smoke tests)\n";
+
+std::shared_ptr<const Dataset> SyntheticDataset(int obs_dim, int action_dim, bool images,
+                                                int episodes, int length) {
+  std::mt19937_64 rng(1);
+  std::normal_distribution<float> normal;
+  std::uniform_int_distribution<int> pixel(0, 255);
+  const ImageShape shape = images ? ImageShape{64, 64, 3} : ImageShape{};
+  DatasetBuilder b(images ? 0 : obs_dim, action_dim, shape);
+  b.Reserve(int64_t{episodes} * length);
+  for (int e = 0; e < episodes; ++e) {
+    std::vector<float> obs(images ? 0 : length * obs_dim), act(length * action_dim);
+    std::vector<uint8_t> img(length * shape.numel());
+    for (auto& v : obs) v = normal(rng);
+    for (auto& v : act) v = std::tanh(normal(rng));
+    for (auto& v : img) v = static_cast<uint8_t>(pixel(rng));
+    b.AddEpisode(obs, act, img);
+  }
+  return std::make_shared<const Dataset>(b.Build());
+}
+
+double PeakRssMb() {
+  rusage u;
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0;
+}
+
+struct TrainResult {
+  std::string name;
+  int batch = 0;
+  int steps = 0;
+  double steps_per_s = 0;
+  double ms_per_step = 0;
+};
+
+TrainResult TimeTraining(const std::string& name, MsprOptions o,
+                         std::shared_ptr<const Dataset> data, int warmup, int steps) {
+  Trainer t(o, data);
+  for (int i = 0; i < warmup; ++i) t.Step();
+  if (t.device().is_cuda()) torch::cuda::synchronize();
+  const auto start = Clock::now();
+  for (int i = 0; i < steps; ++i) t.Step();
+  if (t.device().is_cuda()) torch::cuda::synchronize();
+  const double s = std::chrono::duration<double>(Clock::now() - start).count();
+  TrainResult r;
+  r.name = name;
+  r.batch = o.trainer.batch_size;
+  r.steps = steps;
+  r.steps_per_s = steps / s;
+  r.ms_per_step = 1000.0 * s / steps;
+  std::cerr << "  " << name << ": batch " << r.batch << ", " << r.ms_per_step << " ms/step ("
+            << r.steps_per_s << " steps/s)\n";
+  return r;
+}
+
+struct LatencyResult {
+  std::string name;
+  double median_ms = 0;
+  double p90_ms = 0;
+};
+
+LatencyResult TimeAct(const std::string& name, MsprOptions o, std::shared_ptr<const Dataset> data,
+                      int reps) {
+  o.trainer.batch_size = 2;
+  Trainer t(o, data);
+  Policy p = t.MakePolicy();
+  torch::Tensor obs, goal;
+  if (p.pixels()) {
+    obs = torch::randint(0, 256, {64, 64, 3 * o.network.frame_stack}, torch::kUInt8);
+    goal = torch::randint(0, 256, {64, 64, 3 * o.network.frame_stack}, torch::kUInt8);
+  } else {
+    obs = torch::randn({p.obs_dim()});
+    goal = torch::randn({p.obs_dim()});
+  }
+  std::vector<double> ms;
+  for (int i = 0; i < reps + 5; ++i) {
+    const auto start = Clock::now();
+    torch::Tensor a = p.Act(obs, goal).cpu();  // includes the copy back to the host
+    const double d = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    if (i >= 5) ms.push_back(d);
+  }
+  std::sort(ms.begin(), ms.end());
+  LatencyResult r;
+  r.name = name;
+  r.median_ms = ms[ms.size() / 2];
+  r.p90_ms = ms[ms.size() * 9 / 10];
+  std::cerr << "  act " << name << ": median " << r.median_ms << " ms, p90 " << r.p90_ms << " ms\n";
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string out, device = "cpu";
+  int threads = 0;
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
+      return 0;
+    } else if (a == "--out" && i + 1 < argc) out = argv[++i];
+    else if (a == "--device" && i + 1 < argc) device = argv[++i];
+    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
+    else if (a == "--quick") quick = true;
+    else {
+      std::cerr << "msspr_bench_core: unknown argument '" << a << "'\n" << kUsage;
+      return 2;
+    }
+  }
+  if (out.empty()) {
+    std::cerr << kUsage;
+    return 2;
+  }
+  try {
+    if (threads > 0) torch::set_num_threads(threads);
+    const auto t0 = Clock::now();
+    // Antmaze-like state sizes; pixels as OGBench's visual tasks.
+    auto states = SyntheticDataset(29, 8, false, 50, 200);
+    auto pixels = SyntheticDataset(0, 8, true, 10, 100);
+    const int n = quick ? 2 : 10;
+    std::vector<TrainResult> train;
+    std::cerr << "msspr_bench_core: training steps on " << device << " ("
+              << torch::get_num_threads() << " threads)\n";
+    MsprOptions cpu_state = MakePreset("mspr", "cpu");
+    cpu_state.trainer.device = device;
+    train.push_back(TimeTraining("cpu_scale_states", cpu_state, states, 2, n));
+    MsprOptions paper_state = MakePreset("mspr", "paper");
+    paper_state.trainer.device = device;
+    paper_state.trainer.batch_size = 1024;
+    train.push_back(TimeTraining("paper_scale_states", paper_state, states, 1, quick ? 1 : 4));
+    MsprOptions cpu_pix = MakePreset("mspr", "cpu");
+    cpu_pix.network.obs_mode = "pixels";
+    cpu_pix.trainer.device = device;
+    cpu_pix.trainer.batch_size = 32;
+    train.push_back(TimeTraining("cpu_scale_pixels", cpu_pix, pixels, 1, quick ? 1 : 3));
+    MsprOptions paper_pix = MakePreset("mspr", "paper");
+    paper_pix.network.obs_mode = "pixels";
+    paper_pix.trainer.device = device;
+    paper_pix.trainer.batch_size = 256;
+    paper_pix.representation.weight_rew = 0.5;
+    train.push_back(TimeTraining("paper_scale_pixels", paper_pix, pixels, 1, quick ? 1 : 2));
+
+    std::cerr << "msspr_bench_core: single-sample Policy::Act latency\n";
+    std::vector<LatencyResult> act;
+    const int reps = quick ? 20 : 200;
+    act.push_back(TimeAct("state_cpu_scale", cpu_state, states, reps));
+    act.push_back(TimeAct("state_paper_scale", paper_state, states, reps));
+    act.push_back(TimeAct("image_cpu_scale", cpu_pix, pixels, reps / 2));
+    act.push_back(TimeAct("image_paper_scale", paper_pix, pixels, reps / 2));
+    const double total_s = std::chrono::duration<double>(Clock::now() - t0).count();
+
+    std::ostringstream j;
+    j.precision(6);
+    j << "{\n  \"device\": \"" << device << "\",\n  \"threads\": " << torch::get_num_threads()
+      << ",\n  \"state_dataset\": {\"obs_dim\": 29, \"action_dim\": 8},\n"
+      << "  \"pixel_dataset\": {\"image\": [64, 64, 3], \"action_dim\": 8},\n  \"train\": [\n";
+    for (size_t i = 0; i < train.size(); ++i) {
+      const TrainResult& r = train[i];
+      j << "    {\"name\": \"" << r.name << "\", \"batch\": " << r.batch
+        << ", \"timed_steps\": " << r.steps << ", \"steps_per_s\": " << r.steps_per_s
+        << ", \"ms_per_step\": " << r.ms_per_step << "}" << (i + 1 < train.size() ? "," : "")
+        << "\n";
+    }
+    j << "  ],\n  \"act_latency\": [\n";
+    for (size_t i = 0; i < act.size(); ++i) {
+      j << "    {\"name\": \"" << act[i].name << "\", \"median_ms\": " << act[i].median_ms
+        << ", \"p90_ms\": " << act[i].p90_ms << "}" << (i + 1 < act.size() ? "," : "") << "\n";
+    }
+    j << "  ],\n  \"peak_rss_mb\": " << PeakRssMb() << ",\n  \"bench_seconds\": " << total_s
+      << "\n}\n";
+    std::ofstream f(out);
+    if (!f) {
+      std::cerr << "msspr_bench_core: cannot write " << out << "\n";
+      return 1;
+    }
+    f << j.str();
+    std::cout << j.str();
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_bench_core: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

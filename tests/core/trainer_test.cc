@@ -224,7 +224,8 @@ TEST(TrainerTest, PixelTrainingStepWithFrameStackAndAugmentation) {
   o.trainer.batch_size = 4;
   Trainer t(o, testing_util::RandomImageDataset());
   const ChunkBatch c = t.SampleChunks();
-  EXPECT_EQ(c.states.sizes(), (std::vector<int64_t>{4, 10, 64, 64, 9})  // L = max(H, H - 1 + k) + 1);
+  // L = max(H, H - 1 + k) + 1 = 10 states per chunk.
+  EXPECT_EQ(c.states.sizes(), (std::vector<int64_t>{4, 10, 64, 64, 9}));
   EXPECT_EQ(c.states.scalar_type(), torch::kUInt8);
   const LossInfo info = t.Step();
   EXPECT_TRUE(std::isfinite(info.repr));

@@ -170,6 +170,7 @@ struct TrainerOptions {
   int log_every = 100;             // progress / CSV row period (steps)
   int eval_every = 0;              // evaluator period (steps); 0 = never
   int checkpoint_every = 0;        // checkpoint period (steps); 0 = only at the end
+  double time_limit_s = 0;         // stop Train() after this wall time (s) of the run; 0 = none
 
   template <class V>
   void Visit(V& v) {
@@ -180,6 +181,7 @@ struct TrainerOptions {
     v("log_every", log_every);
     v("eval_every", eval_every);
     v("checkpoint_every", checkpoint_every);
+    v("time_limit_s", time_limit_s);
   }
 };
 
