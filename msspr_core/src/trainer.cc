@@ -403,6 +403,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
                                            std::vector<std::string>{"step", "name", "value"});
   }
   ProgressBar bar(step_, total);
+  const int64_t first_step = step_;
   const auto start = std::chrono::steady_clock::now();
   auto run_eval = [&]() {
     if (!evaluator) return;
@@ -448,7 +449,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
         const double wall =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::vector<double> row{static_cast<double>(step_), wall, bar.steps_per_second()};
-        if (loop.quiet) row[2] = wall > 0 ? step_ / wall : 0.0;
+        if (loop.quiet) row[2] = wall > 0 ? (step_ - first_step) / wall : 0.0;
         for (const auto& kv : merged.Named()) row.push_back(kv.second);
         metrics_csv->Write(row);
       }

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "msspr_core/process_env.h"
 #include "msspr_core/trainer.h"
 
 namespace {
@@ -118,6 +119,7 @@ LatencyResult TimeAct(const std::string& name, MsprOptions o, std::shared_ptr<co
 }  // namespace
 
 int main(int argc, char** argv) {
+  ReexecWithPassiveOpenMpWait(argv);
   std::string out, device = "cpu";
   int threads = 0;
   bool quick = false;
