@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <random>
@@ -154,6 +155,10 @@ int main(int argc, char** argv) {
     MsprOptions cpu_state = MakePreset("mspr", "cpu");
     cpu_state.trainer.device = device;
     train.push_back(TimeTraining("cpu_scale_states", cpu_state, states, 2, n));
+    // Algorithm 1 read literally: one representation update every K = 250 steps.
+    MsprOptions cpu_state_sparse = cpu_state;
+    cpu_state_sparse.representation.updates_per_step = 1.0 / 250.0;
+    train.push_back(TimeTraining("cpu_scale_states_repr_every_250", cpu_state_sparse, states, 2, n));
     MsprOptions paper_state = MakePreset("mspr", "paper");
     paper_state.trainer.device = device;
     paper_state.trainer.batch_size = 1024;
@@ -169,6 +174,33 @@ int main(int argc, char** argv) {
     paper_pix.trainer.batch_size = 256;
     paper_pix.representation.weight_rew = 0.5;
     train.push_back(TimeTraining("paper_scale_pixels", paper_pix, pixels, 1, quick ? 1 : 2));
+
+    // Where a CPU-scale step goes.
+    std::vector<std::pair<std::string, double>> breakdown;
+    {
+      Trainer t(cpu_state, states);
+      t.Step();
+      const int reps = quick ? 2 : 10;
+      auto time_ms = [&](const std::function<void()>& f) {
+        const auto start = Clock::now();
+        for (int i = 0; i < reps; ++i) f();
+        if (t.device().is_cuda()) torch::cuda::synchronize();
+        return std::chrono::duration<double, std::milli>(Clock::now() - start).count() / reps;
+      };
+      const TransitionBatch tb = t.SampleTransitions();
+      const ChunkBatch cb = t.SampleChunks();
+      const torch::Tensor noise = torch::randn({tb.action.size(0), tb.action.size(1)});
+      breakdown.emplace_back("sample_and_gather", time_ms([&] {
+                               t.SampleTransitions();
+                               t.SampleChunks();
+                             }));
+      breakdown.emplace_back("representation_update", time_ms([&] { t.UpdateRepresentation(cb); }));
+      breakdown.emplace_back("critic_update", time_ms([&] { t.UpdateCritic(tb, noise); }));
+      breakdown.emplace_back("actor_update", time_ms([&] { t.UpdateActor(tb); }));
+      for (const auto& kv : breakdown) {
+        std::cerr << "  cpu_scale_states " << kv.first << ": " << kv.second << " ms\n";
+      }
+    }
 
     std::cerr << "msspr_bench_core: single-sample Policy::Act latency\n";
     std::vector<LatencyResult> act;
@@ -191,7 +223,11 @@ int main(int argc, char** argv) {
         << ", \"ms_per_step\": " << r.ms_per_step << "}" << (i + 1 < train.size() ? "," : "")
         << "\n";
     }
-    j << "  ],\n  \"act_latency\": [\n";
+    j << "  ],\n  \"cpu_scale_states_breakdown_ms\": {";
+    for (size_t i = 0; i < breakdown.size(); ++i) {
+      j << (i ? ", " : "") << "\"" << breakdown[i].first << "\": " << breakdown[i].second;
+    }
+    j << "},\n  \"act_latency\": [\n";
     for (size_t i = 0; i < act.size(); ++i) {
       j << "    {\"name\": \"" << act[i].name << "\", \"median_ms\": " << act[i].median_ms
         << ", \"p90_ms\": " << act[i].p90_ms << "}" << (i + 1 < act.size() ? "," : "") << "\n";

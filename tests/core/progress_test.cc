@@ -1,0 +1,55 @@
+#include "msspr_core/progress.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+#include "test_util.h"
+
+namespace msspr {
+namespace core {
+namespace {
+
+using testing_util::ReadText;
+using testing_util::TempDir;
+
+TEST(ProgressTest, CsvHeaderOnceAndAppends) {
+  TempDir dir;
+  const std::string path = dir.File("m.csv");
+  {
+    CsvWriter w(path, {"step", "loss"});
+    w.Write({1, 0.5});
+  }
+  {
+    CsvWriter w(path, {"step", "loss"});  // a resumed run appends
+    w.Write({2, 0.25});
+    EXPECT_THROW(w.Write({3}), std::runtime_error);
+  }
+  EXPECT_EQ(ReadText(path), "step,loss\n1,0.5\n2,0.25\n");
+  EXPECT_THROW(CsvWriter(dir.File("no/such/dir.csv"), {"a"}), std::runtime_error);
+}
+
+TEST(ProgressTest, PlainLinesWhenNotATerminal) {
+  TempDir dir;
+  const std::string path = dir.File("log.txt");
+  FILE* f = std::fopen(path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  ProgressBar bar(0, 100, f);
+  bar.Update(50, {{"critic", 1.5}});
+  bar.Message("eval step 50: success=0.5");
+  bar.Update(100, {{"critic", 1.25}});
+  bar.Finish();
+  std::fclose(f);
+  const std::string text = ReadText(path);
+  EXPECT_EQ(text.find('\r'), std::string::npos);
+  EXPECT_NE(text.find("50/100"), std::string::npos);
+  EXPECT_NE(text.find("it/s eta"), std::string::npos);
+  EXPECT_NE(text.find("critic=1.5"), std::string::npos);
+  EXPECT_NE(text.find("eval step 50: success=0.5\n"), std::string::npos);
+  EXPECT_NE(text.find("100/100"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace msspr
