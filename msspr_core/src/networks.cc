@@ -180,8 +180,12 @@ torch::Tensor ReturnBins(int64_t num_bins, double gamma) {
 }
 
 torch::Tensor TwoHotEncode(const torch::Tensor& values, const torch::Tensor& bins) {
+  return TwoHotEncode(values, bins, bins[0].item<double>(), bins[bins.size(0) - 1].item<double>());
+}
+
+torch::Tensor TwoHotEncode(const torch::Tensor& values, const torch::Tensor& bins, double lo,
+                           double hi) {
   const int64_t k = bins.size(0);
-  const double lo = bins[0].item<double>(), hi = bins[k - 1].item<double>();
   const torch::Tensor v = values.clamp(lo, hi);
   const torch::Tensor pos = (v - lo) / (hi - lo) * (k - 1);  // fractional bin index
   const torch::Tensor below = pos.floor().clamp(0, k - 2).to(torch::kLong);

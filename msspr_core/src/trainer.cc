@@ -236,7 +236,7 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
     if (r.reward_loss == "mse") {
       rew = MaskedMean((TwoHotDecode(logits, bins_) - ret).pow(2), m_h);
     } else {
-      const torch::Tensor two_hot = TwoHotEncode(ret, bins_);
+      const torch::Tensor two_hot = TwoHotEncode(ret, bins_, -1.0 / (1.0 - options_.agent.gamma), 0.0);
       rew = MaskedMean(-(two_hot * torch::log_softmax(logits, -1)).sum(-1), m_h);
     }
     const torch::Tensor gd_mask = batch.state_mask.select(1, h + k);  // [B]
@@ -356,20 +356,21 @@ void Trainer::UpdateTargets() {
   HardUpdate(*target_actor_, *actor_);
 }
 
-LossInfo Trainer::Step() {
+LossInfo Trainer::Step(bool collect_info) {
   LossInfo info;
+  LossInfo* out = collect_info ? &info : nullptr;
   ++step_;
   if (step_ % options_.agent.target_update_every == 0) UpdateTargets();
   repr_credit_ += options_.representation.updates_per_step;
   while (repr_credit_ >= 1.0 - 1e-9) {
-    UpdateRepresentation(SampleChunks(), &info);
+    UpdateRepresentation(SampleChunks(), out);
     repr_credit_ -= 1.0;
   }
   const TransitionBatch batch = SampleTransitions();
   const torch::Tensor noise =
       torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
-  UpdateCritic(batch, noise, &info);
-  UpdateActor(batch, &info);
+  UpdateCritic(batch, noise, out);
+  UpdateActor(batch, out);
   return info;
 }
 
@@ -428,7 +429,11 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
                     " s reached at step " + std::to_string(step_) + ": stopping");
       break;
     }
-    const LossInfo info = Step();
+    // Losses are read back (a device sync) only on logged steps and the
+    // representation updates just before them.
+    const int64_t next = step_ + 1;
+    const bool logged = t.log_every > 0 && (next % t.log_every == 0 || next == total);
+    const LossInfo info = Step(logged || std::isnan(last.repr));
     // Keep the last representation losses on steps without a representation update.
     LossInfo merged = info;
     if (std::isnan(info.repr)) {

@@ -162,6 +162,9 @@ torch::Tensor ReturnBins(int64_t num_bins, double gamma);
 // Two-hot encoding of values [B] over bins [K] -> [B, K] (values clamped to
 // the bins' range; the two neighbouring bins share the mass linearly).
 torch::Tensor TwoHotEncode(const torch::Tensor& values, const torch::Tensor& bins);
+// Same with the bins' range given (no device-to-host read of the bins).
+torch::Tensor TwoHotEncode(const torch::Tensor& values, const torch::Tensor& bins, double lo,
+                           double hi);
 // Expected value of softmax(logits) over bins: [B, K] -> [B].
 torch::Tensor TwoHotDecode(const torch::Tensor& logits, const torch::Tensor& bins);
 

@@ -78,8 +78,9 @@ class Trainer {
 
   // One step of Algorithm 1: target copy when step % K == 0, representation
   // updates (updates_per_step, fractions accumulate), one critic and one
-  // actor update. Returns the losses of this step.
-  LossInfo Step();
+  // actor update. Returns the losses of this step (all NaN when
+  // collect_info is false: no device-to-host reads, which sync a GPU).
+  LossInfo Step(bool collect_info = true);
 
   // Runs Step() until options().trainer.steps with progress, CSV and the
   // evaluator every trainer.eval_every steps (and at the end).
