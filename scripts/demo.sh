@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
-# make demo: sim + agent on pointmaze-medium over roslaunch, evaluated on the five
-# tasks; prints the per-task table and writes build/demo/{results.json,trajectories.png}.
+# make demo: the sim and msspr_policy_node serving the shipped checkpoint on
+# pointmaze-medium, in lockstep over ROS, evaluated on the five tasks; prints the
+# per-task table and writes build/demo/{results.json,trajectories.png,success.png}.
+#   MSSPR_DEMO_PIXELS=1 make demo    serve from 64x64 camera images instead of states
+#   DEMO_EPISODES=50 make demo       episodes per task (default 20)
 set -euo pipefail
 BUILD=${1:-build}
 cd "$(dirname "$0")/.."
@@ -8,14 +11,24 @@ source scripts/ros_env.sh
 OUT=$PWD/$BUILD/demo
 mkdir -p "$OUT"
 rm -f "$OUT/results.json"
-echo "[demo] pointmaze-medium, scripted expert (noise-free) in lockstep over ROS; master on $ROS_MASTER_URI"
 LOG=$OUT/roslaunch.log
-echo "[demo] running sim + agent + evaluator (log: $LOG) ..."
-roslaunch -p "$MSSPR_PORT" msspr expert_demo.launch out_dir:="$OUT" episodes:="${DEMO_EPISODES:-20}" >"$LOG" 2>&1 || true
+PIXELS=false
+[ "${MSSPR_DEMO_PIXELS:-0}" = 1 ] && PIXELS=true
+CKPT=msspr_policy_node/checkpoints/pointmaze-medium-$([ "$PIXELS" = true ] && echo pixels || echo state).pt
+if [ -f "$CKPT" ]; then
+  echo "[demo] pointmaze-medium: msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo images || echo states)), lockstep over ROS"
+  LAUNCH=(demo.launch pixels:="$PIXELS")
+else
+  echo "[demo] no $CKPT: evaluating the scripted expert instead"
+  LAUNCH=(expert_demo.launch)
+fi
+echo "[demo] running sim + agent + evaluator, ${DEMO_EPISODES:-20} episodes per task (log: $LOG) ..."
+roslaunch -p "$MSSPR_PORT" msspr "${LAUNCH[@]}" out_dir:="$OUT" episodes:="${DEMO_EPISODES:-20}" >"$LOG" 2>&1 || true
 grep -E "msspr_eval: task" "$LOG" | sed -E 's/^.*(msspr_eval: task)/[demo] \1/; s/\x1b\[[0-9;]*m//g' || true
 if [ ! -s "$OUT/results.json" ]; then
-  echo "[demo] failed: no $OUT/results.json (see logs in $ROS_LOG_DIR)" >&2
+  echo "[demo] failed: no $OUT/results.json; the launch log follows" >&2
+  tail -30 "$LOG" >&2
   exit 1
 fi
 python3 scripts/print_results.py "$OUT/results.json"
-echo "[demo] wrote $OUT/results.json and $OUT/trajectories.png"
+echo "[demo] wrote $OUT/results.json, $OUT/trajectories.png and $OUT/success.png"

@@ -1,0 +1,114 @@
+#include "bag_dataset.h"
+
+#include <memory>
+#include <sstream>
+
+#include "dataset_bag.h"
+
+namespace msspr::agent {
+
+bool IsBagPath(const std::string& path) {
+  return path.size() >= 4 && path.compare(path.size() - 4, 4, ".bag") == 0;
+}
+
+std::string BagLoadReport::Summary() const {
+  std::ostringstream s;
+  s << bags << " bag(s): " << episodes << " episodes read -> " << trajectories << " trajectories, "
+    << steps << " steps";
+  if (episodes_other_split) s << "; " << episodes_other_split << " episodes of another split skipped";
+  if (episodes_without_images) s << "; " << episodes_without_images << " episodes without images skipped";
+  if (incomplete_episodes)
+    s << "; " << incomplete_episodes << " incomplete episodes (" << missing_observations
+      << " missing observations, " << missing_actions << " missing actions, " << missing_images
+      << " missing images, " << duplicates << " conflicting duplicates; " << dropped_steps
+      << " steps dropped, gaps split trajectories)";
+  return s.str();
+}
+
+core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoadOptions& options,
+                             BagLoadReport* report) {
+  BagLoadReport local;
+  BagLoadReport& r = report ? *report : local;
+  r = BagLoadReport{};
+  std::unique_ptr<core::DatasetBuilder> builder;
+  int obs_dim = 0, act_dim = 0, image_size = 0;
+  std::string first_bag;
+  for (const std::string& path : bags) {
+    ros_bridge::DatasetBagReader reader(path);
+    ++r.bags;
+    reader.ForEachEpisode([&](ros_bridge::BagEpisode&& ep) {
+      ++r.episodes;
+      if (!options.split.empty() && ep.meta.split != options.split) {
+        ++r.episodes_other_split;
+        return;
+      }
+      if (options.images && ep.image_size == 0) {
+        ++r.episodes_without_images;
+        return;
+      }
+      if (ep.num_steps == 0) return;
+      if (!builder) {
+        obs_dim = ep.obs_dim;
+        act_dim = ep.act_dim;
+        image_size = options.images ? ep.image_size : 0;
+        first_bag = path;
+        r.env = ep.meta.env;
+        core::ImageShape shape;
+        if (options.images) shape = core::ImageShape{image_size, image_size, 3};
+        builder = std::make_unique<core::DatasetBuilder>(obs_dim, act_dim, shape);
+      }
+      if (ep.obs_dim != obs_dim || ep.act_dim != act_dim ||
+          (options.images && ep.image_size != image_size)) {
+        std::ostringstream msg;
+        msg << path << ": episode " << ep.meta.episode_id << " has observation/action/image sizes "
+            << ep.obs_dim << "/" << ep.act_dim << "/" << ep.image_size << ", but " << first_bag
+            << " had " << obs_dim << "/" << act_dim << "/" << image_size;
+        throw core::DatasetError(msg.str());
+      }
+      if (!ep.complete()) {
+        ++r.incomplete_episodes;
+        for (const auto& p : ep.problems) r.problems.push_back(path + ": " + p);
+      }
+      int kept = 0;
+      const size_t image_bytes = static_cast<size_t>(image_size) * image_size * 3;
+      // Without images requested, an episode's image gaps do not split it.
+      std::vector<std::pair<int, int>> runs;
+      if (options.images) {
+        runs = ep.Segments();
+      } else {
+        const int saved = ep.image_size;
+        ep.image_size = 0;
+        runs = ep.Segments();
+        ep.image_size = saved;
+      }
+      for (const auto& [b, e] : runs) {
+        const int T = e - b;
+        if (T < options.min_segment_steps) {
+          ++r.short_segments;
+          continue;
+        }
+        builder->AddEpisode(ep.observations.data() + static_cast<size_t>(b) * obs_dim,
+                            ep.actions.data() + static_cast<size_t>(b) * act_dim, T,
+                            options.images ? ep.images.data() + b * image_bytes : nullptr);
+        ++r.trajectories;
+        r.steps += static_cast<uint64_t>(T);
+        kept += T;
+      }
+      r.dropped_steps += static_cast<uint64_t>(ep.num_steps - kept);
+    });
+    const auto& rr = reader.report();
+    r.missing_observations += rr.missing_observations;
+    r.missing_actions += rr.missing_actions;
+    r.missing_images += options.images ? rr.missing_images : 0;
+    r.duplicates += rr.duplicates;
+  }
+  if (!builder || builder->size() == 0) {
+    std::string list;
+    for (const auto& b : bags) list += (list.empty() ? "" : ", ") + b;
+    throw core::DatasetError("no " + (options.split.empty() ? std::string("") : options.split + " ") +
+                             "episodes" + (options.images ? " with images" : "") + " in " + list);
+  }
+  return builder->Build();
+}
+
+}  // namespace msspr::agent

@@ -1,0 +1,132 @@
+// msspr_train (catkin build): the core's training command line, plus msspr
+// dataset bags (--data a.bag,b.bag; the "val" split of the same bags validates
+// unless --val is given) and success rates in the point maze, evaluated in
+// process every --eval-every steps by OGBench's protocol.
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "bag_dataset.h"
+#include "maze_evaluator.h"
+#include "msspr_core/process_env.h"
+#include "msspr_core/train_cli.h"
+#include "msspr_sim/maze_map.h"
+
+namespace {
+
+using msspr::agent::BagLoadOptions;
+using msspr::agent::BagLoadReport;
+
+std::vector<std::string> SplitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string part;
+  while (std::getline(ss, part, ','))
+    if (!part.empty()) out.push_back(part);
+  return out;
+}
+
+bool AllBags(const std::string& list) {
+  const auto parts = SplitList(list);
+  if (parts.empty()) return false;
+  for (const auto& p : parts)
+    if (!msspr::agent::IsBagPath(p)) return false;
+  return true;
+}
+
+std::string g_env;  // env of the training bags, for the default evaluation maze
+
+std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list, const std::string& split,
+                                                     const msspr::core::MsprOptions& options) {
+  BagLoadOptions lo;
+  lo.split = split;
+  lo.images = options.network.obs_mode == "pixels";
+  BagLoadReport report;
+  auto data = std::make_shared<const msspr::core::Dataset>(
+      msspr::agent::LoadBagDataset(SplitList(list), lo, &report));
+  std::cerr << "msspr_train: " << split << " split of " << list << ": " << report.Summary() << "\n";
+  for (size_t i = 0; i < report.problems.size() && i < 10; ++i)
+    std::cerr << "msspr_train:   " << report.problems[i] << "\n";
+  if (report.problems.size() > 10)
+    std::cerr << "msspr_train:   ... and " << report.problems.size() - 10 << " more problems\n";
+  if (g_env.empty()) g_env = report.env;
+  return data;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  msspr::core::ReexecWithPassiveOpenMpWait(argv);  // see process_env.h: spinning threads on shared cores
+  msspr::core::TrainCliExtensions ext;
+  ext.program = "msspr_train";
+  ext.data_help =
+      "msspr dataset bags (a.bag[,b.bag...]; the \"train\" split) or an OGBench .npz";
+  ext.extra_options = {"eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps"};
+  ext.extra_usage =
+      "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0):\n"
+      "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
+      "  --eval-episodes N  episodes per task (default 50)\n"
+      "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
+      "  --eval-seed S      evaluation seed (default 0; same episodes as msspr_eval --seed S)\n"
+      "  --eval-max-steps N step limit (default 1000)\n"
+      "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
+      "DIR/eval/step_<N>.json (the msspr_eval results format).\n"
+      "Example: rosrun msspr msspr_train --data medium-navigate.bag --scale cpu --steps 20000 \\\n"
+      "           --eval-every 2000 --out runs/medium\n";
+  ext.load_dataset = [](const std::string& path, bool validation, const msspr::core::MsprOptions& options)
+      -> std::shared_ptr<const msspr::core::Dataset> {
+    if (!AllBags(path)) return nullptr;
+    return LoadBags(path, validation ? "val" : "train", options);
+  };
+  ext.default_validation = [](const std::string& data_path, const msspr::core::MsprOptions& options)
+      -> std::shared_ptr<const msspr::core::Dataset> {
+    if (!AllBags(data_path)) return nullptr;
+    try {
+      return LoadBags(data_path, "val", options);
+    } catch (const msspr::core::DatasetError&) {
+      std::cerr << "msspr_train: no \"val\" episodes in " << data_path << ": no validation losses\n";
+      return nullptr;
+    }
+  };
+  ext.make_evaluator = [](msspr::core::Trainer& trainer, const std::map<std::string, std::string>& extra,
+                          const std::string& out_dir) -> msspr::core::Evaluator {
+    if (trainer.options().trainer.eval_every <= 0) return nullptr;
+    msspr::agent::MazeEvalOptions eo;
+    auto get = [&](const std::string& k, const std::string& def) {
+      auto it = extra.find(k);
+      return it == extra.end() ? def : it->second;
+    };
+    std::string maze = get("eval-maze", "");
+    const std::string prefix = "pointmaze-";
+    if (maze.empty() && g_env.rfind(prefix, 0) == 0) maze = g_env.substr(prefix.size());
+    if (maze.empty()) {
+      std::cerr << "msspr_train: no --eval-maze and no point-maze bags: no success evaluation\n";
+      return nullptr;
+    }
+    msspr::sim::MazeMap::FromName(maze);  // validates the name
+    eo.maze = maze;
+    eo.episodes = std::stoi(get("eval-episodes", "50"));
+    eo.seed = std::stoull(get("eval-seed", "0"));
+    eo.max_steps = std::stoi(get("eval-max-steps", "1000"));
+    eo.tasks.clear();
+    for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5"))) eo.tasks.push_back(std::stoi(t));
+    const auto start = std::chrono::steady_clock::now();
+    return [eo, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
+      const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
+      msspr::core::EvalResult r;
+      for (size_t i = 0; i < result.tasks.size(); ++i)
+        r.emplace_back("success_task" + std::to_string(result.tasks[i]), result.success[i]);
+      r.emplace_back("mean_success", result.mean_success);
+      r.emplace_back("eval_s", result.seconds);
+      r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      if (!out_dir.empty()) {
+        char name[64];
+        std::snprintf(name, sizeof name, "/eval/step_%08lld.json", static_cast<long long>(step));
+        msspr::agent::WriteResultsJson(result, eo, "msspr step " + std::to_string(step), out_dir + name);
+      }
+      return r;
+    };
+  };
+  return msspr::core::RunTrainCli(argc, argv, ext);
+}
