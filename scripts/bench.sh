@@ -18,7 +18,7 @@ rm -f "$OUT/collect.bag"
 echo "[bench] lockstep round trip over ROS"
 rosmaster --core -p "$MSSPR_PORT" >/dev/null 2>&1 &
 MASTER=$!
-trap 'kill $SIM $MASTER 2>/dev/null || true' EXIT
+trap 'kill ${SIM:-} $MASTER 2>/dev/null || true' EXIT
 sleep 1.5
 ROS_NAMESPACE=msspr "$BIN/msspr_sim_node" _republish_timeout:=100.0 >/dev/null 2>&1 &
 SIM=$!
@@ -27,6 +27,17 @@ kill $SIM; wait $SIM 2>/dev/null || true
 ROS_NAMESPACE=msspr "$BIN/msspr_sim_node" _observation_mode:=both _republish_timeout:=100.0 >/dev/null 2>&1 &
 SIM=$!
 ROS_NAMESPACE=msspr "$BIN/msspr_bench_lockstep" --steps 2000 --label both --out "$OUT/lockstep_pixels.json"
+kill $SIM; wait $SIM 2>/dev/null || true
+for mode in state pixels; do
+  CKPT=msspr_policy_node/checkpoints/pointmaze-medium-$mode.pt
+  [ -f "$CKPT" ] && [ -x "$BIN/msspr_policy_node" ] || continue
+  echo "[bench] msspr_policy_node observation -> action over ROS ($mode)"
+  ROS_NAMESPACE=msspr "$BIN/msspr_policy_node" _checkpoint:="$PWD/$CKPT" _observation_mode:=$mode >/dev/null 2>&1 &
+  SIM=$!
+  ROS_NAMESPACE=msspr "$BIN/msspr_bench_policy" --node policy --label $mode --out "$OUT/policy_$mode.json"
+  kill $SIM; wait $SIM 2>/dev/null || true
+done
+SIM=
 if [ -x "$BIN/msspr_bench_core" ]; then
   echo "[bench] msspr_core (training steps/s, act latency, memory)"
   "$BIN/msspr_bench_core" --out "$OUT/core.json"

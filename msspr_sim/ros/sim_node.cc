@@ -74,7 +74,7 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
   diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   if (pixels()) {
     image_pub_ = it_.advertise("camera/image", 10);
-    goal_image_pub_ = it_.advertise("goal_image", 1, /*latch=*/true);
+    goal_image_pub_ = nh_.advertise<sensor_msgs::Image>("goal_image", 1, /*latch=*/true);
   }
   action_sub_ = nh_.subscribe("action", 10, &SimNode::OnAction, this,
                               ros::TransportHints().tcpNoDelay());

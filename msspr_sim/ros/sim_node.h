@@ -83,8 +83,10 @@ class SimNode {
   ros::NodeHandle nh_, pnh_;
   std::unique_ptr<sim::PointMaze> env_;
   image_transport::ImageTransport it_;
-  ros::Publisher obs_pub_, episode_pub_, clock_pub_, diag_pub_;
-  image_transport::Publisher image_pub_, goal_image_pub_;
+  // goal_image is a plain latched publisher: image_transport publishes only to
+  // transports that have a subscriber at that moment, which loses the latch.
+  ros::Publisher obs_pub_, episode_pub_, clock_pub_, diag_pub_, goal_image_pub_;
+  image_transport::Publisher image_pub_;
   ros::Subscriber action_sub_;
   ros::ServiceServer reset_srv_, goal_srv_, pause_srv_;
   tf2_ros::TransformBroadcaster tf_;
