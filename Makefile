@@ -4,8 +4,12 @@ BUILD ?= build
 JOBS ?= 2
 # Debian's catkin needs Debian's python (not a pyenv shim) first on PATH.
 export PATH := /usr/bin:/bin:$(PATH)
+# The devel space (executables, setup.bash) lives at the package root: rosrun
+# ignores everything under <package>/build/.
+DEVEL ?= $(CURDIR)/devel
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
-               -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON
+               -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON \
+               -DCATKIN_DEVEL_PREFIX=$(DEVEL)
 
 .PHONY: all deps configure build test demo bench core clean format
 
@@ -42,4 +46,4 @@ format:
 	find msspr_core msspr_sim msspr_policy_node tests -name '*.h' -o -name '*.cc' | xargs clang-format -i
 
 clean:
-	rm -rf $(BUILD) build-core
+	rm -rf $(BUILD) $(DEVEL) build-core

@@ -10,6 +10,7 @@
 #include <torch/torch.h>
 
 #include "msg_conversion.h"
+#include "ros_params.h"
 #include "msspr/Action.h"
 #include "msspr_core/policy.h"
 
@@ -22,10 +23,7 @@ constexpr size_t kMaxPending = 8;  // pixels: unpaired observations / images kep
 
 template <typename T>
 T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
-  T v = def;
-  pnh.param<T>(name, v, def);
-  ROS_INFO_STREAM_NAMED(kLog, "  " << name << ": " << v);
-  return v;
+  return LoggedParam(pnh, name, def, kLog);
 }
 
 // Percentile q in [0, 1] of the values (nearest rank); NaN when empty.

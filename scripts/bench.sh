@@ -5,7 +5,7 @@ BUILD=${1:-build}
 cd "$(dirname "$0")/.."
 source scripts/ros_env.sh
 OUT=$PWD/$BUILD/bench
-BIN=$PWD/$BUILD/devel/lib/msspr
+BIN=$DEVEL/lib/msspr
 mkdir -p "$OUT"
 echo "[bench] environment (steps/s, frames/s)"
 "$BIN/msspr_bench_env" --out "$OUT/env.json"

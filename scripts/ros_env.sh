@@ -2,15 +2,16 @@
 # port, so that demos, benches and tests never collide with a running roscore.
 export PATH=/usr/bin:/bin:$PATH
 BUILD=${BUILD:-build}
-if [ ! -f "$BUILD/devel/setup.bash" ]; then
-  echo "no $BUILD/devel/setup.bash: run 'make build' first" >&2
+DEVEL=${DEVEL:-$PWD/devel}
+if [ ! -f "$DEVEL/setup.bash" ]; then
+  echo "no $DEVEL/setup.bash: run 'make build' first" >&2
   exit 1
 fi
 # catkin's setup scripts read unset variables: relax -u while sourcing them.
 _msspr_u=$([[ $- == *u* ]] && echo 1 || true)
 set +u
 # shellcheck disable=SC1091
-source "$BUILD/devel/setup.bash"
+source "$DEVEL/setup.bash"
 [ -n "$_msspr_u" ] && set -u
 export ROS_HOME=${ROS_HOME:-$PWD/$BUILD/ros_home}
 export ROS_LOG_DIR=${ROS_LOG_DIR:-$ROS_HOME/log}

@@ -154,7 +154,9 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       std::cout << OptionsToYaml(options);
       return 0;
     }
-    if (data_path.empty()) return usage_error("--data FILE is required (see --help)");
+    if (data_path.empty())
+      return usage_error(std::string("--data FILE is required (see --help)") +
+                         (resume ? "; with --resume too: checkpoints do not hold the dataset" : ""));
     if (out_dir.empty() && !print_options) return usage_error("--out DIR is required (see --help)");
 
     auto load = [&](const std::string& path, bool validation) -> std::shared_ptr<const Dataset> {

@@ -8,6 +8,7 @@
 
 #include "dataset_bag.h"
 #include "msg_conversion.h"
+#include "ros_params.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr_sim/expert.h"
 
@@ -16,10 +17,7 @@ namespace msspr::ros_bridge {
 namespace {
 template <typename T>
 T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
-  T v = def;
-  pnh.param<T>(name, v, def);
-  ROS_INFO_STREAM_NAMED("msspr_sim", "  " << name << ": " << v);
-  return v;
+  return LoggedParam(pnh, name, def, "msspr_sim");
 }
 }  // namespace
 

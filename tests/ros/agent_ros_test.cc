@@ -199,7 +199,7 @@ TEST(TrainCli, KilledMidRunResumesAndFinishes) {
   ASSERT_TRUE(WIFSIGNALED(status)) << "the run finished before it could be killed";
   EXPECT_FALSE(Exists(out + "/policy.pt"));
   // The checkpoint on disk is whole (atomic rename), and the run resumes to the end.
-  const pid_t resumed = StartTrain({"--resume", "--out", out, "--quiet"}, out + ".log2");
+  const pid_t resumed = StartTrain({"--resume", "--data", bag, "--out", out, "--quiet"}, out + ".log2");
   waitpid(resumed, &status, 0);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0) << "see " << out << ".log2";
