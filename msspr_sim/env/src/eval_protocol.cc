@@ -102,13 +102,13 @@ void WriteTextFile(const std::string& path, const std::string& text) {
 void SaveSuccessPlot(const EvalReport& r, const std::string& png_path) {
   const int n = static_cast<int>(r.tasks.size());
   const int bar = 60, gap = 20, left = 50, top = 40, height = 200;
-  const int width = left + n * (bar + gap) + gap + 80;
+  const int width = left + n * (bar + gap) + gap + 110;  // room for the mean label
   cv::Mat img(top + height + 50, width, CV_8UC3, cv::Scalar(255, 255, 255));
   const auto font = cv::FONT_HERSHEY_SIMPLEX;
   cv::putText(img, r.env + " / " + r.agent, {10, 20}, font, 0.45, {0, 0, 0}, 1, cv::LINE_AA);
   for (int k = 0; k <= 4; ++k) {  // grid at 0, 25, 50, 75, 100 %
     const int y = top + height - k * height / 4;
-    cv::line(img, {left, y}, {width - 70, y}, {220, 220, 220}, 1);
+    cv::line(img, {left, y}, {width - 100, y}, {220, 220, 220}, 1);
     cv::putText(img, std::to_string(25 * k), {left - 32, y + 4}, font, 0.4, {80, 80, 80}, 1, cv::LINE_AA);
   }
   for (int i = 0; i < n; ++i) {
@@ -122,10 +122,10 @@ void SaveSuccessPlot(const EvalReport& r, const std::string& png_path) {
                 {0, 0, 0}, 1, cv::LINE_AA);
   }
   const int ym = top + height - static_cast<int>(r.mean_success * height + 0.5);
-  cv::line(img, {left, ym}, {width - 70, ym}, {40, 40, 200}, 2);
+  cv::line(img, {left, ym}, {width - 100, ym}, {40, 40, 200}, 2);
   char mean[48];
   std::snprintf(mean, sizeof mean, "mean %.0f%%", 100 * r.mean_success);
-  cv::putText(img, mean, {width - 68, ym + 4}, font, 0.45, {40, 40, 200}, 1, cv::LINE_AA);
+  cv::putText(img, mean, {width - 96, ym + 4}, font, 0.45, {40, 40, 200}, 1, cv::LINE_AA);
   MakeParentDirs(png_path);
   if (!cv::imwrite(png_path, img)) throw std::runtime_error(png_path + ": cannot write PNG");
 }
