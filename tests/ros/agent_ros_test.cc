@@ -149,7 +149,9 @@ TEST(MazeEvaluator, DeterministicAndSane) {
       const size_t len = a.paths[t][e].size();
       EXPECT_GE(len, 2u);
       EXPECT_LE(len, 301u);
-      if (!a.episode_success[t][e]) EXPECT_EQ(len, 301u);  // a failure ran to the step limit
+      if (!a.episode_success[t][e]) {
+        EXPECT_EQ(len, 301u);  // a failure ran to the step limit
+      }
     }
   opt.tasks = {7};
   EXPECT_THROW(EvaluateOnMaze(policy, opt), std::invalid_argument);
