@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "msspr_core/checkpoint.h"
+#include "module_io.h"
 
 namespace msspr {
 namespace core {
@@ -29,13 +30,9 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(file.payload.data(), file.payload.size(), device);
-    torch::serialize::InputArchive sub;
-    archive.read("repr", sub);
-    repr->load(sub);
-    archive.read("actor", sub);
-    actor->load(sub);
-    archive.read("critic", sub);
-    critic->load(sub);
+    ReadModule(archive, "repr", *repr);
+    ReadModule(archive, "actor", *actor);
+    ReadModule(archive, "critic", *critic);
   } catch (const c10::Error& e) {
     throw CheckpointError(path + ": cannot read networks: " + e.what_without_backtrace());
   }

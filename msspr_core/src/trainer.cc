@@ -9,6 +9,7 @@
 
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/progress.h"
+#include "module_io.h"
 
 #include <sstream>
 
@@ -473,20 +474,6 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
 }
 
 namespace {
-
-void WriteModule(torch::serialize::OutputArchive& archive, const std::string& key,
-                 const torch::nn::Module& module) {
-  torch::serialize::OutputArchive sub;
-  module.save(sub);
-  archive.write(key, sub);
-}
-
-void ReadModule(torch::serialize::InputArchive& archive, const std::string& key,
-                torch::nn::Module& module) {
-  torch::serialize::InputArchive sub;
-  archive.read(key, sub);
-  module.load(sub);
-}
 
 // The network section alone, to check that a checkpoint fits this trainer.
 std::string NetworkYaml(const NetworkOptions& n) {
