@@ -21,7 +21,17 @@ MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer
   register_module("net", net);
 }
 
-torch::Tensor MlpImpl::forward(const torch::Tensor& x) { return net->forward(x); }
+torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
+  // Under bf16 autocast (trainer.precision) a Linear returns bfloat16, and
+  // LayerNorm (fp32 weights) is computed in fp32: its input is cast up here.
+  // In fp32 the casts are no-ops.
+  torch::Tensor h = x;
+  for (auto& layer : *net) {
+    if (layer.ptr()->as<nn::LayerNorm>()) h = h.to(torch::kFloat32);
+    h = layer.forward(h);
+  }
+  return h;
+}
 
 std::vector<std::string> MlpImpl::LayerKinds() const {
   std::vector<std::string> kinds;
@@ -48,18 +58,34 @@ torch::Tensor ResidualBlockImpl::forward(const torch::Tensor& x) {
   return x1 + x2;
 }
 
-ImpalaCnnImpl::ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps) {
+ImpalaCnnImpl::ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps, int64_t in_size) {
   block1 = register_module("block1", ResidualBlock(in_channels, 16));
   block2 = register_module("block2", ResidualBlock(16, 32));
   block3 = register_module("block3", ResidualBlock(32, 32));
-  fc = register_module("fc", Mlp(std::vector<int64_t>{2048, out_dim}, true, true, eps));
+  const int64_t side = (in_size + 7) / 8;  // three maxpools (3, stride 2, pad 1)
+  fc = register_module("fc", Mlp(std::vector<int64_t>{32 * side * side, out_dim}, true, true, eps));
 }
 
-torch::Tensor ImpalaCnnImpl::forward(const torch::Tensor& images) {
-  TORCH_CHECK(images.dim() == 4, "ImpalaCnn expects [B, H, W, C] images, got ", images.sizes());
-  torch::Tensor x = images.permute({0, 3, 1, 2}).to(torch::kFloat32).div(255.0);  // [B, C, H, W]
-  x = block3->forward(block2->forward(block1->forward(x)));
-  return fc->forward(x.flatten(1));
+torch::Tensor ImpalaCnnImpl::forward(const torch::Tensor& x) {
+  return fc->forward(block3->forward(block2->forward(block1->forward(x))).flatten(1));
+}
+
+LightCnnImpl::LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim, double eps) {
+  auto conv = [](int64_t in, int64_t out) {
+    return nn::Conv2d(nn::Conv2dOptions(in, out, 3).stride(2).padding(1));
+  };
+  conv1 = register_module("conv1", conv(in_channels, 16));
+  conv2 = register_module("conv2", conv(16, 32));
+  conv3 = register_module("conv3", conv(32, 32));
+  const int64_t side = (in_size + 7) / 8;
+  fc = register_module("fc", Mlp(std::vector<int64_t>{32 * side * side, out_dim}, true, true, eps));
+}
+
+torch::Tensor LightCnnImpl::forward(const torch::Tensor& x) {
+  torch::Tensor h = torch::relu(conv1->forward(x));
+  h = torch::relu(conv2->forward(h));
+  h = torch::relu(conv3->forward(h));
+  return fc->forward(h.flatten(1));
 }
 
 namespace {
@@ -71,9 +97,15 @@ std::vector<int64_t> Sizes(int64_t in, int64_t hidden, int64_t layers, int64_t o
 }
 }  // namespace
 
-StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) {
+StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) : downsample(o.image_downsample) {
   if (o.obs_mode == "pixels") {
-    cnn = register_module("cnn", ImpalaCnn(o.image_channels * o.frame_stack, o.zs_dim, o.layer_norm_eps));
+    const int64_t channels = int64_t{o.image_channels} * o.frame_stack;
+    const int64_t side = o.image_height / std::max(1, o.image_downsample);
+    if (o.cnn == "light") {
+      light_cnn = register_module("light_cnn", LightCnn(channels, side, o.zs_dim, o.layer_norm_eps));
+    } else {
+      cnn = register_module("cnn", ImpalaCnn(channels, o.zs_dim, o.layer_norm_eps, side));
+    }
   } else {
     mlp = register_module("mlp", Mlp(Sizes(o.obs_dim, o.encoder_hidden, o.encoder_layers, o.zs_dim),
                                      true, true, o.layer_norm_eps));
@@ -81,7 +113,14 @@ StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) {
 }
 
 torch::Tensor StateEncoderImpl::forward(const torch::Tensor& obs) {
-  return cnn ? cnn->forward(obs) : mlp->forward(obs);
+  if (mlp) return mlp->forward(obs);
+  TORCH_CHECK(obs.dim() == 4, "StateEncoder expects [B, H, W, C] uint8 images, got ", obs.sizes());
+  // uint8 HWC -> float NCHW in [0, 1]; average-pooled by `downsample` (the
+  // sum of each d x d block, scaled once).
+  torch::Tensor x = obs.permute({0, 3, 1, 2}).to(torch::kFloat32);
+  if (downsample > 1) x = torch::avg_pool2d(x, {downsample, downsample});
+  x = x.div(255.0);
+  return light_cnn ? light_cnn->forward(x) : cnn->forward(x);
 }
 
 GoalHeadImpl::GoalHeadImpl(const NetworkOptions& o) : length_normalize(o.length_normalize) {
@@ -90,7 +129,7 @@ GoalHeadImpl::GoalHeadImpl(const NetworkOptions& o) : length_normalize(o.length_
 }
 
 torch::Tensor GoalHeadImpl::forward(const torch::Tensor& zs, const torch::Tensor& zg) {
-  torch::Tensor x = mlp->forward(torch::cat({zs, zg}, -1));
+  torch::Tensor x = mlp->forward(torch::cat({zs, zg}, -1)).to(torch::kFloat32);
   if (!length_normalize) return x;
   const double scale = std::sqrt(static_cast<double>(x.size(-1)));
   return x / x.norm(2, -1, true).clamp_min(1e-6) * scale;

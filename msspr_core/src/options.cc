@@ -195,6 +195,10 @@ void ValidateOptions(const MsprOptions& o) {
   Require(n.action_dim > 0, "network.action_dim must be > 0");
   Require(n.obs_mode != "pixels" || (n.image_height == 64 && n.image_width == 64),
           "network.image_height/width must be 64 (Impala CNN small)");
+  Require(n.cnn == "impala" || n.cnn == "light",
+          "network.cnn must be 'impala' or 'light', got '" + n.cnn + "'");
+  Require(n.image_downsample == 1 || n.image_downsample == 2 || n.image_downsample == 4,
+          "network.image_downsample must be 1, 2 or 4");
   Require(n.image_channels > 0 && n.frame_stack > 0, "network.image_channels/frame_stack must be > 0");
   Require(n.encoder_hidden > 0 && n.encoder_layers >= 0 && n.zs_dim > 0 && n.za_dim > 0 &&
               n.zsa_hidden > 0 && n.zsa_dim > 0 && n.goal_hidden > 0 && n.goal_dim > 0 &&
@@ -209,6 +213,7 @@ void ValidateOptions(const MsprOptions& o) {
           "representation.reward_loss must be 'two_hot' or 'mse'");
   Require(r.updates_per_step >= 0, "representation.updates_per_step must be >= 0");
   Require(r.augment_prob >= 0 && r.augment_prob <= 1, "representation.augment_prob in [0, 1]");
+  Require(r.augment_pad >= 0 && r.augment_pad < 32, "representation.augment_pad must be in [0, 32)");
   const AgentOptions& a = o.agent;
   Require(a.gamma > 0 && a.gamma < 1, "agent.gamma must be in (0, 1)");
   Require(a.n_step >= 1, "agent.n_step must be >= 1");
@@ -219,6 +224,8 @@ void ValidateOptions(const MsprOptions& o) {
   Require(std::abs(l.actor_p_curgoal + l.actor_p_trajgoal + l.actor_p_randomgoal - 1.0) < 1e-6,
           "relabel.actor_p_* must sum to 1");
   Require(o.trainer.batch_size > 0, "trainer.batch_size must be > 0");
+  Require(o.trainer.precision == "fp32" || o.trainer.precision == "bf16",
+          "trainer.precision must be 'fp32' or 'bf16', got '" + o.trainer.precision + "'");
 }
 
 }  // namespace core

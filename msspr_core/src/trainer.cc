@@ -1,6 +1,10 @@
 #include "msspr_core/trainer.h"
 
+#include <ATen/autocast_mode.h>
 #include <sys/stat.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -23,11 +27,6 @@ void ClearGrads(torch::nn::Module& m) {
   for (auto& p : m.parameters()) p.mutable_grad() = torch::Tensor();
 }
 
-// Mean of per-sample losses over the samples with mask 1: [B], [B] -> [].
-torch::Tensor MaskedMean(const torch::Tensor& values, const torch::Tensor& mask) {
-  return (values * mask).sum() / mask.sum().clamp_min(1.0);
-}
-
 torch::Tensor Huber(const torch::Tensor& diff, double delta) {
   const torch::Tensor a = diff.abs();
   return torch::where(a <= delta, 0.5 * diff * diff, delta * (a - 0.5 * delta));
@@ -45,6 +44,60 @@ void ShiftImage(uint8_t* img, int h, int w, int c, int dy, int dx, std::vector<u
       std::memcpy(img + (int64_t{y} * w + x) * c, src + (int64_t{sy} * w + sx) * c, c);
     }
   }
+}
+
+// Per-step masked means summed over the steps: values and mask [H, B] -> [].
+torch::Tensor SumOfMaskedMeans(const torch::Tensor& values, const torch::Tensor& mask) {
+  return ((values * mask).sum(1) / mask.sum(1).clamp_min(1.0)).sum();
+}
+
+// trainer.precision = bf16: matrix products and convolutions run in
+// bfloat16 inside this scope (autocast); backward runs outside it, as
+// PyTorch recommends. A no-op for fp32.
+class PrecisionScope {
+ public:
+  PrecisionScope(bool bf16, const torch::Device& device) : bf16_(bf16), cuda_(device.is_cuda()) {
+    if (!bf16_) return;
+    if (cuda_) {
+      prev_ = at::autocast::is_enabled();
+      at::autocast::set_autocast_gpu_dtype(at::kBFloat16);
+      at::autocast::set_enabled(true);
+    } else {
+      prev_ = at::autocast::is_cpu_enabled();
+      at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
+      at::autocast::set_cpu_enabled(true);
+    }
+  }
+  ~PrecisionScope() {
+    if (!bf16_) return;
+    if (cuda_) at::autocast::set_enabled(prev_);
+    else at::autocast::set_cpu_enabled(prev_);
+    at::autocast::clear_cache();
+  }
+  PrecisionScope(const PrecisionScope&) = delete;
+  PrecisionScope& operator=(const PrecisionScope&) = delete;
+
+ private:
+  bool bf16_, cuda_, prev_ = false;
+};
+
+torch::Tensor F32(const torch::Tensor& t) { return t.to(torch::kFloat32); }
+
+// glibc serves blocks over 128 KiB-32 MiB (its adaptive threshold) with
+// mmap and returns them on free, so every step's activations are fresh pages
+// that the kernel zero-fills: measured, half of a CPU-scale step (132 ms ->
+// 69 ms in bf16 at 1 thread). Keep freed memory in the heap instead. The
+// process's resident memory stays at its peak, which the trainer reaches in
+// its first steps anyway. Process-wide; done once.
+void KeepFreedMemoryInHeap() {
+#if defined(__GLIBC__)
+  static const bool done = [] {
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's maximum
+    mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    return true;
+  }();
+  (void)done;
+#endif
 }
 
 void MakeDirs(const std::string& dir) {
@@ -72,6 +125,7 @@ Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data
       rng_(options.trainer.seed),
       gen_(at::make_generator<at::CPUGeneratorImpl>(options.trainer.seed)) {
   if (!data_) throw OptionsError("Trainer: no dataset");
+  KeepFreedMemoryInHeap();
   NetworkOptions& n = options_.network;
   if (n.action_dim == 0) n.action_dim = data_->action_dim();
   if (n.obs_mode == "state" && n.obs_dim == 0) n.obs_dim = data_->obs_dim();
@@ -126,8 +180,7 @@ torch::Tensor Trainer::ToDevice(const torch::Tensor& cpu) const {
   return device_.is_cpu() ? cpu : cpu.to(device_, /*non_blocking=*/false);
 }
 
-torch::Tensor Trainer::GatherObs(const Dataset& data, const std::vector<int64_t>& idx,
-                                 bool augment) {
+torch::Tensor Trainer::GatherObs(const Dataset& data, const std::vector<int64_t>& idx) const {
   const int64_t n = static_cast<int64_t>(idx.size());
   const NetworkOptions& o = options_.network;
   if (o.obs_mode == "state") {
@@ -137,32 +190,67 @@ torch::Tensor Trainer::GatherObs(const Dataset& data, const std::vector<int64_t>
   }
   const int c = o.image_channels * o.frame_stack;
   torch::Tensor t = torch::empty({n, o.image_height, o.image_width, c}, torch::kUInt8);
-  uint8_t* out = t.data_ptr<uint8_t>();
-  data.GatherImages(idx.data(), n, o.frame_stack, out);
+  data.GatherImages(idx.data(), n, o.frame_stack, t.data_ptr<uint8_t>());
+  return t;
+}
+
+std::vector<std::pair<int, int>> Trainer::DrawShifts(int64_t batch) {
+  // As OGBench: one Bernoulli draw decides for the whole batch, then one
+  // random shift per sample.
   const RepresentationOptions& r = options_.representation;
-  if (augment && r.augment_prob > 0) {
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    std::uniform_int_distribution<int> shift(-r.augment_pad, r.augment_pad);
-    std::vector<uint8_t> scratch;
-    const int64_t stride = int64_t{o.image_height} * o.image_width * c;
-    for (int64_t k = 0; k < n; ++k) {
-      if (unit(rng_) >= r.augment_prob) continue;
-      const int dy = shift(rng_), dx = shift(rng_);
-      ShiftImage(out + k * stride, o.image_height, o.image_width, c, dy, dx, &scratch);
+  std::vector<std::pair<int, int>> shifts;
+  if (options_.network.obs_mode != "pixels" || r.augment_prob <= 0) return shifts;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  if (unit(rng_) >= r.augment_prob) return shifts;
+  std::uniform_int_distribution<int> shift(-r.augment_pad, r.augment_pad);
+  shifts.resize(batch);
+  for (auto& s : shifts) {
+    s.first = shift(rng_);
+    s.second = shift(rng_);
+  }
+  return shifts;
+}
+
+static void ShiftSampleImages(const std::vector<std::pair<int, int>>& shifts,
+                       const std::vector<torch::Tensor*>& images) {
+  // images: tensors of [B * n, H, W, C] uint8, the n images of sample k in
+  // rows k * n .. k * n + n - 1; each gets sample k's shift.
+  if (shifts.empty()) return;
+  const int64_t b = static_cast<int64_t>(shifts.size());
+  std::vector<uint8_t> scratch;
+  for (torch::Tensor* t : images) {
+    TORCH_CHECK(t->dim() == 4 && t->scalar_type() == torch::kUInt8 && t->is_contiguous() &&
+                    t->size(0) % b == 0,
+                "ShiftSampleImages: expects contiguous uint8 [B * n, H, W, C] images");
+    const int64_t per_sample = t->size(0) / b;  // the sample's images are consecutive rows
+    const int h = t->size(1), w = t->size(2), c = t->size(3);
+    const int64_t stride = int64_t{h} * w * c;
+    uint8_t* data = t->data_ptr<uint8_t>();
+    for (int64_t k = 0; k < b; ++k) {
+      const auto [dy, dx] = shifts[k];
+      if (dy == 0 && dx == 0) continue;
+      for (int64_t j = 0; j < per_sample; ++j) {
+        ShiftImage(data + (k * per_sample + j) * stride, h, w, c, dy, dx, &scratch);
+      }
     }
   }
-  return t;
 }
 
 TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool augment,
                                              const Dataset* data) {
   const Dataset& d = data ? *data : *data_;
   const int64_t b = static_cast<int64_t>(idx.idx.size());
+  torch::Tensor obs = GatherObs(d, idx.idx), next_obs = GatherObs(d, idx.next_idx);
+  torch::Tensor value_goal = GatherObs(d, idx.value_goal), actor_goal = GatherObs(d, idx.actor_goal);
+  if (augment) {
+    // One shift per sample, shared by its observation, next observation and goals.
+    ShiftSampleImages(DrawShifts(b), {&obs, &next_obs, &value_goal, &actor_goal});
+  }
   TransitionBatch batch;
-  batch.obs = ToDevice(GatherObs(d, idx.idx, augment));
-  batch.next_obs = ToDevice(GatherObs(d, idx.next_idx, augment));
-  batch.value_goal = ToDevice(GatherObs(d, idx.value_goal, false));
-  batch.actor_goal = ToDevice(GatherObs(d, idx.actor_goal, false));
+  batch.obs = ToDevice(obs);
+  batch.next_obs = ToDevice(next_obs);
+  batch.value_goal = ToDevice(value_goal);
+  batch.actor_goal = ToDevice(actor_goal);
   torch::Tensor act = torch::empty({b, d.action_dim()}, torch::kFloat32);
   d.GatherActions(idx.idx.data(), b, act.data_ptr<float>());
   batch.action = ToDevice(act);
@@ -176,9 +264,11 @@ ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const 
   const Dataset& d = data ? *data : *data_;
   const int64_t b = idx.batch, l = idx.num_states, a = idx.num_actions;
   ChunkBatch batch;
-  torch::Tensor states = GatherObs(d, idx.states, augment);  // [B * L, ...]
+  torch::Tensor states = GatherObs(d, idx.states);  // [B * L, ...], sample-major
+  torch::Tensor goal = GatherObs(d, idx.goal);      // [B, ...]
+  if (augment) ShiftSampleImages(DrawShifts(b), {&states, &goal});
   std::vector<int64_t> shape{b, l};
-  for (int64_t d = 1; d < states.dim(); ++d) shape.push_back(states.size(d));
+  for (int64_t j = 1; j < states.dim(); ++j) shape.push_back(states.size(j));
   batch.states = ToDevice(states.view(shape));
   batch.state_mask = ToDevice(
       torch::from_blob(const_cast<float*>(idx.state_mask.data()), {b, l}, torch::kFloat32).clone());
@@ -187,7 +277,7 @@ ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const 
   batch.actions = ToDevice(act.view({b, a, d.action_dim()}));
   batch.action_mask = ToDevice(
       torch::from_blob(const_cast<float*>(idx.action_mask.data()), {b, a}, torch::kFloat32).clone());
-  batch.goal = ToDevice(GatherObs(d, idx.goal, false));
+  batch.goal = ToDevice(goal);
   batch.mc_return = ToDevice(
       torch::from_blob(const_cast<float*>(idx.mc_return.data()), {b, idx.horizon}, torch::kFloat32)
           .clone());
@@ -204,59 +294,92 @@ ChunkBatch Trainer::SampleChunks() {
   return MakeChunkBatch(sampler_->SampleChunks(options_.trainer.batch_size, rng_), augment);
 }
 
+bool Trainer::bf16() const { return options_.trainer.precision == "bf16"; }
+
 torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
   const RepresentationOptions& r = options_.representation;
   const int64_t k = options_.network.goal_horizon;
   const int64_t b = batch.states.size(0), l = batch.states.size(1);
   const int64_t horizon = batch.mc_return.size(1);
   auto& pred = repr_->predictors;
+  // Terms with weight 0 (the ablations D, DI, DIR) are not computed; the goal
+  // head is only needed by the reward and goal-level terms.
+  const bool use_rew = r.weight_rew != 0, use_inv = r.weight_inv != 0;
+  const bool use_gdyn = r.weight_goal_dyn != 0, use_gact = r.weight_goal_act != 0;
+  const bool use_goal = use_rew || use_gdyn || use_gact;
 
-  torch::Tensor targets;  // [B, L, zs] target-encoder latents of the chunk's states
+  torch::Tensor targets;  // [B, L - 1, zs] target-encoder latents of s_1..s_{L-1}
   {
     torch::NoGradGuard no_grad;
-    targets = target_repr_->state_encoder->forward(batch.states.flatten(0, 1)).view({b, l, -1});
+    targets = F32(target_repr_->state_encoder->forward(batch.states.narrow(1, 1, l - 1).flatten(0, 1)))
+                  .view({b, l - 1, -1});
   }
-  torch::Tensor zg = repr_->state_encoder->forward(batch.goal);                          // [B, zs]
-  torch::Tensor z = repr_->state_encoder->forward(batch.states.select(1, 0));            // [B, zs]
-  torch::Tensor total = torch::zeros({}, z.options());
-  torch::Tensor terms = torch::zeros({5}, z.options());  // detached sums over h, for logging
+  // One encoder call for the chunk's first state and the goal.
+  torch::Tensor z, zg;
+  if (use_goal) {
+    const torch::Tensor both =
+        repr_->state_encoder->forward(torch::cat({batch.states.select(1, 0), batch.goal}, 0));
+    z = both.narrow(0, 0, b);
+    zg = both.narrow(0, b, b);
+  } else {
+    z = repr_->state_encoder->forward(batch.states.select(1, 0));
+  }
+  // The latent unroll is sequential: z^{h+1} = f_dyn(E_sa(z^h, a_h)).
+  // Everything else is computed for all h at once on [H * B] rows.
+  std::vector<torch::Tensor> zs_list{z}, zsa_list;
   for (int64_t h = 0; h < horizon; ++h) {
-    const torch::Tensor a_h = batch.actions.select(1, h);      // [B, act]
-    const torch::Tensor m_h = batch.action_mask.select(1, h);  // [B]
-    const torch::Tensor grep = repr_->goal_head->forward(z, zg);  // [B, goal]
-    const torch::Tensor zsa = repr_->Zsa(z, a_h);                 // [B, zsa]
-    const torch::Tensor z_next = pred->Dynamics(zsa);             // [B, zs]
-    const torch::Tensor target_next = targets.select(1, h + 1);   // [B, zs]
+    zsa_list.push_back(repr_->Zsa(zs_list.back(), batch.actions.select(1, h)));
+    zs_list.push_back(pred->Dynamics(zsa_list.back()));
+  }
+  const torch::Tensor z_h = torch::cat(std::vector<torch::Tensor>(zs_list.begin(), zs_list.end() - 1), 0);  // [H*B, zs]
+  const torch::Tensor z_next = F32(torch::cat(std::vector<torch::Tensor>(zs_list.begin() + 1, zs_list.end()), 0));
+  const torch::Tensor mask = batch.action_mask.narrow(1, 0, horizon).t();  // [H, B]
+  const torch::Tensor target_next = targets.narrow(1, 0, horizon).transpose(0, 1).reshape({horizon * b, -1});
 
-    const torch::Tensor dyn = MaskedMean((z_next - target_next).pow(2).mean(-1), m_h);
-    const torch::Tensor inv =
-        MaskedMean((pred->Inverse(z, target_next) - a_h).pow(2).mean(-1), m_h);
-    const torch::Tensor logits = pred->Reward(zsa, grep);  // [B, bins]
-    const torch::Tensor ret = batch.mc_return.select(1, h);  // [B]
-    torch::Tensor rew;
+  const auto per_h = [&](const torch::Tensor& v) { return v.view({horizon, b}); };
+  const torch::Tensor zero = torch::zeros({}, z_next.options());
+  const torch::Tensor dyn = SumOfMaskedMeans(per_h((z_next - target_next).pow(2).mean(-1)), mask);
+  torch::Tensor inv = zero, rew = zero, gdyn = zero, gact = zero;
+  if (use_inv) {
+    const torch::Tensor a_true = batch.actions.narrow(1, 0, horizon).transpose(0, 1).reshape({horizon * b, -1});
+    inv = SumOfMaskedMeans(per_h((F32(pred->Inverse(z_h, target_next)) - a_true).pow(2).mean(-1)), mask);
+  }
+  torch::Tensor grep;
+  if (use_goal) grep = repr_->goal_head->forward(z_h, zg.repeat({horizon, 1}));  // [H*B, goal]
+  if (use_rew) {
+    const torch::Tensor logits = F32(pred->Reward(torch::cat(zsa_list, 0), grep));  // [H*B, bins]
+    const torch::Tensor ret = batch.mc_return.t().reshape({horizon * b});
+    torch::Tensor per;
     if (r.reward_loss == "mse") {
-      rew = MaskedMean((TwoHotDecode(logits, bins_) - ret).pow(2), m_h);
+      per = (TwoHotDecode(logits, bins_) - ret).pow(2);
     } else {
       const torch::Tensor two_hot = TwoHotEncode(ret, bins_, -1.0 / (1.0 - options_.agent.gamma), 0.0);
-      rew = MaskedMean(-(two_hot * torch::log_softmax(logits, -1)).sum(-1), m_h);
+      per = -(two_hot * torch::log_softmax(logits, -1)).sum(-1);
     }
-    const torch::Tensor gd_mask = batch.state_mask.select(1, h + k);  // [B]
-    const torch::Tensor gdyn = MaskedMean(
-        (pred->GoalDynamics(z, grep) - targets.select(1, h + k)).pow(2).mean(-1), gd_mask);
-    const torch::Tensor ga_pred = pred->GoalActions(z, grep);           // [B, k, act]
-    const torch::Tensor ga_true = batch.actions.narrow(1, h, k);         // [B, k, act]
-    const torch::Tensor ga_mask = batch.action_mask.narrow(1, h, k);     // [B, k]
-    const torch::Tensor gact = (ga_pred - ga_true).pow(2).mean(-1).mul(ga_mask).sum() /
-                               ga_mask.sum().clamp_min(1.0);
-
-    total = total + r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv +
-            r.weight_goal_dyn * gdyn + r.weight_goal_act * gact;
-    if (info) terms = terms + torch::stack({dyn, rew, inv, gdyn, gact}).detach();
-    z = z_next;
+    rew = SumOfMaskedMeans(per_h(per), mask);
   }
+  if (use_gdyn) {
+    const torch::Tensor target_k = targets.narrow(1, k - 1, horizon).transpose(0, 1).reshape({horizon * b, -1});
+    const torch::Tensor gd_mask = batch.state_mask.narrow(1, k, horizon).t();  // [H, B]
+    gdyn = SumOfMaskedMeans(per_h((F32(pred->GoalDynamics(z_h, grep)) - target_k).pow(2).mean(-1)), gd_mask);
+  }
+  if (use_gact) {
+    std::vector<torch::Tensor> windows, masks;
+    for (int64_t h = 0; h < horizon; ++h) {
+      windows.push_back(batch.actions.narrow(1, h, k));     // [B, k, act]
+      masks.push_back(batch.action_mask.narrow(1, h, k));   // [B, k]
+    }
+    const torch::Tensor ga_true = torch::cat(windows, 0);   // [H*B, k, act]
+    const torch::Tensor ga_mask = torch::stack(masks, 0);   // [H, B, k]
+    const torch::Tensor err = (F32(pred->GoalActions(z_h, grep)) - ga_true).pow(2).mean(-1).view({horizon, b, k});
+    gact = ((err * ga_mask).sum({1, 2}) / ga_mask.sum({1, 2}).clamp_min(1.0)).sum();
+  }
+  const torch::Tensor total = r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv +
+                              r.weight_goal_dyn * gdyn + r.weight_goal_act * gact;
   if (info) {
     // One device-to-host copy (a sync on GPU) instead of one per term.
-    const torch::Tensor host = torch::cat({terms, total.detach().view({1})}).to(torch::kCPU, torch::kFloat64);
+    const torch::Tensor host =
+        torch::stack({dyn, rew, inv, gdyn, gact, total}).detach().to(torch::kCPU, torch::kFloat64);
     const double* v = host.data_ptr<double>();
     info->dyn = v[0];
     info->rew = v[1];
@@ -268,83 +391,154 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
   return total;
 }
 
+Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& batch) {
+  // One call of the online encoder over observation, value goal and actor
+  // goal (no gradient: actor and critic read the encoders detached).
+  torch::NoGradGuard no_grad;
+  const int64_t b = batch.obs.size(0);
+  const torch::Tensor z =
+      repr_->state_encoder->forward(torch::cat({batch.obs, batch.value_goal, batch.actor_goal}, 0));
+  TransitionLatents lat;
+  lat.zs = z.narrow(0, 0, b);
+  lat.z_value_goal = z.narrow(0, b, b);
+  lat.z_actor_goal = z.narrow(0, 2 * b, b);
+  return lat;
+}
+
 torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
                                   LossInfo* info) {
+  if (options_.agent.critic_grad_to_encoder && torch::GradMode::is_enabled()) {
+    return CriticLoss(batch, nullptr, noise, info);
+  }
+  const TransitionLatents lat = EncodeTransitions(batch);
+  return CriticLoss(batch, &lat, noise, info);
+}
+
+torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
+                                  const torch::Tensor& noise, LossInfo* info) {
   const AgentOptions& a = options_.agent;
+  const int64_t b = batch.obs.size(0);
   torch::Tensor y;  // [B] TD target
   {
     torch::NoGradGuard no_grad;
-    const torch::Tensor zs_next = target_repr_->state_encoder->forward(batch.next_obs);
-    const torch::Tensor zg = target_repr_->state_encoder->forward(batch.value_goal);
+    const torch::Tensor z = target_repr_->state_encoder->forward(torch::cat({batch.next_obs, batch.value_goal}, 0));
+    const torch::Tensor zs_next = z.narrow(0, 0, b), zg = z.narrow(0, b, b);
     const torch::Tensor grep_next = target_repr_->goal_head->forward(zs_next, zg);
     const torch::Tensor eps =
         (noise.to(device_) * a.target_noise).clamp(-a.target_noise_clip, a.target_noise_clip);
-    const torch::Tensor a_next = (target_actor_->forward(zs_next, grep_next) + eps).clamp(-1.0, 1.0);
-    const torch::Tensor q_next =
-        std::get<0>(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next).min(-1));
+    const torch::Tensor a_next = (F32(target_actor_->forward(zs_next, grep_next)) + eps).clamp(-1.0, 1.0);
+    const torch::Tensor q_next = std::get<0>(
+        F32(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next)).min(-1));
     y = batch.ret + batch.discount * q_next;
     if (a.clip_target) y = y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
   }
   torch::Tensor zsa, grep;
-  {
-    // Decoupled by default: the critic reads the encoders' outputs detached.
-    torch::AutoGradMode grad_mode(a.critic_grad_to_encoder && torch::GradMode::is_enabled());
-    const torch::Tensor zs = repr_->state_encoder->forward(batch.obs);
-    const torch::Tensor zg = repr_->state_encoder->forward(batch.value_goal);
-    grep = repr_->goal_head->forward(zs, zg);
-    zsa = repr_->Zsa(zs, batch.action);
+  if (lat) {
+    torch::NoGradGuard no_grad;
+    grep = repr_->goal_head->forward(lat->zs, lat->z_value_goal);
+    zsa = repr_->Zsa(lat->zs, batch.action);
+  } else {
+    // The critic's gradient reaches the encoders (agent.critic_grad_to_encoder).
+    const torch::Tensor z = repr_->state_encoder->forward(torch::cat({batch.obs, batch.value_goal}, 0));
+    grep = repr_->goal_head->forward(z.narrow(0, 0, b), z.narrow(0, b, b));
+    zsa = repr_->Zsa(z.narrow(0, 0, b), batch.action);
   }
-  const torch::Tensor q = critic_->forward(zsa, grep);  // [B, 2]
+  const torch::Tensor q = F32(critic_->forward(zsa, grep));  // [B, 2]
   const torch::Tensor loss = Huber(q - y.unsqueeze(-1), a.huber_delta).mean(0).sum();
   if (info) {
-    info->critic = loss.item<double>();
-    info->q_mean = q.mean().item<double>();
+    const torch::Tensor host = torch::stack({loss.detach(), q.detach().mean()}).to(torch::kCPU, torch::kFloat64);
+    info->critic = host[0].item<double>();
+    info->q_mean = host[1].item<double>();
   }
   return loss;
 }
 
 torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, LossInfo* info) {
+  const TransitionLatents lat = EncodeTransitions(batch);
+  return ActorLoss(batch, lat, info);
+}
+
+torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat,
+                                 LossInfo* info) {
   const AgentOptions& a = options_.agent;
-  torch::Tensor zs, grep;
+  torch::Tensor grep;
   {
     torch::NoGradGuard no_grad;
-    zs = repr_->state_encoder->forward(batch.obs);
-    const torch::Tensor zg = repr_->state_encoder->forward(batch.actor_goal);
-    grep = repr_->goal_head->forward(zs, zg);
+    grep = repr_->goal_head->forward(lat.zs, lat.z_actor_goal);
   }
-  const torch::Tensor pi = actor_->forward(zs, grep);  // [B, act]
-  const torch::Tensor q = std::get<0>(critic_->forward(repr_->Zsa(zs, pi), grep).min(-1));  // [B]
+  const torch::Tensor pi = F32(actor_->forward(lat.zs, grep));  // [B, act]
+  const torch::Tensor q = std::get<0>(F32(critic_->forward(repr_->Zsa(lat.zs, pi), grep)).min(-1));  // [B]
   const torch::Tensor scale = q.abs().mean().detach().clamp_min(1e-6);
   const torch::Tensor q_loss = -q.mean() / scale;
   const torch::Tensor bc = (pi - batch.action).pow(2).sum(-1).mean();
   const torch::Tensor loss = q_loss + a.bc_weight * bc;
   if (info) {
-    info->actor = loss.item<double>();
-    info->bc = bc.item<double>();
+    const torch::Tensor host = torch::stack({loss.detach(), bc.detach()}).to(torch::kCPU, torch::kFloat64);
+    info->actor = host[0].item<double>();
+    info->bc = host[1].item<double>();
   }
   return loss;
 }
 
 void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
   ClearGrads(*repr_);
-  RepresentationLoss(batch, info).backward();
+  torch::Tensor loss;
+  {
+    PrecisionScope precision(bf16(), device_);
+    loss = RepresentationLoss(batch, info);
+  }
+  loss.backward();
   repr_opt_->step();
 }
 
 void Trainer::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& noise,
                            LossInfo* info) {
-  ClearGrads(*critic_);
   const bool through = options_.agent.critic_grad_to_encoder;
+  if (through) {
+    UpdateCritic(batch, nullptr, noise, info);
+    return;
+  }
+  TransitionLatents lat;
+  {
+    PrecisionScope precision(bf16(), device_);
+    lat = EncodeTransitions(batch);
+  }
+  UpdateCritic(batch, &lat, noise, info);
+}
+
+void Trainer::UpdateCritic(const TransitionBatch& batch, const TransitionLatents* lat,
+                           const torch::Tensor& noise, LossInfo* info) {
+  ClearGrads(*critic_);
+  const bool through = lat == nullptr;
   if (through) ClearGrads(*repr_);
-  CriticLoss(batch, noise, info).backward();
+  torch::Tensor loss;
+  {
+    PrecisionScope precision(bf16(), device_);
+    loss = CriticLoss(batch, lat, noise, info);
+  }
+  loss.backward();
   critic_opt_->step();
   if (through) repr_opt_->step();
 }
 
 void Trainer::UpdateActor(const TransitionBatch& batch, LossInfo* info) {
+  TransitionLatents lat;
+  {
+    PrecisionScope precision(bf16(), device_);
+    lat = EncodeTransitions(batch);
+  }
+  UpdateActor(batch, lat, info);
+}
+
+void Trainer::UpdateActor(const TransitionBatch& batch, const TransitionLatents& lat,
+                          LossInfo* info) {
   // Gradients only for the actor's parameters: the critic and E_sa are
   // differentiated through but not updated by the actor loss.
-  const torch::Tensor loss = ActorLoss(batch, info);
+  torch::Tensor loss;
+  {
+    PrecisionScope precision(bf16(), device_);
+    loss = ActorLoss(batch, lat, info);
+  }
   std::vector<torch::Tensor> params = actor_->parameters();
   std::vector<torch::Tensor> grads = torch::autograd::grad({loss}, params);
   for (size_t i = 0; i < params.size(); ++i) params[i].mutable_grad() = grads[i];
@@ -370,8 +564,21 @@ LossInfo Trainer::Step(bool collect_info) {
   const TransitionBatch batch = SampleTransitions();
   const torch::Tensor noise =
       torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
-  UpdateCritic(batch, noise, out);
-  UpdateActor(batch, out);
+  if (options_.agent.critic_grad_to_encoder) {
+    // The critic update changes the encoders: the actor re-encodes.
+    UpdateCritic(batch, noise, out);
+    UpdateActor(batch, out);
+    return info;
+  }
+  // The encoders are not changed by the critic update, so the critic and the
+  // actor share one encoding of the batch.
+  TransitionLatents lat;
+  {
+    PrecisionScope precision(bf16(), device_);
+    lat = EncodeTransitions(batch);
+  }
+  UpdateCritic(batch, &lat, noise, out);
+  UpdateActor(batch, lat, out);
   return info;
 }
 

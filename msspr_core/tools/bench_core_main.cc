@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <functional>
 #include <iostream>
@@ -24,10 +25,19 @@ using Clock = std::chrono::steady_clock;
 
 const char kUsage[] =
     "usage: msspr_bench_core --out FILE.json [--device cpu|cuda] [--threads N] [--quick]\n"
+    "                        [--precision fp32|bf16]\n"
+    "       msspr_bench_core --config YAML [--config YAML]... --out FILE.json [--steps N]\n"
+    "                        [--warmup N] [--obs-dim D] [--action-dim A] [--episodes E]\n"
+    "                        [--length L] [--device D] [--threads N] [--precision P]\n"
     "\n"
     "Times training steps (CPU and paper scale, states and pixels) and single-sample\n"
     "Policy::Act latency on synthetic data; writes JSON (also printed).\n"
-    "  --quick   fewer timed steps (for smoke tests)\n";
+    "  --quick      fewer timed steps (for smoke tests)\n"
+    "  --precision  trainer.precision of every timed configuration (default: as configured)\n"
+    "With --config: times that one configuration (applied on the mspr/cpu preset) on a\n"
+    "synthetic dataset of E episodes of L steps (default 100 x 1001, obs 2, action 2: the\n"
+    "point maze's shapes; pixels when network.obs_mode is pixels) and writes\n"
+    "{\"ms_per_step\": ...}. Steps default to 200 after 20 warm-up steps.\n";
 
 std::shared_ptr<const Dataset> SyntheticDataset(int obs_dim, int action_dim, bool images,
                                                 int episodes, int length) {
@@ -119,11 +129,52 @@ LatencyResult TimeAct(const std::string& name, MsprOptions o, std::shared_ptr<co
 
 }  // namespace
 
+// --config mode: one configuration, timed after warm-up.
+int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
+               const std::string& device, const std::string& precision, int steps, int warmup,
+               int obs_dim, int action_dim, int episodes, int length) {
+  MsprOptions o = MakePreset("mspr", "cpu");
+  for (const auto& c : configs) o = LoadOptionsFile(c, o);
+  o.trainer.device = device;
+  if (!precision.empty()) o.trainer.precision = precision;
+  const bool pixels = o.network.obs_mode == "pixels";
+  auto data = SyntheticDataset(obs_dim, action_dim, pixels, episodes, length);
+  const TrainResult r = TimeTraining("config", o, data, warmup, steps);
+  std::ostringstream j;
+  j.precision(6);
+  j << "{\"device\": \"" << device << "\", \"threads\": " << torch::get_num_threads()
+    << ", \"precision\": \"" << o.trainer.precision << "\", \"obs_mode\": \"" << o.network.obs_mode
+    << "\", \"batch\": " << r.batch << ", \"updates_per_step\": "
+    << o.representation.updates_per_step << ", \"timed_steps\": " << r.steps
+    << ", \"warmup_steps\": " << warmup << ", \"ms_per_step\": " << r.ms_per_step
+    << ", \"peak_rss_mb\": " << PeakRssMb() << "}\n";
+  std::ofstream f(out);
+  if (!f) {
+    std::cerr << "msspr_bench_core: cannot write " << out << "\n";
+    return 1;
+  }
+  f << j.str();
+  std::cout << j.str();
+  return 0;
+}
+
 int main(int argc, char** argv) {
   ReexecWithPassiveOpenMpWait(argv);
-  std::string out, device = "cpu";
-  int threads = 0;
+  std::string out, device = "cpu", precision;
+  std::vector<std::string> configs;
+  int threads = 0, steps = 200, warmup = 20, obs_dim = 2, action_dim = 2, episodes = 100,
+      length = 1001;
   bool quick = false;
+  auto int_arg = [&](int& i, const std::string& flag, int* value) {
+    const std::string v = argv[++i];
+    char* end = nullptr;
+    const long x = std::strtol(v.c_str(), &end, 10);
+    if (v.empty() || *end != '\0' || x <= 0 || x > 100000000) {
+      std::cerr << "msspr_bench_core: " << flag << " needs a positive integer, got '" << v << "'\n";
+      std::exit(2);
+    }
+    *value = static_cast<int>(x);
+  };
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
@@ -131,7 +182,15 @@ int main(int argc, char** argv) {
       return 0;
     } else if (a == "--out" && i + 1 < argc) out = argv[++i];
     else if (a == "--device" && i + 1 < argc) device = argv[++i];
-    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc) int_arg(i, a, &threads);
+    else if (a == "--precision" && i + 1 < argc) precision = argv[++i];
+    else if (a == "--config" && i + 1 < argc) configs.push_back(argv[++i]);
+    else if (a == "--steps" && i + 1 < argc) int_arg(i, a, &steps);
+    else if (a == "--warmup" && i + 1 < argc) int_arg(i, a, &warmup);
+    else if (a == "--obs-dim" && i + 1 < argc) int_arg(i, a, &obs_dim);
+    else if (a == "--action-dim" && i + 1 < argc) int_arg(i, a, &action_dim);
+    else if (a == "--episodes" && i + 1 < argc) int_arg(i, a, &episodes);
+    else if (a == "--length" && i + 1 < argc) int_arg(i, a, &length);
     else if (a == "--quick") quick = true;
     else {
       std::cerr << "msspr_bench_core: unknown argument '" << a << "'\n" << kUsage;
@@ -142,8 +201,16 @@ int main(int argc, char** argv) {
     std::cerr << kUsage;
     return 2;
   }
+  if (!precision.empty() && precision != "fp32" && precision != "bf16") {
+    std::cerr << "msspr_bench_core: --precision must be fp32 or bf16, got '" << precision << "'\n";
+    return 2;
+  }
   try {
     if (threads > 0) torch::set_num_threads(threads);
+    if (!configs.empty()) {
+      return TimeConfig(configs, out, device, precision, steps, warmup, obs_dim, action_dim,
+                        episodes, length);
+    }
     const auto t0 = Clock::now();
     // Antmaze-like state sizes; pixels as OGBench's visual tasks.
     auto states = SyntheticDataset(29, 8, false, 50, 200);
@@ -154,6 +221,7 @@ int main(int argc, char** argv) {
               << torch::get_num_threads() << " threads)\n";
     MsprOptions cpu_state = MakePreset("mspr", "cpu");
     cpu_state.trainer.device = device;
+    if (!precision.empty()) cpu_state.trainer.precision = precision;
     train.push_back(TimeTraining("cpu_scale_states", cpu_state, states, 2, n));
     // Algorithm 1 read literally: one representation update every K = 250 steps.
     MsprOptions cpu_state_sparse = cpu_state;
@@ -161,16 +229,19 @@ int main(int argc, char** argv) {
     train.push_back(TimeTraining("cpu_scale_states_repr_every_250", cpu_state_sparse, states, 2, n));
     MsprOptions paper_state = MakePreset("mspr", "paper");
     paper_state.trainer.device = device;
+    if (!precision.empty()) paper_state.trainer.precision = precision;
     paper_state.trainer.batch_size = 1024;
     train.push_back(TimeTraining("paper_scale_states", paper_state, states, 1, quick ? 1 : 4));
     MsprOptions cpu_pix = MakePreset("mspr", "cpu");
     cpu_pix.network.obs_mode = "pixels";
     cpu_pix.trainer.device = device;
+    if (!precision.empty()) cpu_pix.trainer.precision = precision;
     cpu_pix.trainer.batch_size = 32;
     train.push_back(TimeTraining("cpu_scale_pixels", cpu_pix, pixels, 1, quick ? 1 : 3));
     MsprOptions paper_pix = MakePreset("mspr", "paper");
     paper_pix.network.obs_mode = "pixels";
     paper_pix.trainer.device = device;
+    if (!precision.empty()) paper_pix.trainer.precision = precision;
     paper_pix.trainer.batch_size = 256;
     paper_pix.representation.weight_rew = 0.5;
     train.push_back(TimeTraining("paper_scale_pixels", paper_pix, pixels, 1, quick ? 1 : 2));
@@ -213,7 +284,8 @@ int main(int argc, char** argv) {
 
     std::ostringstream j;
     j.precision(6);
-    j << "{\n  \"device\": \"" << device << "\",\n  \"threads\": " << torch::get_num_threads()
+    j << "{\n  \"device\": \"" << device << "\",\n  \"precision\": \""
+      << cpu_state.trainer.precision << "\",\n  \"threads\": " << torch::get_num_threads()
       << ",\n  \"state_dataset\": {\"obs_dim\": 29, \"action_dim\": 8},\n"
       << "  \"pixel_dataset\": {\"image\": [64, 64, 3], \"action_dim\": 8},\n  \"train\": [\n";
     for (size_t i = 0; i < train.size(); ++i) {

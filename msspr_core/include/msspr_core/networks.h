@@ -43,25 +43,43 @@ TORCH_MODULE(ResidualBlock);
 // 2048 features -> Linear -> GELU.
 class ImpalaCnnImpl : public torch::nn::Module {
  public:
-  ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps = 1e-6);
-  // images: [B, 64, 64, C] uint8 (scaled by 1/255 here) -> [B, out_dim] float32
-  torch::Tensor forward(const torch::Tensor& images);
+  // in_size: the side of the (square) input; 64 gives 2048 features.
+  ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps = 1e-6, int64_t in_size = 64);
+  // x: [B, C, S, S] float32 in [0, 1] -> [B, out_dim] float32
+  torch::Tensor forward(const torch::Tensor& x);
 
   ResidualBlock block1{nullptr}, block2{nullptr}, block3{nullptr};
   Mlp fc{nullptr};
 };
 TORCH_MODULE(ImpalaCnn);
 
-// E_s: observation -> z_s. MLP (state) or Impala CNN (pixels), GELU output.
-// Goals use the same encoder.
+// A light CNN for CPU training: three conv3x3 with stride 2 (16/32/32
+// channels, ReLU), flattened -> Linear -> GELU. An S x S input gives
+// (S/8) x (S/8) x 32 features.
+class LightCnnImpl : public torch::nn::Module {
+ public:
+  LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim, double eps = 1e-6);
+  // x: [B, C, S, S] float32 in [0, 1] -> [B, out_dim] float32
+  torch::Tensor forward(const torch::Tensor& x);
+
+  torch::nn::Conv2d conv1{nullptr}, conv2{nullptr}, conv3{nullptr};
+  Mlp fc{nullptr};
+};
+TORCH_MODULE(LightCnn);
+
+// E_s: observation -> z_s. MLP (state) or a CNN (pixels: Impala, or the
+// light CNN; the image may be average-pooled first), GELU output. Goals use
+// the same encoder.
 class StateEncoderImpl : public torch::nn::Module {
  public:
   explicit StateEncoderImpl(const NetworkOptions& o);
   // obs: [B, obs_dim] float32 or [B, 64, 64, C] uint8 -> z_s [B, zs_dim] float32
   torch::Tensor forward(const torch::Tensor& obs);
 
-  Mlp mlp{nullptr};        // "mlp" (state mode)
-  ImpalaCnn cnn{nullptr};  // "cnn" (pixels mode)
+  Mlp mlp{nullptr};              // "mlp" (state mode)
+  ImpalaCnn cnn{nullptr};        // "cnn" (pixels mode, network.cnn = impala)
+  LightCnn light_cnn{nullptr};   // "light_cnn" (pixels mode, network.cnn = light)
+  int64_t downsample = 1;        // network.image_downsample
 };
 TORCH_MODULE(StateEncoder);
 

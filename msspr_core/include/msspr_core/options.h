@@ -29,6 +29,10 @@ struct NetworkOptions {
   int image_width = 64;            // pixels mode
   int image_channels = 3;          // per frame; the CNN sees image_channels * frame_stack
   int frame_stack = 1;             // frames stacked along channels (3 for manipulation)
+  std::string cnn = "impala";      // pixels: "impala" (the paper's Impala CNN small) or "light"
+                                   // (three stride-2 conv3x3 + ReLU, 16/32/32 channels)
+  int image_downsample = 1;        // pixels: average-pool the image by this factor (1, 2 or 4)
+                                   // inside the encoder, before the CNN (the data stays 64x64)
   int encoder_hidden = 512;        // E_s MLP hidden width (state mode)
   int encoder_layers = 2;          // E_s hidden layers
   int zs_dim = 512;                // z_s
@@ -55,6 +59,8 @@ struct NetworkOptions {
     v("image_width", image_width);
     v("image_channels", image_channels);
     v("frame_stack", frame_stack);
+    v("cnn", cnn);
+    v("image_downsample", image_downsample);
     v("encoder_hidden", encoder_hidden);
     v("encoder_layers", encoder_layers);
     v("zs_dim", zs_dim);
@@ -86,8 +92,10 @@ struct RepresentationOptions {
   double lr = 1e-4;                // AdamW learning rate of encoders + predictors
   double weight_decay = 1e-4;      // AdamW weight decay
   double updates_per_step = 1.0;   // representation updates per training step (fractions accumulate)
-  double augment_prob = 0.0;       // random-shift augmentation probability (pixels; 0.5 manipulation)
-  int augment_pad = 4;             // random-shift padding in pixels
+  double augment_prob = 0.0;       // pixels: probability that a batch is augmented (one draw per
+                                   // batch, as OGBench); 0.5 for OGBench's visual tasks
+  int augment_pad = 3;             // random-shift padding in pixels (edge padding, then a crop;
+                                   // one shift per sample, shared by all of the sample's images)
 
   template <class V>
   void Visit(V& v) {
@@ -171,6 +179,8 @@ struct TrainerOptions {
   int eval_every = 0;              // evaluator period (steps); 0 = never
   int checkpoint_every = 0;        // checkpoint period (steps); 0 = only at the end
   double time_limit_s = 0;         // stop Train() after this wall time (s) of the run; 0 = none
+  std::string precision = "fp32";  // "fp32", or "bf16": matrix products and convolutions in
+                                   // bfloat16 (autocast: LayerNorm, losses, optimiser in fp32)
 
   template <class V>
   void Visit(V& v) {
@@ -182,6 +192,7 @@ struct TrainerOptions {
     v("eval_every", eval_every);
     v("checkpoint_every", checkpoint_every);
     v("time_limit_s", time_limit_s);
+    v("precision", precision);
   }
 };
 

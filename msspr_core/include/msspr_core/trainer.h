@@ -90,7 +90,10 @@ class Trainer {
   TransitionBatch SampleTransitions();
   ChunkBatch SampleChunks();
   // Gathers indexed steps of `data` (the training set when null) into tensors
-  // on the trainer's device; augment: random shifts (pixels, augment_prob).
+  // on the trainer's device. augment (pixels): with probability augment_prob
+  // (one draw per batch, as OGBench) every sample gets one random shift of up
+  // to augment_pad pixels (edge padding), shared by all of its images:
+  // observation, next observation and goals; chunk states and chunk goal.
   TransitionBatch MakeTransitionBatch(const TransitionIndices& idx, bool augment,
                                       const Dataset* data = nullptr);
   ChunkBatch MakeChunkBatch(const ChunkIndices& idx, bool augment, const Dataset* data = nullptr);
@@ -105,6 +108,13 @@ class Trainer {
   torch::Tensor CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
                            LossInfo* info = nullptr);
   torch::Tensor ActorLoss(const TransitionBatch& batch, LossInfo* info = nullptr);
+
+  // Online-encoder latents of a transition batch (no gradient), shared by
+  // the critic and the actor update of a step.
+  struct TransitionLatents {
+    torch::Tensor zs, z_value_goal, z_actor_goal;  // [B, zs_dim]
+  };
+  TransitionLatents EncodeTransitions(const TransitionBatch& batch);
 
   // Single updates (used by Step; public for tests).
   void UpdateRepresentation(const ChunkBatch& batch, LossInfo* info = nullptr);
@@ -137,7 +147,18 @@ class Trainer {
   void ExportPolicy(const std::string& path);
 
  private:
-  torch::Tensor GatherObs(const Dataset& data, const std::vector<int64_t>& idx, bool augment);
+  torch::Tensor GatherObs(const Dataset& data, const std::vector<int64_t>& idx) const;
+  // Augmentation draws for a batch: empty (no augmentation this batch) or
+  // one (dy, dx) per sample.
+  std::vector<std::pair<int, int>> DrawShifts(int64_t batch);
+  bool bf16() const;
+  // lat null: the critic's gradient reaches the encoders.
+  torch::Tensor CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
+                           const torch::Tensor& noise, LossInfo* info);
+  torch::Tensor ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
+  void UpdateCritic(const TransitionBatch& batch, const TransitionLatents* lat,
+                    const torch::Tensor& noise, LossInfo* info);
+  void UpdateActor(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
   torch::Tensor ToDevice(const torch::Tensor& cpu) const;
 
   MsprOptions options_;
