@@ -1,5 +1,8 @@
 #include "msspr_core/networks.h"
 
+#include <ATen/Parallel.h>
+
+#include <algorithm>
 #include <cmath>
 
 namespace msspr {
@@ -112,14 +115,58 @@ StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) : downsample(o.image
   }
 }
 
+torch::Tensor ImagesToInput(const torch::Tensor& images, int64_t d) {
+  TORCH_CHECK(images.dim() == 4 && images.scalar_type() == torch::kUInt8,
+              "StateEncoder expects [B, H, W, C] uint8 images, got ", images.sizes(), " ",
+              images.scalar_type());
+  const int64_t n = images.size(0), h = images.size(1), w = images.size(2), c = images.size(3);
+  TORCH_CHECK(d >= 1 && h % d == 0 && w % d == 0, "image size ", h, "x", w,
+              " is not a multiple of the downsampling factor ", d);
+  if (!images.device().is_cpu()) {
+    torch::Tensor x = images.permute({0, 3, 1, 2}).to(torch::kFloat32);
+    if (d > 1) x = torch::avg_pool2d(x, {d, d});
+    return x.div(255.0);
+  }
+  // One pass on the CPU into a channels-last float tensor (oneDNN's fast
+  // layout for these convolutions): LibTorch's strided permute-and-convert
+  // plus avg_pool2d took over half of a light-CNN training step.
+  const torch::Tensor src = images.contiguous();
+  const int64_t oh = h / d, ow = w / d;
+  torch::Tensor out = torch::empty({n, oh, ow, c}, torch::kFloat32);
+  const uint8_t* in = src.data_ptr<uint8_t>();
+  float* o = out.data_ptr<float>();
+  const float scale = 1.0f / (255.0f * static_cast<float>(d * d));
+  at::parallel_for(0, n, 1, [&](int64_t begin, int64_t end) {
+    for (int64_t b = begin; b < end; ++b) {
+      const uint8_t* img = in + b * h * w * c;
+      float* dst = o + b * oh * ow * c;
+      if (d == 1) {
+        for (int64_t i = 0; i < h * w * c; ++i) dst[i] = img[i] * scale;
+        continue;
+      }
+      for (int64_t y = 0; y < oh; ++y) {
+        float* row = dst + y * ow * c;
+        std::fill(row, row + ow * c, 0.0f);
+        for (int64_t dy = 0; dy < d; ++dy) {
+          const uint8_t* line = img + (y * d + dy) * w * c;
+          for (int64_t x = 0; x < ow; ++x) {
+            for (int64_t dx = 0; dx < d; ++dx) {
+              const uint8_t* px = line + (x * d + dx) * c;
+              for (int64_t ch = 0; ch < c; ++ch) row[x * c + ch] += px[ch];
+            }
+          }
+        }
+        for (int64_t i = 0; i < ow * c; ++i) row[i] *= scale;
+      }
+    }
+  });
+  return out.permute({0, 3, 1, 2});  // [B, C, H/d, W/d], channels-last strides
+}
+
 torch::Tensor StateEncoderImpl::forward(const torch::Tensor& obs) {
   if (mlp) return mlp->forward(obs);
-  TORCH_CHECK(obs.dim() == 4, "StateEncoder expects [B, H, W, C] uint8 images, got ", obs.sizes());
-  // uint8 HWC -> float NCHW in [0, 1]; average-pooled by `downsample` (the
-  // sum of each d x d block, scaled once).
-  torch::Tensor x = obs.permute({0, 3, 1, 2}).to(torch::kFloat32);
-  if (downsample > 1) x = torch::avg_pool2d(x, {downsample, downsample});
-  x = x.div(255.0);
+  // uint8 HWC -> float NCHW in [0, 1], average-pooled by `downsample`.
+  const torch::Tensor x = ImagesToInput(obs, downsample);
   return light_cnn ? light_cnn->forward(x) : cnn->forward(x);
 }
 

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <torch/csrc/autograd/profiler_legacy.h>
+
 #include "msspr_core/process_env.h"
 #include "msspr_core/trainer.h"
 
@@ -37,7 +39,9 @@ const char kUsage[] =
     "With --config: times that one configuration (applied on the mspr/cpu preset) on a\n"
     "synthetic dataset of E episodes of L steps (default 100 x 1001, obs 2, action 2: the\n"
     "point maze's shapes; pixels when network.obs_mode is pixels) and writes\n"
-    "{\"ms_per_step\": ...}. Steps default to 200 after 20 warm-up steps.\n";
+    "{\"ms_per_step\": ...}. Steps default to 200 after 20 warm-up steps.\n"
+    "  --profile FILE   also record 5 more steps with LibTorch's autograd profiler\n"
+    "                   (chrome trace; scripts/profile_summary.py sums it per op)\n";
 
 std::shared_ptr<const Dataset> SyntheticDataset(int obs_dim, int action_dim, bool images,
                                                 int episodes, int length) {
@@ -132,7 +136,7 @@ LatencyResult TimeAct(const std::string& name, MsprOptions o, std::shared_ptr<co
 // --config mode: one configuration, timed after warm-up.
 int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
                const std::string& device, const std::string& precision, int steps, int warmup,
-               int obs_dim, int action_dim, int episodes, int length) {
+               int obs_dim, int action_dim, int episodes, int length, const std::string& profile) {
   MsprOptions o = MakePreset("mspr", "cpu");
   for (const auto& c : configs) o = LoadOptionsFile(c, o);
   o.trainer.device = device;
@@ -140,6 +144,12 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
   const bool pixels = o.network.obs_mode == "pixels";
   auto data = SyntheticDataset(obs_dim, action_dim, pixels, episodes, length);
   const TrainResult r = TimeTraining("config", o, data, warmup, steps);
+  if (!profile.empty()) {
+    Trainer t(o, data);
+    for (int i = 0; i < 3; ++i) t.Step();
+    torch::autograd::profiler::RecordProfile guard(profile);
+    for (int i = 0; i < 5; ++i) t.Step();
+  }
   std::ostringstream j;
   j.precision(6);
   j << "{\"device\": \"" << device << "\", \"threads\": " << torch::get_num_threads()
@@ -160,7 +170,7 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
 
 int main(int argc, char** argv) {
   ReexecWithPassiveOpenMpWait(argv);
-  std::string out, device = "cpu", precision;
+  std::string out, device = "cpu", precision, profile;
   std::vector<std::string> configs;
   int threads = 0, steps = 200, warmup = 20, obs_dim = 2, action_dim = 2, episodes = 100,
       length = 1001;
@@ -185,6 +195,7 @@ int main(int argc, char** argv) {
     else if (a == "--threads" && i + 1 < argc) int_arg(i, a, &threads);
     else if (a == "--precision" && i + 1 < argc) precision = argv[++i];
     else if (a == "--config" && i + 1 < argc) configs.push_back(argv[++i]);
+    else if (a == "--profile" && i + 1 < argc) profile = argv[++i];
     else if (a == "--steps" && i + 1 < argc) int_arg(i, a, &steps);
     else if (a == "--warmup" && i + 1 < argc) int_arg(i, a, &warmup);
     else if (a == "--obs-dim" && i + 1 < argc) int_arg(i, a, &obs_dim);
@@ -209,7 +220,7 @@ int main(int argc, char** argv) {
     if (threads > 0) torch::set_num_threads(threads);
     if (!configs.empty()) {
       return TimeConfig(configs, out, device, precision, steps, warmup, obs_dim, action_dim,
-                        episodes, length);
+                        episodes, length, profile);
     }
     const auto t0 = Clock::now();
     // Antmaze-like state sizes; pixels as OGBench's visual tasks.

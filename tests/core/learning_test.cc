@@ -78,10 +78,14 @@ double SuccessRate(Policy& policy, int episodes, uint64_t seed) {
   return static_cast<double>(successes) / episodes;
 }
 
-TEST(LearningTest, PointInSquareReachesGoals) {
+// The same agent learns with fp32 and with bf16 matrix products.
+class LearningTest : public testing::TestWithParam<std::string> {};
+
+TEST_P(LearningTest, PointInSquareReachesGoals) {
   // One thread: on shared cores OpenMP spinning of 2 threads is ~10x slower.
   torch::set_num_threads(1);
   MsprOptions o = MakePreset("mspr", "cpu");
+  o.trainer.precision = GetParam();
   NetworkOptions& n = o.network;
   n.encoder_hidden = n.zsa_hidden = n.goal_hidden = n.critic_hidden = n.actor_hidden = 64;
   n.zs_dim = n.zsa_dim = 64;
@@ -108,15 +112,18 @@ TEST(LearningTest, PointInSquareReachesGoals) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double trained = SuccessRate(policy, 100, 123);
-  std::printf("learning test: %lld steps in %.1f s (%.1f steps/s); success untrained %.2f, "
+  std::printf("learning test (%s): %lld steps in %.1f s (%.1f steps/s); success untrained %.2f, "
               "trained %.2f\n",
-              static_cast<long long>(o.trainer.steps), seconds, o.trainer.steps / seconds,
+              o.trainer.precision.c_str(), static_cast<long long>(o.trainer.steps), seconds, o.trainer.steps / seconds,
               untrained, trained);
   RecordProperty("untrained_success", std::to_string(untrained));
   RecordProperty("trained_success", std::to_string(trained));
   EXPECT_LT(untrained, 0.5);
   EXPECT_GE(trained, 0.9);
 }
+
+INSTANTIATE_TEST_SUITE_P(Precision, LearningTest, testing::Values("fp32", "bf16"),
+                         [](const testing::TestParamInfo<std::string>& info) { return info.param; });
 
 }  // namespace
 }  // namespace core

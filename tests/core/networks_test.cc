@@ -85,6 +85,35 @@ TEST(NetworksTest, PixelEncoderShapes) {
   EXPECT_TRUE(torch::allclose(enc->forward(white), enc->cnn->fc->forward(ones.flatten(1))));
 }
 
+TEST(NetworksTest, LightCnnAndDownsampling) {
+  torch::manual_seed(0);
+  NetworkOptions n = StateNet();
+  n.obs_mode = "pixels";
+  n.cnn = "light";
+  for (int ds : {1, 2, 4}) {
+    n.image_downsample = ds;
+    StateEncoder enc(n);
+    ASSERT_TRUE(enc->light_cnn);
+    ASSERT_FALSE(enc->cnn);
+    const torch::Tensor img = torch::randint(0, 256, {3, 64, 64, 3}, torch::kUInt8);
+    EXPECT_EQ(enc->forward(img).sizes(), (std::vector<int64_t>{3, n.zs_dim}));
+    // Three stride-2 convolutions: (64 / ds / 8)^2 x 32 features.
+    const int64_t side = 64 / ds / 8;
+    EXPECT_EQ(enc->light_cnn->fc->net->ptr(0)->as<torch::nn::Linear>()->weight.size(1), 32 * side * side);
+    // Downsampling averages each ds x ds block of the image scaled to [0, 1].
+    torch::Tensor x = img.permute({0, 3, 1, 2}).to(torch::kFloat32) / 255.0;
+    x = x.view({3, 3, 64 / ds, ds, 64 / ds, ds}).mean({3, 5});
+    EXPECT_TRUE(torch::allclose(enc->forward(img), enc->light_cnn->forward(x), 1e-5, 1e-6));
+  }
+  // The Impala CNN takes a downsampled image too.
+  n.cnn = "impala";
+  n.image_downsample = 2;
+  StateEncoder impala(n);
+  ASSERT_TRUE(impala->cnn);
+  EXPECT_EQ(impala->forward(torch::zeros({1, 64, 64, 3}, torch::kUInt8)).sizes(),
+            (std::vector<int64_t>{1, n.zs_dim}));
+}
+
 TEST(NetworksTest, GoalVectorsHaveNormSqrtDim) {
   torch::manual_seed(1);
   const NetworkOptions n = StateNet();

@@ -3,6 +3,7 @@
 
 #include <torch/torch.h>
 
+#include <cstdlib>
 #include <memory>
 #include <random>
 #include <vector>
@@ -14,7 +15,8 @@ namespace msspr {
 namespace core {
 namespace testing_util {
 
-// Tiny network sizes so that tests run in milliseconds.
+// Tiny network sizes so that tests run in milliseconds. The trainer's device
+// is cpu, or MSSPR_TEST_DEVICE when set (e.g. cuda, on a GPU machine).
 inline MsprOptions TinyOptions(const std::string& preset = "mspr") {
   MsprOptions o = MakePreset(preset, "cpu");
   NetworkOptions& n = o.network;
@@ -25,6 +27,9 @@ inline MsprOptions TinyOptions(const std::string& preset = "mspr") {
   o.trainer.batch_size = 16;
   o.trainer.steps = 10;
   o.trainer.seed = 3;
+  if (const char* d = std::getenv("MSSPR_TEST_DEVICE"); d != nullptr && *d != '\0') {
+    o.trainer.device = d;
+  }
   return o;
 }
 

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <fstream>
+#include <set>
+#include <utility>
 
 #include "torch_test_util.h"
 
@@ -27,6 +29,10 @@ void SetConstant(Mlp& mlp, float c) {
   auto last = LastLinear(mlp);
   last->weight.zero_();
   last->bias.fill_(c);
+}
+
+void ClearGradsForTest(torch::nn::Module& m) {
+  for (auto& p : m.parameters()) p.mutable_grad() = torch::Tensor();
 }
 
 double HuberValue(double d) { return std::abs(d) <= 1.0 ? 0.5 * d * d : std::abs(d) - 0.5; }
@@ -231,6 +237,205 @@ TEST(TrainerTest, PixelTrainingStepWithFrameStackAndAugmentation) {
   EXPECT_TRUE(std::isfinite(info.repr));
   EXPECT_TRUE(std::isfinite(info.critic));
   EXPECT_TRUE(std::isfinite(info.actor));
+}
+
+// Images whose pixel (y, x) holds (4y, 4x, id): the centre pixel of a
+// shifted image gives back the shift, and channel 2 which image it is.
+std::shared_ptr<const Dataset> PatternImageDataset(int episodes, int length) {
+  const ImageShape shape{64, 64, 3};
+  DatasetBuilder b(2, 2, shape);
+  int id = 0;
+  for (int e = 0; e < episodes; ++e) {
+    std::vector<float> obs(length * 2, 0.f), act(length * 2, 0.f);
+    std::vector<uint8_t> img(length * shape.numel());
+    for (int t = 0; t < length; ++t, ++id) {
+      uint8_t* im = img.data() + int64_t{t} * shape.numel();
+      for (int y = 0; y < 64; ++y) {
+        for (int x = 0; x < 64; ++x) {
+          im[(y * 64 + x) * 3 + 0] = static_cast<uint8_t>(4 * y);
+          im[(y * 64 + x) * 3 + 1] = static_cast<uint8_t>(4 * x);
+          im[(y * 64 + x) * 3 + 2] = static_cast<uint8_t>(id % 251);
+        }
+      }
+    }
+    b.AddEpisode(obs, act, img);
+  }
+  return std::make_shared<const Dataset>(b.Build());
+}
+
+// (dy, dx) of a pattern image, from its centre pixel.
+std::pair<int, int> ShiftOf(const torch::Tensor& image) {
+  const torch::Tensor c = image.index({32, 32}).to(torch::kInt32);
+  return {c[0].item<int>() / 4 - 32, c[1].item<int>() / 4 - 32};
+}
+
+MsprOptions PixelOptions(double augment_prob) {
+  MsprOptions o = TinyOptions();
+  o.network.obs_mode = "pixels";
+  o.network.cnn = "light";
+  o.network.image_downsample = 2;
+  o.representation.augment_prob = augment_prob;
+  o.representation.augment_pad = 3;
+  o.trainer.batch_size = 24;
+  return o;
+}
+
+TEST(TrainerTest, AugmentationSharesOneShiftPerSampleAcrossItsImages) {
+  Trainer t(PixelOptions(1.0), PatternImageDataset(4, 30));
+  std::set<std::pair<int, int>> seen;
+  for (int rep = 0; rep < 3; ++rep) {
+    const TransitionBatch tb = t.SampleTransitions();
+    for (int64_t k = 0; k < tb.obs.size(0); ++k) {
+      const auto s = ShiftOf(tb.obs[k]);
+      EXPECT_LE(std::abs(s.first), 3);
+      EXPECT_LE(std::abs(s.second), 3);
+      EXPECT_EQ(ShiftOf(tb.next_obs[k]), s) << "sample " << k;
+      EXPECT_EQ(ShiftOf(tb.value_goal[k]), s) << "sample " << k;
+      EXPECT_EQ(ShiftOf(tb.actor_goal[k]), s) << "sample " << k;
+      seen.insert(s);
+    }
+    const ChunkBatch cb = t.SampleChunks();
+    for (int64_t k = 0; k < cb.states.size(0); ++k) {
+      const auto s = ShiftOf(cb.goal[k]);
+      for (int64_t j = 0; j < cb.states.size(1); ++j) {
+        EXPECT_EQ(ShiftOf(cb.states[k][j]), s) << "sample " << k << " state " << j;
+      }
+      seen.insert(s);
+    }
+  }
+  // Shifts differ between samples (49 possible, 144 samples drawn).
+  EXPECT_GE(seen.size(), 20u);
+  // The images themselves are the dataset's (channel 2 names the image).
+  const TransitionBatch tb = t.SampleTransitions();
+  EXPECT_EQ(tb.obs.index({0, 32, 32, 2}).item<int>(), tb.obs.index({0, 10, 50, 2}).item<int>());
+}
+
+TEST(TrainerTest, AugmentationIsDrawnOncePerBatch) {
+  Trainer t(PixelOptions(0.5), PatternImageDataset(4, 30));
+  int augmented = 0;
+  const int batches = 40;
+  for (int rep = 0; rep < batches; ++rep) {
+    const TransitionBatch tb = t.SampleTransitions();
+    int shifted = 0;
+    for (int64_t k = 0; k < tb.obs.size(0); ++k) shifted += ShiftOf(tb.obs[k]) != std::make_pair(0, 0);
+    // All or nothing: a batch drawn for augmentation has most samples shifted
+    // (a sample's shift is (0, 0) with probability 1/49).
+    EXPECT_TRUE(shifted == 0 || shifted >= tb.obs.size(0) / 2) << shifted;
+    augmented += shifted > 0;
+  }
+  EXPECT_GT(augmented, batches / 5);
+  EXPECT_LT(augmented, batches - batches / 5);
+  // augment_prob 0, and validation batches: never shifted.
+  Trainer none(PixelOptions(0.0), PatternImageDataset(4, 30));
+  for (int rep = 0; rep < 5; ++rep) {
+    const TransitionBatch tb = none.SampleTransitions();
+    for (int64_t k = 0; k < tb.obs.size(0); ++k) EXPECT_EQ(ShiftOf(tb.obs[k]), std::make_pair(0, 0));
+  }
+}
+
+// Eq. 1 written step by step, as the trainer computed it before the terms
+// were batched over the horizon: the batched loss must equal it.
+double StepByStepRepresentationLoss(Trainer& t, const ChunkBatch& batch) {
+  torch::NoGradGuard no_grad;
+  const MsprOptions& o = t.options();
+  const RepresentationOptions& r = o.representation;
+  const int64_t k = o.network.goal_horizon, b = batch.states.size(0), l = batch.states.size(1);
+  const int64_t horizon = batch.mc_return.size(1);
+  auto& repr = t.repr();
+  auto& pred = repr->predictors;
+  auto masked_mean = [](const torch::Tensor& v, const torch::Tensor& m) {
+    return (v * m).sum() / m.sum().clamp_min(1.0);
+  };
+  const torch::Tensor targets =
+      t.target_repr()->state_encoder->forward(batch.states.flatten(0, 1)).view({b, l, -1});
+  const torch::Tensor zg = repr->state_encoder->forward(batch.goal);
+  torch::Tensor z = repr->state_encoder->forward(batch.states.select(1, 0));
+  const torch::Tensor bins = ReturnBins(o.network.num_bins, o.agent.gamma);
+  double total = 0;
+  for (int64_t h = 0; h < horizon; ++h) {
+    const torch::Tensor a_h = batch.actions.select(1, h), m_h = batch.action_mask.select(1, h);
+    const torch::Tensor grep = repr->goal_head->forward(z, zg);
+    const torch::Tensor zsa = repr->Zsa(z, a_h);
+    const torch::Tensor z_next = pred->Dynamics(zsa);
+    const torch::Tensor tn = targets.select(1, h + 1);
+    const double dyn = masked_mean((z_next - tn).pow(2).mean(-1), m_h).item<double>();
+    const double inv = masked_mean((pred->Inverse(z, tn) - a_h).pow(2).mean(-1), m_h).item<double>();
+    const torch::Tensor two_hot = TwoHotEncode(batch.mc_return.select(1, h), bins);
+    const double rew =
+        masked_mean(-(two_hot * torch::log_softmax(pred->Reward(zsa, grep), -1)).sum(-1), m_h)
+            .item<double>();
+    const double gdyn = masked_mean((pred->GoalDynamics(z, grep) - targets.select(1, h + k)).pow(2).mean(-1),
+                                    batch.state_mask.select(1, h + k))
+                            .item<double>();
+    const torch::Tensor ga_mask = batch.action_mask.narrow(1, h, k);
+    const double gact = ((pred->GoalActions(z, grep) - batch.actions.narrow(1, h, k)).pow(2).mean(-1) * ga_mask)
+                            .sum()
+                            .item<double>() /
+                        std::max(1.0, ga_mask.sum().item<double>());
+    total += r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv + r.weight_goal_dyn * gdyn +
+             r.weight_goal_act * gact;
+    z = z_next;
+  }
+  return total;
+}
+
+TEST(TrainerTest, BatchedRepresentationLossEqualsStepByStepEq1) {
+  for (const std::string preset : {"mspr", "D", "DI", "DIR"}) {
+    Trainer t(TinyOptions(preset), RandomStateDataset(5, 9));
+    for (int i = 0; i < 3; ++i) t.Step();  // online and target encoders differ from here on
+    const ChunkBatch c = t.SampleChunks();
+    torch::NoGradGuard no_grad;
+    const double batched = t.RepresentationLoss(c).item<double>();
+    const double reference = StepByStepRepresentationLoss(t, c);
+    EXPECT_NEAR(batched, reference, 1e-5 * std::abs(reference) + 1e-6) << preset;
+  }
+}
+
+TEST(TrainerTest, ZeroWeightTermsAreNotComputed) {
+  Trainer d(TinyOptions("D"), RandomStateDataset());
+  LossInfo info;
+  d.RepresentationLoss(d.SampleChunks(), &info);
+  EXPECT_GT(info.dyn, 0.0);
+  EXPECT_EQ(info.rew, 0.0);
+  EXPECT_EQ(info.inv, 0.0);
+  EXPECT_EQ(info.goal_dyn, 0.0);
+  EXPECT_EQ(info.goal_act, 0.0);
+  // In D nothing reaches the goal head or the goal-level predictors.
+  ClearGradsForTest(*d.repr());
+  d.RepresentationLoss(d.SampleChunks()).backward();
+  for (const auto& p : d.repr()->goal_head->parameters()) EXPECT_FALSE(p.grad().defined());
+  EXPECT_FALSE(d.repr()->predictors->goal_dynamics->weight.grad().defined());
+  EXPECT_TRUE(d.repr()->predictors->dynamics->weight.grad().defined());
+}
+
+TEST(TrainerTest, Bf16LossesAreCloseToFp32) {
+  MsprOptions o = TinyOptions();
+  Trainer f32(o, RandomStateDataset());
+  o.trainer.precision = "bf16";
+  Trainer b16(o, RandomStateDataset());
+  // Same seed: same initial weights and the same batches.
+  EXPECT_TRUE(torch::equal(Flat(*f32.repr()), Flat(*b16.repr())));
+  const LossInfo a = f32.Step(), b = b16.Step();
+  for (const auto& [x, y] : {std::make_pair(a.repr, b.repr), std::make_pair(a.critic, b.critic),
+                             std::make_pair(a.actor, b.actor), std::make_pair(a.dyn, b.dyn)}) {
+    EXPECT_TRUE(std::isfinite(y));
+    EXPECT_NEAR(x, y, 0.05 * std::abs(x) + 1e-3);
+  }
+  // Master weights stay fp32.
+  for (const auto& p : b16.repr()->parameters()) EXPECT_EQ(p.scalar_type(), torch::kFloat32);
+  EXPECT_FALSE(torch::equal(Flat(*f32.repr()), Flat(*b16.repr())));
+}
+
+TEST(TrainerTest, LightCnnPixelStepWithDownsampling) {
+  MsprOptions o = PixelOptions(0.5);
+  o.trainer.precision = "bf16";
+  Trainer t(o, testing_util::RandomImageDataset());
+  for (int i = 0; i < 2; ++i) {
+    const LossInfo info = t.Step();
+    EXPECT_TRUE(std::isfinite(info.repr));
+    EXPECT_TRUE(std::isfinite(info.critic));
+    EXPECT_TRUE(std::isfinite(info.actor));
+  }
 }
 
 TEST(TrainerTest, TrainLoopWritesCsvAndCallsEvaluator) {

@@ -83,6 +83,10 @@ class StateEncoderImpl : public torch::nn::Module {
 };
 TORCH_MODULE(StateEncoder);
 
+// uint8 [B, H, W, C] images -> float [B, C, H/d, W/d] in [0, 1], each d x d
+// block averaged (d = 1: a plain conversion).
+torch::Tensor ImagesToInput(const torch::Tensor& images, int64_t d);
+
 // psi: [z_s, z_g] -> g_rep, length-normalised to norm sqrt(goal_dim).
 class GoalHeadImpl : public torch::nn::Module {
  public:
