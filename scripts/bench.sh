@@ -41,6 +41,8 @@ SIM=
 if [ -x "$BIN/msspr_bench_core" ]; then
   echo "[bench] msspr_core (training steps/s, act latency, memory)"
   "$BIN/msspr_bench_core" --out "$OUT/core.json"
+  echo "[bench] trainer against the eager PyTorch reference"
+  scripts/bench_train_vs_reference.sh "$OUT" "$BIN/msspr_bench_core"
 fi
 python3 - "$OUT" <<'PY'
 import json, sys, glob, os

@@ -1,6 +1,7 @@
 #include "msspr_core/trainer.h"
 
 #include <ATen/autocast_mode.h>
+#include <torch/version.h>
 #include <sys/stat.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -12,6 +13,7 @@
 #include <cstring>
 
 #include "msspr_core/checkpoint.h"
+#include "msspr_core/foreach_adamw.h"
 #include "msspr_core/progress.h"
 #include "module_io.h"
 
@@ -56,29 +58,44 @@ torch::Tensor SumOfMaskedMeans(const torch::Tensor& values, const torch::Tensor&
 // PyTorch recommends. A no-op for fp32.
 class PrecisionScope {
  public:
-  PrecisionScope(bool bf16, const torch::Device& device) : bf16_(bf16), cuda_(device.is_cuda()) {
+  PrecisionScope(bool bf16, const torch::Device& device)
+      : bf16_(bf16), type_(device.is_cuda() ? at::kCUDA : at::kCPU) {
     if (!bf16_) return;
-    if (cuda_) {
-      prev_ = at::autocast::is_enabled();
-      at::autocast::set_autocast_gpu_dtype(at::kBFloat16);
-      at::autocast::set_enabled(true);
-    } else {
-      prev_ = at::autocast::is_cpu_enabled();
-      at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
-      at::autocast::set_cpu_enabled(true);
-    }
+    prev_ = Enabled(type_);
+    SetDtype(type_, at::kBFloat16);
+    SetEnabled(type_, true);
   }
   ~PrecisionScope() {
     if (!bf16_) return;
-    if (cuda_) at::autocast::set_enabled(prev_);
-    else at::autocast::set_cpu_enabled(prev_);
+    SetEnabled(type_, prev_);
     at::autocast::clear_cache();
   }
   PrecisionScope(const PrecisionScope&) = delete;
   PrecisionScope& operator=(const PrecisionScope&) = delete;
 
  private:
-  bool bf16_, cuda_, prev_ = false;
+  // LibTorch 2.4 replaced the per-device functions by ones taking the device
+  // type (the old ones warn on every call there).
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
+  static bool Enabled(at::DeviceType t) { return at::autocast::is_autocast_enabled(t); }
+  static void SetEnabled(at::DeviceType t, bool on) { at::autocast::set_autocast_enabled(t, on); }
+  static void SetDtype(at::DeviceType t, at::ScalarType d) { at::autocast::set_autocast_dtype(t, d); }
+#else
+  static bool Enabled(at::DeviceType t) {
+    return t == at::kCUDA ? at::autocast::is_enabled() : at::autocast::is_cpu_enabled();
+  }
+  static void SetEnabled(at::DeviceType t, bool on) {
+    if (t == at::kCUDA) at::autocast::set_enabled(on);
+    else at::autocast::set_cpu_enabled(on);
+  }
+  static void SetDtype(at::DeviceType t, at::ScalarType d) {
+    if (t == at::kCUDA) at::autocast::set_autocast_gpu_dtype(d);
+    else at::autocast::set_autocast_cpu_dtype(d);
+  }
+#endif
+  bool bf16_;
+  at::DeviceType type_;
+  bool prev_ = false;
 };
 
 torch::Tensor F32(const torch::Tensor& t) { return t.to(torch::kFloat32); }
@@ -167,11 +184,12 @@ Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data
   SetRequiresGrad(*target_actor_, false);
   const RepresentationOptions& r = options_.representation;
   const AgentOptions& a = options_.agent;
-  repr_opt_ = std::make_unique<torch::optim::AdamW>(
+  // Multi-tensor AdamW: the same maths and state as torch::optim::AdamW.
+  repr_opt_ = std::make_unique<ForeachAdamW>(
       repr_->parameters(), torch::optim::AdamWOptions(r.lr).weight_decay(r.weight_decay));
-  critic_opt_ = std::make_unique<torch::optim::AdamW>(
+  critic_opt_ = std::make_unique<ForeachAdamW>(
       critic_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
-  actor_opt_ = std::make_unique<torch::optim::AdamW>(
+  actor_opt_ = std::make_unique<ForeachAdamW>(
       actor_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
   bins_ = ReturnBins(n.num_bins, a.gamma).to(device_);
 }

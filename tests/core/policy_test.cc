@@ -54,10 +54,15 @@ TEST(PolicyTest, ExportLoadsAndActsTheSame) {
   Policy loaded = Policy::Load(dir.File("policy.pt"));
   Policy from_ckpt = Policy::Load(dir.File("trainer.ckpt"), torch::kCPU);
   const torch::Tensor obs = torch::randn({5, 3}), goal = torch::randn({5, 3});
-  EXPECT_TRUE(torch::equal(live.Act(obs, goal), loaded.Act(obs, goal)));
-  EXPECT_TRUE(torch::equal(live.Act(obs, goal), from_ckpt.Act(obs, goal)));
+  // Bit-exact on the CPU; a trainer on a GPU (MSSPR_TEST_DEVICE=cuda) against
+  // the CPU export within float tolerance.
+  auto same = [](const torch::Tensor& x, const torch::Tensor& y) {
+    return x.device() == y.device() ? torch::equal(x, y) : torch::allclose(x.cpu(), y.cpu(), 1e-4, 1e-5);
+  };
+  EXPECT_TRUE(same(live.Act(obs, goal), loaded.Act(obs, goal)));
+  EXPECT_TRUE(same(live.Act(obs, goal), from_ckpt.Act(obs, goal)));
   const torch::Tensor a = torch::zeros({5, 2});
-  EXPECT_TRUE(torch::equal(live.Q(obs, a, goal), loaded.Q(obs, a, goal)));
+  EXPECT_TRUE(same(live.Q(obs, a, goal), loaded.Q(obs, a, goal)));
   EXPECT_EQ(loaded.options().network.obs_mode, "state");
 }
 

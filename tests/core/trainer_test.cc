@@ -5,8 +5,10 @@
 #include <cmath>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <utility>
 
+#include "msspr_core/foreach_adamw.h"
 #include "torch_test_util.h"
 
 namespace msspr {
@@ -37,6 +39,15 @@ void ClearGradsForTest(torch::nn::Module& m) {
 
 double HuberValue(double d) { return std::abs(d) <= 1.0 ? 0.5 * d * d : std::abs(d) - 0.5; }
 
+// On `device` (MSSPR_TEST_DEVICE=cuda runs these on a GPU).
+TransitionBatch ToDevice(TransitionBatch b, const torch::Device& device) {
+  for (torch::Tensor* t : {&b.obs, &b.next_obs, &b.value_goal, &b.actor_goal, &b.action, &b.ret,
+                           &b.discount}) {
+    *t = t->to(device);
+  }
+  return b;
+}
+
 TransitionBatch FixedBatch(int obs_dim) {
   torch::manual_seed(11);
   TransitionBatch b;
@@ -57,7 +68,7 @@ TEST(TrainerTest, CriticLossEqualsHandComputedValue) {
   SetConstant(t.critic()->q2, -3.0f);
   SetConstant(t.target_critic()->q1, -4.0f);
   SetConstant(t.target_critic()->q2, -5.0f);
-  const TransitionBatch b = FixedBatch(3);
+  const TransitionBatch b = ToDevice(FixedBatch(3), t.device());
   const torch::Tensor noise = torch::randn({4, 2});
   // y = R + discount * min(-4, -5) = {0, -5.5, -6.355, -2.5}
   const double y[4] = {0.0, -1.0 + 0.9 * -5.0, -2.71 + 0.729 * -5.0, -2.5};
@@ -86,7 +97,7 @@ TEST(TrainerTest, CriticTargetIsClippedToReturnRange) {
   b.ret = torch::tensor({-1.0f, -1.0f, -1.0f, -1.0f});
   b.discount = torch::tensor({0.5f, 0.5f, 0.5f, 0.5f});
   // y = -1 - 5 = -6, clipped to -2: Huber(2) = 1.5 per head.
-  EXPECT_NEAR(t.CriticLoss(b, torch::zeros({4, 2})).item<double>(), 3.0, 1e-5);
+  EXPECT_NEAR(t.CriticLoss(ToDevice(b, t.device()), torch::zeros({4, 2})).item<double>(), 3.0, 1e-5);
 }
 
 TEST(TrainerTest, ActorLossEqualsHandComputedValue) {
@@ -100,7 +111,7 @@ TEST(TrainerTest, ActorLossEqualsHandComputedValue) {
     t.actor()->head->weight.zero_();
     t.actor()->head->bias.copy_(torch::tensor({0.5f, -0.25f}));
   }
-  const TransitionBatch b = FixedBatch(3);
+  const TransitionBatch b = ToDevice(FixedBatch(3), t.device());
   // -min(Q) / mean|min(Q)| = 1; pi = tanh(bias) for every sample.
   const double p0 = std::tanh(0.5), p1 = std::tanh(-0.25);
   const double a[4][2] = {{0.1, -0.2}, {0.5, 0.5}, {-1.0, 1.0}, {0.0, 0.3}};
@@ -436,6 +447,38 @@ TEST(TrainerTest, LightCnnPixelStepWithDownsampling) {
     EXPECT_TRUE(std::isfinite(info.critic));
     EXPECT_TRUE(std::isfinite(info.actor));
   }
+}
+
+TEST(TrainerTest, ForeachAdamWEqualsAdamW) {
+  torch::manual_seed(5);
+  std::vector<torch::Tensor> a, b;
+  for (auto shape : {std::vector<int64_t>{7, 3}, {3}, {2, 2, 2}, {5}}) {
+    a.push_back(torch::randn(shape).requires_grad_());
+    b.push_back(a.back().detach().clone().requires_grad_());
+  }
+  const auto opts = torch::optim::AdamWOptions(3e-3).weight_decay(1e-2);
+  torch::optim::AdamW reference(a, opts);
+  ForeachAdamW multi(b, opts);
+  for (int step = 0; step < 6; ++step) {
+    for (size_t i = 0; i < a.size(); ++i) {
+      // Parameter 3 misses a gradient on some steps (its step count lags).
+      const bool skip = i == 3 && step % 2 == 1;
+      const torch::Tensor g = torch::randn(a[i].sizes());
+      a[i].mutable_grad() = skip ? torch::Tensor() : g;
+      b[i].mutable_grad() = skip ? torch::Tensor() : g.clone();
+    }
+    reference.step();
+    multi.step();
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_TRUE(torch::allclose(a[i], b[i], 1e-6, 1e-7)) << "param " << i << " step " << step;
+    }
+  }
+  // The state is AdamW's: a checkpoint of one loads into the other.
+  std::stringstream buffer;
+  torch::save(multi, buffer);
+  torch::optim::AdamW restored(a, opts);
+  torch::load(restored, buffer);
+  EXPECT_EQ(restored.state().size(), multi.state().size());
 }
 
 TEST(TrainerTest, TrainLoopWritesCsvAndCallsEvaluator) {
