@@ -3,10 +3,28 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <sstream>
 #include <string>
+#include <type_traits>
 
 namespace msspr {
 namespace core {
+namespace {
+
+// The optimiser state's key: a string of the TensorImpl address up to
+// LibTorch 2.x, the address itself in later versions.
+template <class Map>
+typename Map::key_type StateKey(const Map&, const torch::Tensor& p) {
+  if constexpr (std::is_same_v<typename Map::key_type, std::string>) {
+    std::ostringstream key;  // as c10::guts::to_string
+    key << p.unsafeGetTensorImpl();
+    return key.str();
+  } else {
+    return static_cast<typename Map::key_type>(p.unsafeGetTensorImpl());
+  }
+}
+
+}  // namespace
 
 torch::Tensor ForeachAdamW::step(LossClosure closure) {
   for (auto& group : param_groups_) {
@@ -30,7 +48,7 @@ torch::Tensor ForeachAdamW::step(LossClosure closure) {
     for (auto& p : group.params()) {
       if (!p.grad().defined()) continue;
       TORCH_CHECK(!p.grad().is_sparse(), "ForeachAdamW does not support sparse gradients");
-      const std::string key = c10::guts::to_string(p.unsafeGetTensorImpl());
+      const auto key = StateKey(state_, p);
       auto it = state_.find(key);
       if (it == state_.end()) {
         auto s = std::make_unique<torch::optim::AdamWParamState>();
