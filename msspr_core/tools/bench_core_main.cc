@@ -14,12 +14,14 @@
 #include <string>
 #include <vector>
 
+#include "msspr_core/cli_args.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/trainer.h"
 
 namespace {
 
 using namespace msspr::core;
+namespace cli = msspr::cli;
 using Clock = std::chrono::steady_clock;
 
 const char kUsage[] =
@@ -124,22 +126,20 @@ int main(int argc, char** argv) {
   std::string out, device = "cpu";
   int threads = 0;
   bool quick = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
+  try {
+    const cli::CliArgs args(argc, argv, {"help", "quick"}, {"out", "device", "threads"});
+    if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
-    } else if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (a == "--device" && i + 1 < argc) device = argv[++i];
-    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
-    else if (a == "--quick") quick = true;
-    else {
-      std::cerr << "msspr_bench_core: unknown argument '" << a << "'\n" << kUsage;
-      return 2;
     }
-  }
-  if (out.empty()) {
-    std::cerr << kUsage;
+    if (!args.positional().empty()) throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    out = args.Get("out", "");
+    if (out.empty()) throw cli::CliError("--out FILE.json is required");
+    device = args.Get("device", "cpu");
+    threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
+    quick = args.Has("quick");
+  } catch (const cli::CliError& e) {
+    std::cerr << "msspr_bench_core: " << e.what() << "\n" << kUsage;
     return 2;
   }
   try {
