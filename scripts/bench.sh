@@ -42,6 +42,10 @@ if [ -x "$BIN/msspr_bench_core" ]; then
   echo "[bench] msspr_core (training steps/s, act latency, memory)"
   "$BIN/msspr_bench_core" --out "$OUT/core.json"
 fi
+if [ "${MSSPR_SOAK_S:-0}" -gt 0 ]; then
+  echo "[bench] soak: sim + msspr_policy_node at 100 Hz for $MSSPR_SOAK_S s (resident memory)"
+  scripts/soak.sh "$BUILD" "$MSSPR_SOAK_S"
+fi
 python3 - "$OUT" <<'PY'
 import json, sys, glob, os
 out = sys.argv[1]
