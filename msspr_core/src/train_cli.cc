@@ -258,7 +258,6 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       return usage_error(std::string("--data FILE is required (see --help)") +
                          (resume ? "; " + run_file + " has none either" : ""));
     if (out_dir.empty() && !print_options) return usage_error("--out DIR is required (see --help)");
-    if (!print_options) WriteRunRecord(run_file, run);  // before anything slow: --resume works from here on
 
     auto load = [&](const std::string& path, bool validation) -> std::shared_ptr<const Dataset> {
       if (ext.load_dataset) {
@@ -279,6 +278,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       std::cout << OptionsToYaml(trainer.options());
       return 0;
     }
+    // Once the data has loaded: from here on --resume --out DIR needs nothing else.
+    WriteRunRecord(run_file, run);
     if (from_checkpoint) {
       trainer.LoadCheckpoint(ckpt);
       std::cerr << ext.program << ": resumed " << ckpt << " at step " << trainer.step() << "\n";

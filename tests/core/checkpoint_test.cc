@@ -148,9 +148,13 @@ TEST(CheckpointTest, KeepsThePreviousAndFallsBackToItWhenTheNewestIsTruncated) {
   const std::string second = ReadText(path);
   EXPECT_EQ(ReadText(path + ".prev"), first);
   std::mt19937_64 rng(7);  // seeded truncation offsets
-  for (int k = 0; k < 12; ++k) {
+  auto truncate = [&] {
     const size_t cut = std::uniform_int_distribution<size_t>(0, second.size() - 1)(rng);
     WriteText(path, second.substr(0, cut));
+    return cut;
+  };
+  for (int k = 0; k < 12; ++k) {
+    const size_t cut = truncate();
     Trainer u(ResumeOptions(), data);
     u.LoadCheckpoint(path);  // newest fails its CRC / length: the previous one
     EXPECT_EQ(u.step(), 1) << "cut at " << cut;
@@ -159,8 +163,7 @@ TEST(CheckpointTest, KeepsThePreviousAndFallsBackToItWhenTheNewestIsTruncated) {
   // Without a previous checkpoint, a truncated one is a clear error naming it.
   std::filesystem::remove(path + ".prev");
   for (int k = 0; k < 6; ++k) {
-    const size_t cut = std::uniform_int_distribution<size_t>(0, second.size() - 1)(rng);
-    WriteText(path, second.substr(0, cut));
+    truncate();
     Trainer u(ResumeOptions(), data);
     ExpectErrorNamesFile(path, [&] { u.LoadCheckpoint(path); });
   }

@@ -29,6 +29,7 @@
 #include "msspr_core/npz.h"
 #include "msspr_core/options.h"
 #include "msspr_core/policy.h"
+#include "torch_test_util.h"
 
 namespace msspr::agent {
 namespace {
@@ -226,12 +227,7 @@ struct TinyRun {
       b.AddEpisode(obs, act);
     }
     core::SaveNpzDataset(b.Build(), data);
-    core::MsprOptions o = core::MakePreset("mspr", "cpu");
-    auto& n = o.network;
-    n.encoder_hidden = n.zsa_hidden = n.goal_hidden = n.critic_hidden = n.actor_hidden = 32;
-    n.zs_dim = n.zsa_dim = 24;
-    n.za_dim = 16;
-    n.goal_dim = 8;
+    core::MsprOptions o = core::testing_util::TinyOptions();
     o.representation.updates_per_step = 1.0;
     std::ofstream(config) << core::OptionsToYaml(o);
   }
