@@ -1,5 +1,9 @@
 #include "dataset_bag.h"
 
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <roslz4/lz4s.h>
+#include <sensor_msgs/Image.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,11 +14,6 @@
 #include <map>
 #include <set>
 #include <sstream>
-
-#include <roslz4/lz4s.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
-#include <sensor_msgs/Image.h>
 
 #include "msg_conversion.h"
 #include "msspr/Action.h"
@@ -59,8 +58,7 @@ void DatasetBagWriter::Close() {
 
 void DatasetBagWriter::WriteEpisode(const EpisodeMeta& meta, int length, int obs_dim, int act_dim,
                                     const float* observations, const float* actions,
-                                    const uint8_t* images, int image_size,
-                                    double success_radius) {
+                                    const uint8_t* images, int image_size, double success_radius) {
   if (closed_ || !bag_->isOpen()) throw BagError(path_ + ": writer already closed");
   ++tick_;  // the reset
   const ros::Time t0 = TickToTime(tick_, control_dt_);
@@ -157,11 +155,12 @@ class BagStructureCheck {
 
  private:
   [[noreturn]] void Fail(uint64_t at, const std::string& what) const {
-    throw BagError(path_ + ": corrupt or truncated bag at byte " + std::to_string(at) + ": " + what +
-                   " (a recording cut short may be repaired with 'rosbag reindex')");
+    throw BagError(path_ + ": corrupt or truncated bag at byte " + std::to_string(at) + ": " +
+                   what + " (a recording cut short may be repaired with 'rosbag reindex')");
   }
   void Read(uint64_t at, void* dst, uint64_t n) {
-    if (at + n > size_ || std::fseek(f_, static_cast<long>(at), SEEK_SET) != 0 || std::fread(dst, 1, n, f_) != n)
+    if (at + n > size_ || std::fseek(f_, static_cast<long>(at), SEEK_SET) != 0 ||
+        std::fread(dst, 1, n, f_) != n)
       Fail(at, "record runs past the end of the file");
   }
   // Parses a record header's "name=value" fields; false when the lengths do not fit.
@@ -197,7 +196,8 @@ class BagStructureCheck {
       std::memcpy(&hl, data.data() + pos, 4);
       if (pos + 8 + uint64_t{hl} > data.size()) Fail(at, "record inside a chunk runs past its end");
       std::memcpy(&dl, data.data() + pos + 4 + hl, 4);
-      if (pos + 8 + uint64_t{hl} + dl > data.size()) Fail(at, "record inside a chunk runs past its end");
+      if (pos + 8 + uint64_t{hl} + dl > data.size())
+        Fail(at, "record inside a chunk runs past its end");
       starts_[pos] = 1;
       pos += 8 + uint64_t{hl} + dl;
     }
@@ -212,27 +212,33 @@ class BagStructureCheck {
     while (pos < size_) {
       uint32_t hl, dl;
       Read(pos, &hl, 4);
-      if (hl > (1u << 20)) Fail(pos, "record header length " + std::to_string(hl) + " is not plausible");
+      if (hl > (1u << 20))
+        Fail(pos, "record header length " + std::to_string(hl) + " is not plausible");
       std::string h(hl, '\0');
       Read(pos + 4, h.data(), hl);
       Read(pos + 4 + hl, &dl, 4);
       const uint64_t data_at = pos + 8 + hl;
       if (data_at + dl > size_) Fail(pos, "record data runs past the end of the file");
       std::map<std::string, std::string> fields;
-      if (!Fields(h, &fields) || !fields.count("op") || fields["op"].size() != 1) Fail(pos, "bad record header");
+      if (!Fields(h, &fields) || !fields.count("op") || fields["op"].size() != 1)
+        Fail(pos, "bad record header");
       const int op = fields["op"][0];
       if (op == 0x05) {  // chunk
         const std::string compression = fields["compression"];
         const uint32_t size = U32(fields, "size");
-        if (size > (1u << 30) || dl > (1u << 30)) Fail(pos, "chunk of " + std::to_string(size) + " bytes is not plausible");
+        if (size > (1u << 30) || dl > (1u << 30))
+          Fail(pos, "chunk of " + std::to_string(size) + " bytes is not plausible");
         std::vector<char> raw(dl), data(size);
         Read(data_at, raw.data(), dl);
         if (compression == "none") {
-          if (dl != size) Fail(pos, "uncompressed chunk of " + std::to_string(dl) + " bytes says " + std::to_string(size));
+          if (dl != size)
+            Fail(pos, "uncompressed chunk of " + std::to_string(dl) + " bytes says " +
+                          std::to_string(size));
           data.swap(raw);
         } else if (compression == "lz4") {
           unsigned int out = size;
-          if (roslz4_buffToBuffDecompress(raw.data(), dl, data.data(), &out) != ROSLZ4_OK || out != size)
+          if (roslz4_buffToBuffDecompress(raw.data(), dl, data.data(), &out) != ROSLZ4_OK ||
+              out != size)
             Fail(pos, "lz4 chunk does not decompress to its " + std::to_string(size) + " bytes");
         } else {
           Fail(pos, "unsupported chunk compression '" + compression + "'");
@@ -254,7 +260,8 @@ class BagStructureCheck {
       } else if (op == 0x06) {  // chunk info
         uint64_t chunk_pos = 0;
         auto it = fields.find("chunk_pos");
-        if (it != fields.end() && it->second.size() == 8) std::memcpy(&chunk_pos, it->second.data(), 8);
+        if (it != fields.end() && it->second.size() == 8)
+          std::memcpy(&chunk_pos, it->second.data(), 8);
         if (!chunks.count(chunk_pos)) Fail(pos, "chunk info points at no chunk");
         in_chunk = false;
       } else if (op != 0x03 && op != 0x07 && op != 0x02) {
@@ -287,12 +294,25 @@ bool LayoutFits(const std::vector<uint8_t>& buf, const char* layout) {
   for (const char* c = layout; *c; ++c) {
     bool ok = true;
     switch (*c) {
-      case 'H': pos += 12, ok = pos <= n && length(1); break;  // seq, stamp, frame_id
-      case '1': pos += 1; break;
-      case '4': pos += 4; break;
-      case '8': pos += 8; break;
-      case 's': case 'b': ok = length(1); break;
-      case 'f': ok = length(4); break;
+      case 'H':
+        pos += 12, ok = pos <= n && length(1);
+        break;  // seq, stamp, frame_id
+      case '1':
+        pos += 1;
+        break;
+      case '4':
+        pos += 4;
+        break;
+      case '8':
+        pos += 8;
+        break;
+      case 's':
+      case 'b':
+        ok = length(1);
+        break;
+      case 'f':
+        ok = length(4);
+        break;
     }
     if (!ok || pos > n) return false;
   }
@@ -302,16 +322,16 @@ bool LayoutFits(const std::vector<uint8_t>& buf, const char* layout) {
 // MessageInstance::instantiate with the bytes checked first (nullptr for
 // another type, as instantiate). Throws BagError naming the bag for a corrupt message.
 template <class M>
-boost::shared_ptr<M> Instantiate(const rosbag::MessageInstance& m, const char* layout, const std::string& path,
-                                 uint64_t index) {
+boost::shared_ptr<M> Instantiate(const rosbag::MessageInstance& m, const char* layout,
+                                 const std::string& path, uint64_t index) {
   if (m.getMD5Sum() != ros::message_traits::md5sum<M>() && m.getMD5Sum() != "*") return nullptr;
   std::vector<uint8_t> buf(m.size());
   ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
   m.write(out);
   if (!LayoutFits(buf, layout))
-    throw BagError(path + ": message " + std::to_string(index) + " on " + m.getTopic() + " is corrupt (its " +
-                   std::to_string(buf.size()) + " bytes do not hold the " + ros::message_traits::datatype<M>() +
-                   " its fields declare)");
+    throw BagError(path + ": message " + std::to_string(index) + " on " + m.getTopic() +
+                   " is corrupt (its " + std::to_string(buf.size()) + " bytes do not hold the " +
+                   ros::message_traits::datatype<M>() + " its fields declare)");
   auto msg = boost::make_shared<M>();
   ros::serialization::IStream in(buf.data(), static_cast<uint32_t>(buf.size()));
   ros::serialization::deserialize(in, *msg);
@@ -355,8 +375,12 @@ std::string DescribeMissing(const std::vector<uint8_t>& have, int n, uint64_t* c
 
 // A self-consistent rgb8 image: its side, or 0.
 uint32_t RgbSide(const sensor_msgs::Image& img) {
-  if (img.encoding != "rgb8" || img.width != img.height || img.width == 0 || img.width > kMaxImageSide) return 0;
-  if (uint64_t{img.step} != uint64_t{img.width} * 3 || img.data.size() != uint64_t{img.step} * img.height) return 0;
+  if (img.encoding != "rgb8" || img.width != img.height || img.width == 0 ||
+      img.width > kMaxImageSide)
+    return 0;
+  if (uint64_t{img.step} != uint64_t{img.width} * 3 ||
+      img.data.size() != uint64_t{img.step} * img.height)
+    return 0;
   return img.width;
 }
 
@@ -381,7 +405,8 @@ BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
     }
     max_step = std::max(max_step, t), any = true;
   }
-  for (auto it = p.obs.begin(); it != p.obs.end();) it = it->first >= limit ? p.obs.erase(it) : std::next(it);
+  for (auto it = p.obs.begin(); it != p.obs.end();)
+    it = it->first >= limit ? p.obs.erase(it) : std::next(it);
   for (auto it = p.actions.begin(); it != p.actions.end();)
     it = it->first >= limit ? p.actions.erase(it) : std::next(it);
   ep.num_steps = any ? static_cast<int>(max_step) + 1 : 0;
@@ -427,9 +452,11 @@ BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
     if (steps.empty()) return;
     *count += steps.size();
     std::string list;
-    for (size_t i = 0; i < steps.size() && i < 4; ++i) list += (i ? ", " : "") + std::to_string(steps[i]);
-    ep.problems.push_back(who + std::to_string(steps.size()) + " " + what + " with NaN or Inf rejected (step" +
-                          (steps.size() > 1 ? "s " : " ") + list + (steps.size() > 4 ? ", ..." : "") + ")");
+    for (size_t i = 0; i < steps.size() && i < 4; ++i)
+      list += (i ? ", " : "") + std::to_string(steps[i]);
+    ep.problems.push_back(who + std::to_string(steps.size()) + " " + what +
+                          " with NaN or Inf rejected (step" + (steps.size() > 1 ? "s " : " ") +
+                          list + (steps.size() > 4 ? ", ..." : "") + ")");
   };
   describe(bad_obs, "observations", &report->nonfinite_observations);
   describe(bad_act, "actions", &report->nonfinite_actions);
@@ -479,7 +506,8 @@ BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
     if (!miss.empty()) ep.problems.push_back(who + "missing images: " + miss);
   }
   if (p.duplicates > 0)
-    ep.problems.push_back(who + std::to_string(p.duplicates) + " conflicting duplicate messages (first kept)");
+    ep.problems.push_back(who + std::to_string(p.duplicates) +
+                          " conflicting duplicate messages (first kept)");
   report->duplicates += p.duplicates;
   report->episodes += 1;
   report->steps += static_cast<uint64_t>(n);
@@ -528,8 +556,9 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
   auto step_ok = [&](uint32_t id, uint32_t step, const char* what) {
     if (step < kMaxEpisodeSteps) return true;
     ++report_.out_of_range_steps;
-    report_.problems.push_back("episode " + std::to_string(id) + ": " + what + " step " + std::to_string(step) +
-                               " out of range (limit " + std::to_string(kMaxEpisodeSteps) + " steps)");
+    report_.problems.push_back("episode " + std::to_string(id) + ": " + what + " step " +
+                               std::to_string(step) + " out of range (limit " +
+                               std::to_string(kMaxEpisodeSteps) + " steps)");
     return false;
   };
   auto slot = [&](uint32_t id) -> PartialEpisode& {
@@ -540,8 +569,8 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
     return p;
   };
   try {
-    rosbag::View view(*bag_, rosbag::TopicQuery({kEpisodeTopic, kObservationTopic, kActionTopic,
-                                                 kImageTopic}));
+    rosbag::View view(
+        *bag_, rosbag::TopicQuery({kEpisodeTopic, kObservationTopic, kActionTopic, kImageTopic}));
     if (view.size() == 0)
       throw BagError(path_ + ": no messages on " + kObservationTopic + " / " + kActionTopic +
                      " (not an msspr dataset bag?)");

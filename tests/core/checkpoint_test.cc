@@ -135,13 +135,23 @@ TEST(CheckpointTest, ContainerRejectsWrongVersionAndKind) {
   ExpectErrorNamesFile(dir.File("v.ckpt"), [&] { ReadCheckpointFile(dir.File("v.ckpt")); });
 }
 
-TEST(CheckpointTest, KeepsThePreviousAndFallsBackToItWhenTheNewestIsTruncated) {
+// A trainer one step in, checkpointed at dir/checkpoint.ckpt.
+struct OneStepCheckpoint {
   TempDir dir;
-  auto data = RandomStateDataset();
-  Trainer t(ResumeOptions(), data);
-  const std::string path = dir.File("checkpoint.ckpt");
-  t.Step();
-  t.SaveCheckpoint(path);
+  std::shared_ptr<const Dataset> data = RandomStateDataset();
+  Trainer t{ResumeOptions(), data};
+  std::string path = dir.File("checkpoint.ckpt");
+  OneStepCheckpoint() {
+    t.Step();
+    t.SaveCheckpoint(path);
+  }
+};
+
+TEST(CheckpointTest, KeepsThePreviousAndFallsBackToItWhenTheNewestIsTruncated) {
+  OneStepCheckpoint c;
+  Trainer& t = c.t;
+  const auto& data = c.data;
+  const std::string& path = c.path;
   const std::string first = ReadText(path);
   t.Step();
   t.SaveCheckpoint(path);
@@ -170,12 +180,10 @@ TEST(CheckpointTest, KeepsThePreviousAndFallsBackToItWhenTheNewestIsTruncated) {
 }
 
 TEST(CheckpointTest, NonFiniteWeightsNeverOverwriteTheLastGoodCheckpoint) {
-  TempDir dir;
-  auto data = RandomStateDataset();
-  Trainer t(ResumeOptions(), data);
-  const std::string path = dir.File("checkpoint.ckpt");
-  t.Step();
-  t.SaveCheckpoint(path);
+  OneStepCheckpoint c;
+  Trainer& t = c.t;
+  const auto& data = c.data;
+  const std::string& path = c.path;
   const std::string good = ReadText(path);
   {
     torch::NoGradGuard no_grad;

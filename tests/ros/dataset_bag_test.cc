@@ -1,20 +1,20 @@
 // Dataset bags without a master: write, read back bit for bit, and report damage.
+#include "dataset_bag.h"
+
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <sensor_msgs/Image.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <random>
 #include <string>
 
-#include <gtest/gtest.h>
-#include <rosbag/bag.h>
-#include <sensor_msgs/Image.h>
-
-#include "dataset_bag.h"
 #include "msspr/Action.h"
 #include "msspr/Observation.h"
 #include "msspr_sim/dataset_gen.h"
@@ -27,7 +27,8 @@ std::string TempPath(const std::string& name) {
   return "/tmp/msspr_test_" + std::to_string(getpid()) + "_" + name;
 }
 
-std::vector<sim::Episode> WriteDataset(const std::string& path, int n, int length, bool images, bool lz4 = true) {
+std::vector<sim::Episode> WriteDataset(const std::string& path, int n, int length, bool images,
+                                       bool lz4 = true) {
   sim::PointMazeOptions eo;
   eo.enable_rendering = images;
   sim::PointMaze env(eo);
@@ -219,7 +220,8 @@ TEST(DatasetBag, HostileStepIndicesAreRejectedAndCounted) {
   });
   EXPECT_EQ(n, 1);
   EXPECT_EQ(r.report().out_of_range_steps, 2u);
-  EXPECT_TRUE(AnyProblemHas(r.report(), "step 4294967295 out of range")) << r.report().problems.size();
+  EXPECT_TRUE(AnyProblemHas(r.report(), "step 4294967295 out of range"))
+      << r.report().problems.size();
   EXPECT_TRUE(AnyProblemHas(r.report(), "step 50000 out of range (episode has"));
   std::remove(path.c_str());
 }
@@ -244,13 +246,14 @@ TEST(DatasetBag, NonFiniteStatesAndActionsAreRejectedAndCounted) {
 TEST(DatasetBag, ImagesWhoseDeclaredSizeDisagreesWithTheirDataAreRejected) {
   ros::Time::init();
   const std::string path = TempPath("images.bag");
-  WriteRaw(path, 6, [](uint32_t, msspr::Observation&, msspr::Action&) {},
-           [](uint32_t t, sensor_msgs::Image& img) {
-             if (t == 0) img.width = img.height = 0x7FFFFFFF;  // first image: would size the buffers
-             if (t == 2) img.step = 0xFFFFFFFFu;
-             if (t == 3) img.width = img.height = 64;             // data of an 8x8 image
-             if (t == 4) img.data.resize(10);
-           });
+  WriteRaw(
+      path, 6, [](uint32_t, msspr::Observation&, msspr::Action&) {},
+      [](uint32_t t, sensor_msgs::Image& img) {
+        if (t == 0) img.width = img.height = 0x7FFFFFFF;  // first image: would size the buffers
+        if (t == 2) img.step = 0xFFFFFFFFu;
+        if (t == 3) img.width = img.height = 64;  // data of an 8x8 image
+        if (t == 4) img.data.resize(10);
+      });
   DatasetBagReader r(path);
   r.ForEachEpisode([&](BagEpisode&& ep) {
     EXPECT_EQ(ep.image_size, 8);
@@ -259,8 +262,9 @@ TEST(DatasetBag, ImagesWhoseDeclaredSizeDisagreesWithTheirDataAreRejected) {
   });
   EXPECT_EQ(r.report().bad_images, 4u);
   // No consistent image at all: the episode has no images, and says why.
-  WriteRaw(path, 3, [](uint32_t, msspr::Observation&, msspr::Action&) {},
-           [](uint32_t, sensor_msgs::Image& img) { img.step = 0xFFFFFFFFu; });
+  WriteRaw(
+      path, 3, [](uint32_t, msspr::Observation&, msspr::Action&) {},
+      [](uint32_t, sensor_msgs::Image& img) { img.step = 0xFFFFFFFFu; });
   DatasetBagReader r2(path);
   r2.ForEachEpisode([&](BagEpisode&& ep) { EXPECT_EQ(ep.image_size, 0); });
   EXPECT_TRUE(AnyProblemHas(r2.report(), "none a consistent rgb8 image"));
@@ -272,33 +276,34 @@ TEST(DatasetBag, CorruptChunkInTheMiddleIsAnErrorNamingTheBag) {
   const std::string path = TempPath("flipped.bag");
   std::mt19937 rng(11);  // seeded corruption
   for (bool lz4 : {true, false}) {
-  WriteDataset(path, 6, 200, false, lz4);
-  std::string good;
-  {
-    std::ifstream f(path, std::ios::binary);
-    good.assign(std::istreambuf_iterator<char>(f), {});
-  }
-  int errors = 0;
-  for (int k = 0; k < 12; ++k) {
-    std::string bytes = good;
-    const size_t at = good.size() / 4 + rng() % (good.size() / 2);
-    for (size_t i = at; i < at + 64 && i < bytes.size(); ++i) bytes[i] = static_cast<char>(bytes[i] ^ (rng() | 1));
+    WriteDataset(path, 6, 200, false, lz4);
+    std::string good;
     {
-      std::ofstream f(path, std::ios::binary | std::ios::trunc);
-      f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      std::ifstream f(path, std::ios::binary);
+      good.assign(std::istreambuf_iterator<char>(f), {});
     }
-    try {
-      DatasetBagReader r(path);
-      r.ForEachEpisode([](BagEpisode&&) {});
-      // Damage that rosbag cannot see (inside a message's numbers) reads as data.
-    } catch (const BagError& e) {
-      ++errors;
-      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-    } catch (const std::exception& e) {
-      ADD_FAILURE() << "not a BagError: " << e.what();
+    int errors = 0;
+    for (int k = 0; k < 12; ++k) {
+      std::string bytes = good;
+      const size_t at = good.size() / 4 + rng() % (good.size() / 2);
+      for (size_t i = at; i < at + 64 && i < bytes.size(); ++i)
+        bytes[i] = static_cast<char>(bytes[i] ^ (rng() | 1));
+      {
+        std::ofstream f(path, std::ios::binary | std::ios::trunc);
+        f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      }
+      try {
+        DatasetBagReader r(path);
+        r.ForEachEpisode([](BagEpisode&&) {});
+        // Damage that rosbag cannot see (inside a message's numbers) reads as data.
+      } catch (const BagError& e) {
+        ++errors;
+        EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      } catch (const std::exception& e) {
+        ADD_FAILURE() << "not a BagError: " << e.what();
+      }
     }
-  }
-  EXPECT_GT(errors, 0) << (lz4 ? "lz4" : "uncompressed");
+    EXPECT_GT(errors, 0) << (lz4 ? "lz4" : "uncompressed");
   }
   std::remove(path.c_str());
 }

@@ -106,7 +106,8 @@ class CliArgs {
     throw CliError("--" + k + " '" + v + "' is not one of: " + list);
   }
   // Comma-separated integers in [lo, hi].
-  std::vector<long> GetIntList(const std::string& k, const std::string& def, long lo, long hi) const {
+  std::vector<long> GetIntList(const std::string& k, const std::string& def, long lo,
+                               long hi) const {
     std::vector<long> out;
     const std::string s = Get(k, def);
     size_t start = 0;
