@@ -144,24 +144,26 @@ int main(int argc, char** argv) {
     msspr::ros_bridge::CliArgs args(argc, argv, {"pixels"},
                                     {"node", "samples", "warmup", "out", "label", "obs-dim", "image-size", "rates",
                                      "rate-seconds", "max-p99-ms", "timeout"});
+    // Flags first (a bad one: exit 2 before any ROS traffic).
+    const int samples = static_cast<int>(args.GetInt("samples", 2000, 1, 100000000));
+    const int warmup = static_cast<int>(args.GetInt("warmup", 100, 0, 100000000));
+    const double rate_seconds = args.GetDouble("rate-seconds", 2.0, 0.01, 1e6);
+    const double max_p99_ms = args.GetDouble("max-p99-ms", 50.0, 0.0, 1e9);
+    const double timeout = args.GetDouble("timeout", 5.0, 0.001, 1e6);
+    const int obs_dim = static_cast<int>(args.GetInt("obs-dim", 2, 1, 1 << 20));
+    const int image_size = static_cast<int>(args.GetInt("image-size", 64, 1, 4096));
+    std::vector<double> rates;
+    {
+      std::stringstream ss(args.Get("rates", "50,100,200,400,800,1600,3200"));
+      for (std::string r; std::getline(ss, r, ',');) rates.push_back(msspr::cli::ParseDouble("rates", r, 1e-3, 1e7));
+    }
     ros::NodeHandle nh;
     const std::string node = args.Get("node", "policy");
     std::string mode = "state";
     nh.param<std::string>(node + "/observation_mode", mode, "state");
     const bool pixels = args.Has("pixels") || mode == "pixels";
-    const int samples = static_cast<int>(args.GetInt("samples", 2000));
-    const int warmup = static_cast<int>(args.GetInt("warmup", 100));
-    const double rate_seconds = args.GetDouble("rate-seconds", 2.0);
-    const double max_p99_ms = args.GetDouble("max-p99-ms", 50.0);
-    const double timeout = args.GetDouble("timeout", 5.0);
-    std::vector<double> rates;
-    {
-      std::stringstream ss(args.Get("rates", "50,100,200,400,800,1600,3200"));
-      for (std::string r; std::getline(ss, r, ',');) rates.push_back(std::stod(r));
-    }
-    if (samples < 1) throw std::invalid_argument("--samples must be >= 1");
 
-    Bench bench(pixels, static_cast<int>(args.GetInt("obs-dim", 2)), static_cast<int>(args.GetInt("image-size", 64)));
+    Bench bench(pixels, obs_dim, image_size);
     if (!bench.Connect(30.0)) {
       std::fprintf(stderr, "msspr_bench_policy: no policy node on %s (observation / action) within 30 s\n",
                    ros::this_node::getNamespace().c_str());

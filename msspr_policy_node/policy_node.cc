@@ -75,11 +75,17 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
     throw std::invalid_argument("~observation_mode must be state or pixels, got '" + o.observation_mode + "'");
   if (o.mode != "lockstep" && o.mode != "rate")
     throw std::invalid_argument("~mode must be lockstep or rate, got '" + o.mode + "'");
-  if (!(o.rate > 0)) throw std::invalid_argument("~rate must be > 0");
-  if (!(o.observation_timeout > 0)) throw std::invalid_argument("~observation_timeout must be > 0");
-  if (o.threads < 1) throw std::invalid_argument("~threads must be >= 1");
-  if (!(o.diagnostics_period > 0)) throw std::invalid_argument("~diagnostics_period must be > 0");
-  if (o.latency_window < 1) throw std::invalid_argument("~latency_window must be >= 1");
+  auto positive = [](const char* name, double v) {
+    if (!(v > 0) || !std::isfinite(v))
+      throw std::invalid_argument(std::string("~") + name + " must be a finite number > 0, got " + std::to_string(v));
+  };
+  positive("rate", o.rate);
+  positive("observation_timeout", o.observation_timeout);
+  positive("diagnostics_period", o.diagnostics_period);
+  if (o.threads < 1 || o.threads > 1024)
+    throw std::invalid_argument("~threads must be in 1..1024, got " + std::to_string(o.threads));
+  if (o.latency_window < 1 || o.latency_window > 10000000)
+    throw std::invalid_argument("~latency_window must be in 1..10000000, got " + std::to_string(o.latency_window));
   return o;
 }
 
@@ -158,7 +164,20 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
 PolicyNode::~PolicyNode() = default;
 
 void PolicyNode::Reject(RejectReason reason, const std::string& what) {
-  ++counters_.rejected[static_cast<int>(reason)];
+  const int r = static_cast<int>(reason);
+  ++counters_.rejected[r];
+  if (!said_[r]) {  // once, unthrottled: what the checkpoint expects and what came
+    said_[r] = true;
+    const auto& n = policy_->options().network;
+    ROS_ERROR_STREAM_NAMED(kLog, "first rejected input (" << RejectKey(reason) << "): " << what << "; "
+                                 << options_.checkpoint << " expects "
+                                 << (pixels_ ? std::to_string(n.image_height) + "x" + std::to_string(n.image_width) +
+                                                   " rgb8 images"
+                                             : "obs_dim " + std::to_string(obs_dim_))
+                                 << " and gives action_dim " << action_dim_
+                                 << "; further rejections are counted in /diagnostics");
+    return;
+  }
   ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, RejectKey(reason) << ": " << what);
 }
 

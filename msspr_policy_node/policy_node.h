@@ -90,7 +90,10 @@ class PolicyNode {
   void OnRateTick(const ros::WallTimerEvent&);
   void OnDiagnostics(const ros::WallTimerEvent&);
 
+  // Counts a rejection; the first of each reason is logged at once with what the
+  // checkpoint expects, later ones throttled.
   void Reject(RejectReason reason, const std::string& what);
+  bool said_[static_cast<int>(RejectReason::kCount)] = {};
   // Checks a state observation and resolves its goal; false (counted) when unusable.
   bool MakeStateInput(const msspr::Observation& msg, Input* in);
   // Pixels: pairs observations and images by stamp; builds the input of a pair.

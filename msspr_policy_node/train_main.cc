@@ -9,6 +9,7 @@
 
 #include "bag_dataset.h"
 #include "maze_evaluator.h"
+#include "msspr_core/cli_args.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/train_cli.h"
 #include "msspr_sim/maze_map.h"
@@ -91,26 +92,36 @@ int main(int argc, char** argv) {
   };
   ext.make_evaluator = [](msspr::core::Trainer& trainer, const std::map<std::string, std::string>& extra,
                           const std::string& out_dir) -> msspr::core::Evaluator {
-    if (trainer.options().trainer.eval_every <= 0) return nullptr;
+    // The evaluation flags are checked even when no evaluation runs (CliError: exit 2).
     msspr::agent::MazeEvalOptions eo;
     auto get = [&](const std::string& k, const std::string& def) {
       auto it = extra.find(k);
       return it == extra.end() ? def : it->second;
     };
+    using msspr::cli::ParseInt;
+    eo.episodes = static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
+    eo.seed = static_cast<uint64_t>(ParseInt("eval-seed", get("eval-seed", "0"), 0));
+    eo.max_steps = static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", "1000"), 1, 100000000));
+    eo.tasks.clear();
+    for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5")))
+      eo.tasks.push_back(static_cast<int>(ParseInt("eval-tasks", t, 1, 5)));
+    if (eo.tasks.empty()) throw msspr::cli::CliError("--eval-tasks needs at least one task id");
     std::string maze = get("eval-maze", "");
     const std::string prefix = "pointmaze-";
     if (maze.empty() && g_env.rfind(prefix, 0) == 0) maze = g_env.substr(prefix.size());
+    if (!maze.empty()) {
+      try {
+        msspr::sim::MazeMap::FromName(maze);
+      } catch (const std::exception& e) {
+        throw msspr::cli::CliError("--eval-maze: " + std::string(e.what()));
+      }
+    }
+    if (trainer.options().trainer.eval_every <= 0) return nullptr;
     if (maze.empty()) {
       std::cerr << "msspr_train: no --eval-maze and no point-maze bags: no success evaluation\n";
       return nullptr;
     }
-    msspr::sim::MazeMap::FromName(maze);  // validates the name
     eo.maze = maze;
-    eo.episodes = std::stoi(get("eval-episodes", "50"));
-    eo.seed = std::stoull(get("eval-seed", "0"));
-    eo.max_steps = std::stoi(get("eval-max-steps", "1000"));
-    eo.tasks.clear();
-    for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5"))) eo.tasks.push_back(std::stoi(t));
     const auto start = std::chrono::steady_clock::now();
     return [eo, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
       const auto result = msspr::agent::EvaluateOnMaze(policy, eo);

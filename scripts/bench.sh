@@ -44,6 +44,10 @@ if [ -x "$BIN/msspr_bench_core" ]; then
   echo "[bench] trainer against the eager PyTorch reference"
   scripts/bench_train_vs_reference.sh "$OUT" "$BIN/msspr_bench_core"
 fi
+if [ "${MSSPR_SOAK_S:-0}" -gt 0 ]; then
+  echo "[bench] soak: sim + msspr_policy_node at 100 Hz for $MSSPR_SOAK_S s (resident memory)"
+  scripts/soak.sh "$BUILD" "$MSSPR_SOAK_S"
+fi
 python3 - "$OUT" <<'PY'
 import json, sys, glob, os
 out = sys.argv[1]

@@ -3,9 +3,20 @@
 #include <yaml-cpp/yaml.h>
 #include <zlib.h>
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <random>
 #include <sstream>
 
 namespace msspr {
@@ -49,6 +60,50 @@ uint32_t Crc(const std::string& a, const std::string& b) {
   throw CheckpointError(path + ": " + what);
 }
 
+std::string Errno() { return std::strerror(errno); }
+
+// Writes all of `data` to fd; false on error.
+bool WriteAll(int fd, const char* data, size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return false;
+    data += w;
+    n -= static_cast<size_t>(w);
+  }
+  return true;
+}
+
+// Test hook (fault injection): MSSPR_FAULT_KILL_IN_CHECKPOINT=K makes the
+// K-th checkpoint write of this process SIGKILL itself halfway through the
+// temporary file, as a power cut or an OOM kill would.
+bool KillNow() {
+  static int writes = 0;
+  const char* k = std::getenv("MSSPR_FAULT_KILL_IN_CHECKPOINT");
+  return k != nullptr && ++writes == std::atoi(k);
+}
+
+void SyncDirectory(const std::string& path) {
+  std::string dir = std::filesystem::path(path).parent_path().string();
+  if (dir.empty()) dir = ".";
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+// Removes "<name>.tmp.*" files that killed writers left beside `path`.
+void RemoveStaleTemporaries(const std::string& path) {
+  namespace fs = std::filesystem;
+  const fs::path p(path);
+  const std::string prefix = p.filename().string() + ".tmp.";
+  std::error_code ec;
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->path().filename().string().rfind(prefix, 0) == 0) fs::remove(it->path(), ec);
+  }
+}
+
 }  // namespace
 
 std::string CheckpointHeaderToYaml(const CheckpointHeader& h) {
@@ -83,7 +138,7 @@ CheckpointHeader ParseCheckpointHeader(const std::string& yaml, const std::strin
   return h;
 }
 
-void WriteCheckpointFile(const std::string& path, const CheckpointFile& file) {
+void WriteCheckpointFile(const std::string& path, const CheckpointFile& file, bool keep_previous) {
   std::string head(kMagic, sizeof(kMagic));
   PutLE<uint32_t>(&head, kCheckpointFormatVersion);
   PutLE<uint32_t>(&head, static_cast<uint32_t>(file.kind.size()));
@@ -95,24 +150,82 @@ void WriteCheckpointFile(const std::string& path, const CheckpointFile& file) {
   std::string len;
   PutLE<uint64_t>(&len, file.payload.size());
 
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) Fail(path, "cannot open '" + tmp + "' for writing");
-    out.write(head.data(), head.size());
-    out.write(len.data(), len.size());
-    out.write(file.payload.data(), file.payload.size());
-    out.write(tail.data(), tail.size());
-    out.flush();
-    if (!out) {
-      std::remove(tmp.c_str());
-      Fail(path, "write failed (disk full?)");
+  // A unique temporary name (pid + random), so that two writers never share one.
+  std::random_device rd;
+  char suffix[64];
+  std::snprintf(suffix, sizeof suffix, ".tmp.%ld.%08x", static_cast<long>(::getpid()), rd());
+  const std::string tmp = path + suffix;
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) Fail(path, "cannot open '" + tmp + "' for writing: " + Errno());
+  bool ok = WriteAll(fd, head.data(), head.size()) && WriteAll(fd, len.data(), len.size());
+  if (ok && KillNow()) {
+    WriteAll(fd, file.payload.data(), file.payload.size() / 2);
+    ::raise(SIGKILL);
+  }
+  ok = ok && WriteAll(fd, file.payload.data(), file.payload.size()) &&
+       WriteAll(fd, tail.data(), tail.size());
+  const std::string write_error = ok ? "" : Errno();
+  ok = ok && ::fsync(fd) == 0;
+  const std::string sync_error = ok || !write_error.empty() ? "" : Errno();
+  ::close(fd);
+  if (!ok) {
+    std::remove(tmp.c_str());
+    Fail(path, "cannot write '" + tmp + "': " + (write_error.empty() ? sync_error : write_error) +
+                   " (disk full?)");
+  }
+  struct stat st;
+  if (keep_previous && ::stat(path.c_str(), &st) == 0) {
+    // The previous file becomes <path>.prev; <path> itself stays in place until
+    // the rename below replaces it, so a reader always finds a whole file.
+    const std::string prev = path + ".prev", prev_tmp = prev + suffix;
+    if (::link(path.c_str(), prev_tmp.c_str()) == 0) {
+      if (std::rename(prev_tmp.c_str(), prev.c_str()) != 0) std::remove(prev_tmp.c_str());
     }
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string e = Errno();
     std::remove(tmp.c_str());
-    Fail(path, "cannot rename '" + tmp + "' to it");
+    Fail(path, "cannot rename '" + tmp + "' to it: " + e);
   }
+  SyncDirectory(path);
+  RemoveStaleTemporaries(path);
+}
+
+CheckpointFile ReadCheckpointFileOrPrevious(const std::string& path, const std::string& expected_kind,
+                                            std::string* used_path) {
+  try {
+    CheckpointFile f = ReadCheckpointFile(path, expected_kind);
+    if (used_path) *used_path = path;
+    return f;
+  } catch (const CheckpointError& e) {
+    const std::string prev = path + ".prev";
+    struct stat st;
+    if (::stat(prev.c_str(), &st) != 0) throw;
+    std::cerr << "msspr: " << e.what() << "; falling back to the previous checkpoint " << prev << "\n";
+    CheckpointFile f = ReadCheckpointFile(prev, expected_kind);
+    if (used_path) *used_path = prev;
+    return f;
+  }
+}
+
+RunDirLock::RunDirLock(const std::string& dir) : path_(dir + "/.lock") {
+  fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw CheckpointError(path_ + ": cannot create lock file: " + Errno());
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const bool busy = errno == EWOULDBLOCK;
+    const std::string e = Errno();
+    ::close(fd_);
+    fd_ = -1;
+    throw CheckpointError(busy ? dir + ": another training run is using this directory (" + path_ +
+                                     " is locked); wait for it to end or choose another --out"
+                               : path_ + ": cannot lock: " + e);
+  }
+  const std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd_, 0) == 0) WriteAll(fd_, pid.data(), pid.size());
+}
+
+RunDirLock::~RunDirLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the lock (so does the end of the process)
 }
 
 CheckpointFile ReadCheckpointFile(const std::string& path, const std::string& expected_kind) {

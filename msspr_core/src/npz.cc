@@ -2,8 +2,10 @@
 
 #include <zip.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -26,6 +28,38 @@ using ZipFilePtr = std::unique_ptr<zip_file_t, ZipFileCloser>;
 
 [[noreturn]] void Fail(const std::string& path, const std::string& key, const std::string& what) {
   throw NpzError(path + (key.empty() ? "" : ": key '" + key + "'") + ": " + what);
+}
+
+std::string ShapeString(const std::vector<int64_t>& s) {
+  std::string r = "(";
+  for (size_t i = 0; i < s.size(); ++i) r += (i ? ", " : "") + std::to_string(s[i]);
+  return r + ")";
+}
+
+// Runs fn; any exception other than NpzError becomes one naming the file.
+template <class Fn>
+auto NamingFile(const std::string& path, Fn&& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const NpzError&) {
+    throw;
+  } catch (const std::exception& e) {
+    Fail(path, "", e.what());
+  }
+}
+
+// Rejects NaN and Inf: counts them and names the first row.
+void CheckFinite(const std::vector<float>& v, int64_t row_size, const std::string& path,
+                 const std::string& key) {
+  int64_t bad = 0, first = -1;
+  for (size_t i = 0; i < v.size(); ++i)
+    if (!std::isfinite(v[i])) {
+      if (first < 0) first = static_cast<int64_t>(i);
+      ++bad;
+    }
+  if (bad > 0)
+    Fail(path, key, std::to_string(bad) + " non-finite values (NaN or Inf), the first in row " +
+                        std::to_string(first / std::max<int64_t>(row_size, 1)));
 }
 
 ZipPtr OpenZip(const std::string& path) {
@@ -72,6 +106,7 @@ NpyInfo ReadHeader(zip_file_t* f, const std::string& path, const std::string& ke
     Fail(path, key, "unsupported .npy version " + std::to_string(major));
   }
   if (header_len > (1u << 20)) Fail(path, key, "bad .npy header length");
+  const uint64_t data_offset = (major == 1 ? 10 : 12) + uint64_t{header_len};
   std::string h(header_len, '\0');
   ReadExact(f, h.data(), header_len, path, key);
   NpyInfo info;
@@ -103,6 +138,10 @@ NpyInfo ReadHeader(zip_file_t* f, const std::string& path, const std::string& ke
       Fail(path, key, "bad .npy shape '" + h.substr(v, s_end - v + 1) + "'");
     }
   }
+  info.data_offset = static_cast<int64_t>(data_offset);
+  for (int64_t d : info.shape)
+    if (d < 0) Fail(path, key, "bad .npy shape '" + h.substr(v, s_end - v + 1) + "': negative dimension");
+  if (info.numel() < 0) Fail(path, key, "bad .npy shape '" + h.substr(v, s_end - v + 1) + "': too many elements");
   if (info.fortran_order && info.shape.size() > 1) Fail(path, key, "fortran_order arrays are not supported");
   if (info.descr.size() < 3 || info.descr[0] == '>') {
     Fail(path, key, "unsupported dtype '" + info.descr + "' (little-endian numeric expected)");
@@ -114,6 +153,37 @@ ZipFilePtr OpenArray(zip_t* z, const std::string& path, const std::string& key) 
   zip_file_t* f = zip_fopen(z, (key + ".npy").c_str(), 0);
   if (!f) Fail(path, key, "missing array");
   return ZipFilePtr(f);
+}
+
+// Bytes per element of a numeric dtype ("<f4" -> 4), 0 when unknown.
+int64_t ItemSize(const std::string& descr) {
+  const std::string t = descr.size() >= 3 ? descr.substr(1) : "";
+  if (t == "f8" || t == "i8" || t == "u8") return 8;
+  if (t == "f4" || t == "i4" || t == "u4") return 4;
+  if (t == "i2" || t == "u2" || t == "f2") return 2;
+  if (t == "i1" || t == "u1" || t == "b1") return 1;
+  return 0;
+}
+
+// The header must describe exactly the bytes the zip entry holds: a lying
+// shape never drives an allocation.
+void CheckEntrySize(zip_t* z, const NpyInfo& info, const std::string& path, const std::string& key) {
+  zip_stat_t st;
+  zip_stat_init(&st);
+  if (zip_stat(z, (key + ".npy").c_str(), 0, &st) != 0 || !(st.valid & ZIP_STAT_SIZE))
+    Fail(path, key, "cannot read the entry's size");
+  const int64_t item = ItemSize(info.descr);
+  if (item == 0) return;  // unsupported dtypes fail when read
+  const int64_t n = info.numel();
+  if (n > (std::numeric_limits<int64_t>::max() - info.data_offset) / item)
+    Fail(path, key, "shape " + ShapeString(info.shape) + " is too large");
+  const uint64_t expected = static_cast<uint64_t>(info.data_offset + n * item);
+  if (st.size != expected)
+    Fail(path, key, "header says shape " + ShapeString(info.shape) + " of '" + info.descr + "' (" +
+                        std::to_string(expected - info.data_offset) + " data bytes), but the entry holds " +
+                        (st.size >= static_cast<uint64_t>(info.data_offset)
+                             ? std::to_string(st.size - info.data_offset)
+                             : std::string("less than a header")) + " (truncated or lying header)");
 }
 
 template <class Dst, class Src>
@@ -160,6 +230,7 @@ std::vector<Dst> ReadArray(zip_t* z, const std::string& path, const std::string&
                            NpyInfo* info_out, bool allow_any) {
   ZipFilePtr f = OpenArray(z, path, key);
   NpyInfo info = ReadHeader(f.get(), path, key);
+  CheckEntrySize(z, info, path, key);
   std::vector<Dst> out(static_cast<size_t>(info.numel()));
   ReadConverted<Dst>(f.get(), info, out.data(), path, key, allow_any);
   if (info_out) *info_out = info;
@@ -168,17 +239,13 @@ std::vector<Dst> ReadArray(zip_t* z, const std::string& path, const std::string&
 
 NpyInfo PeekArray(zip_t* z, const std::string& path, const std::string& key) {
   ZipFilePtr f = OpenArray(z, path, key);
-  return ReadHeader(f.get(), path, key);
+  NpyInfo info = ReadHeader(f.get(), path, key);
+  CheckEntrySize(z, info, path, key);
+  return info;
 }
 
 bool HasArray(zip_t* z, const std::string& key) {
   return zip_name_locate(z, (key + ".npy").c_str(), 0) >= 0;
-}
-
-std::string ShapeString(const std::vector<int64_t>& s) {
-  std::string r = "(";
-  for (size_t i = 0; i < s.size(); ++i) r += (i ? ", " : "") + std::to_string(s[i]);
-  return r + ")";
 }
 
 std::string NpyHeader(const std::string& descr, const std::vector<int64_t>& shape) {
@@ -203,11 +270,13 @@ std::string NpyHeader(const std::string& descr, const std::vector<int64_t>& shap
 
 int64_t NpyInfo::numel() const {
   int64_t n = 1;
-  for (int64_t s : shape) n *= s;
+  for (int64_t s : shape)
+    if (s < 0 || __builtin_mul_overflow(n, s, &n)) return -1;
   return n;
 }
 
 std::vector<std::string> ListNpzKeys(const std::string& path) {
+  return NamingFile(path, [&] {
   ZipPtr z = OpenZip(path);
   std::vector<std::string> keys;
   const zip_int64_t n = zip_get_num_entries(z.get(), 0);
@@ -218,20 +287,26 @@ std::vector<std::string> ListNpzKeys(const std::string& path) {
     }
   }
   return keys;
+  });
 }
 
 std::vector<float> ReadNpzFloat(const std::string& path, const std::string& key, NpyInfo* info) {
-  ZipPtr z = OpenZip(path);
-  return ReadArray<float>(z.get(), path, key, info, true);
+  return NamingFile(path, [&] {
+    ZipPtr z = OpenZip(path);
+    return ReadArray<float>(z.get(), path, key, info, true);
+  });
 }
 
 std::vector<uint8_t> ReadNpzUint8(const std::string& path, const std::string& key,
                                   NpyInfo* info) {
-  ZipPtr z = OpenZip(path);
-  return ReadArray<uint8_t>(z.get(), path, key, info, false);
+  return NamingFile(path, [&] {
+    ZipPtr z = OpenZip(path);
+    return ReadArray<uint8_t>(z.get(), path, key, info, false);
+  });
 }
 
 Dataset LoadNpzDataset(const std::string& path) {
+  return NamingFile(path, [&] {
   ZipPtr z = OpenZip(path);
   zip_t* zp = z.get();
   const NpyInfo obs_info = PeekArray(zp, path, "observations");
@@ -249,6 +324,9 @@ Dataset LoadNpzDataset(const std::string& path) {
       Fail(path, key, "shape " + ShapeString(info.shape) + ", expected [" + std::to_string(n) +
                           ", H, W, C] uint8");
     }
+    for (int d = 1; d < 4; ++d)
+      if (info.shape[d] <= 0 || info.shape[d] > 65535)
+        Fail(path, key, "shape " + ShapeString(info.shape) + ": image dimension out of range");
     image_shape = {static_cast<int>(info.shape[1]), static_cast<int>(info.shape[2]),
                    static_cast<int>(info.shape[3])};
     images = ReadArray<uint8_t>(zp, path, key, nullptr, false);
@@ -260,17 +338,22 @@ Dataset LoadNpzDataset(const std::string& path) {
       Fail(path, "observations", "shape " + ShapeString(obs_info.shape) +
                                      ", expected [N, obs_dim] (float) or [N, H, W, C] (uint8)");
     }
+    if (obs_info.shape[1] <= 0 || obs_info.shape[1] > (1 << 20))
+      Fail(path, "observations", "shape " + ShapeString(obs_info.shape) + ": obs_dim out of range");
     obs_dim = static_cast<int>(obs_info.shape[1]);
     states = ReadArray<float>(zp, path, "observations", nullptr, true);
+    CheckFinite(states, obs_dim, path, "observations");
     if (HasArray(zp, "images")) read_images("images", PeekArray(zp, path, "images"));
   }
 
   NpyInfo act_info;
   std::vector<float> actions = ReadArray<float>(zp, path, "actions", &act_info, true);
-  if (act_info.shape.size() != 2 || act_info.shape[0] != n || act_info.shape[1] <= 0) {
+  if (act_info.shape.size() != 2 || act_info.shape[0] != n || act_info.shape[1] <= 0 ||
+      act_info.shape[1] > (1 << 20)) {
     Fail(path, "actions", "shape " + ShapeString(act_info.shape) + ", expected [" +
                               std::to_string(n) + ", action_dim]");
   }
+  CheckFinite(actions, act_info.shape[1], path, "actions");
   NpyInfo term_info;
   std::vector<float> term = ReadArray<float>(zp, path, "terminals", &term_info, true);
   if (term_info.shape.size() != 1 || term_info.shape[0] != n) {
@@ -285,6 +368,7 @@ Dataset LoadNpzDataset(const std::string& path) {
   } catch (const DatasetError& e) {
     Fail(path, "", e.what());
   }
+  });
 }
 
 void SaveNpzDataset(const Dataset& data, const std::string& path, bool compress) {

@@ -2,7 +2,11 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 #include <sys/stat.h>
@@ -107,6 +111,43 @@ void CsvWriter::WriteRow(const std::vector<std::string>& values) {
   for (size_t i = 0; i < values.size(); ++i) out_ << (i ? "," : "") << values[i];
   out_ << "\n";
   out_.flush();
+  if (!out_) {
+    throw std::runtime_error(path_ + ": cannot write CSV row (" +
+                             (errno ? std::string(std::strerror(errno)) : std::string("stream error")) +
+                             "; disk full?)");
+  }
+}
+
+int64_t TruncateCsvRows(const std::string& path, int64_t max_step) {
+  std::ifstream in(path);
+  if (!in) return 0;  // no file: nothing to drop
+  std::string header, line, kept;
+  if (!std::getline(in, header)) return 0;
+  kept = header + "\n";
+  int64_t dropped = 0;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    char* end = nullptr;
+    const double step = std::strtod(line.c_str(), &end);
+    // A row cut short by a kill (no step, or no newline at the end) is dropped too.
+    if (end == line.c_str() || step > static_cast<double>(max_step) || in.eof()) {
+      ++dropped;
+      continue;
+    }
+    kept += line + "\n";
+  }
+  in.close();
+  if (dropped == 0) return 0;
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << kept;
+    out.flush();
+    if (!out) throw std::runtime_error(tmp + ": cannot write CSV file (disk full?)");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::runtime_error(path + ": cannot replace it with " + tmp + ": " + std::strerror(errno));
+  return dropped;
 }
 
 }  // namespace core

@@ -1,15 +1,22 @@
 #include "msspr_core/train_cli.h"
 
 #include <sys/stat.h>
+#include <yaml-cpp/yaml.h>
 
+#include <cerrno>
+#include <climits>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "msspr_core/checkpoint.h"
+#include "msspr_core/cli_args.h"
 #include "msspr_core/npz.h"
 
 namespace msspr {
@@ -40,16 +47,14 @@ const char kUsage[] =
     "  --log-every N      progress / metrics period in steps\n"
     "  --time-limit S     stop after S seconds of wall time (then the final evaluation,\n"
     "                     checkpoint and export); 0: none\n"
-    "  --resume           continue from DIR/checkpoint.ckpt with its options\n"
+    "  --resume           continue the run in DIR (its data, flags and checkpoint.ckpt); only\n"
+    "                     --steps, --time-limit, --eval-every, --checkpoint-every, --threads\n"
+    "                     and --quiet may differ from the saved run (DIR/run.yaml)\n"
     "  --print-options    print the resolved options as YAML and exit\n"
     "  --threads N        torch CPU threads (default: torch's choice; 1 is often fastest\n"
     "                     on shared cores)\n"
     "  --quiet            no progress output\n"
     "  --help             this text\n";
-
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 bool FileExists(const std::string& p) {
   struct stat st;
@@ -67,84 +72,179 @@ std::string Usage(const TrainCliExtensions& ext) {
   return u + ext.extra_usage;
 }
 
+// Flags that may differ from the saved run on --resume; any other flag given
+// with --resume must repeat the saved value (README "Resuming").
+const std::set<std::string> kResumeMayChange = {"steps", "time-limit", "eval-every", "checkpoint-every",
+                                                "threads", "quiet"};
+
+std::string Absolute(const std::string& list) {  // each of "a,b,c", made absolute
+  std::string out, item;
+  std::stringstream ss(list);
+  while (std::getline(ss, item, ',')) {
+    if (item.empty()) continue;
+    out += (out.empty() ? "" : ",") + std::filesystem::absolute(item).lexically_normal().string();
+  }
+  return out;
+}
+
+// DIR/run.yaml: what a run was started with (flags, absolute data paths), so
+// that --resume --out DIR needs nothing else.
+struct RunRecord {
+  std::map<std::string, std::string> flags;  // name without "--" -> value
+  std::vector<std::string> configs;          // --config, in order
+};
+
+RunRecord ReadRunRecord(const std::string& path) {
+  RunRecord r;
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    if (root["flags"])
+      for (const auto& kv : root["flags"]) r.flags[kv.first.as<std::string>()] = kv.second.as<std::string>();
+    if (root["config"])
+      for (const auto& c : root["config"]) r.configs.push_back(c.as<std::string>());
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": cannot read the run record: " + e.what());
+  }
+  return r;
+}
+
+void WriteTextAtomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  std::FILE* f = std::fopen(tmp.c_str(), "w");
+  if (!f) throw std::runtime_error(tmp + ": cannot open for writing: " + std::strerror(errno));
+  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  if (std::fclose(f) != 0 || !ok) throw std::runtime_error(tmp + ": cannot write (disk full?)");
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::runtime_error(path + ": cannot rename " + tmp + " to it: " + std::strerror(errno));
+}
+
+void WriteRunRecord(const std::string& path, const RunRecord& r) {
+  YAML::Emitter out;
+  out << YAML::Comment("msspr_train run record: msspr_train --resume --out DIR reads it") << YAML::BeginMap;
+  out << YAML::Key << "flags" << YAML::Value << YAML::BeginMap;
+  for (const auto& [k, v] : r.flags) out << YAML::Key << k << YAML::Value << YAML::DoubleQuoted << v;
+  out << YAML::EndMap << YAML::Key << "config" << YAML::Value << YAML::BeginSeq;
+  for (const auto& c : r.configs) out << YAML::DoubleQuoted << c;
+  out << YAML::EndSeq << YAML::EndMap;
+  WriteTextAtomically(path, std::string(out.c_str()) + "\n");
+}
+
 }  // namespace
 
 int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
-  std::string data_path, val_path, out_dir, preset = "mspr", scale = "paper", device, obs_mode;
-  std::vector<std::string> configs;
-  long long time_limit = -1;
-  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1, log_every = -1;
+  static const std::set<std::string> kValued = {"data", "val", "out", "preset", "scale", "obs-mode", "steps",
+                                                "batch", "device", "seed", "eval-every", "checkpoint-every",
+                                                "log-every", "time-limit", "threads"};
+  RunRecord given;
   bool resume = false, print_options = false, quiet = false;
-  std::map<std::string, std::string> extra;
-  try {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw UsageError("missing value after " + a);
-      return argv[++i];
-    };
-    auto number = [&]() -> long long {
-      const std::string v = value();
-      try {
-        size_t used = 0;
-        const long long n = std::stoll(v, &used);
-        if (used != v.size()) throw std::invalid_argument(v);
-        return n;
-      } catch (const std::exception&) {
-        throw UsageError("bad number '" + v + "' for " + a);
-      }
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << Usage(ext);
-      return 0;
-    } else if (a == "--data") data_path = value();
-    else if (a == "--val") val_path = value();
-    else if (a == "--out") out_dir = value();
-    else if (a == "--preset") preset = value();
-    else if (a == "--scale") scale = value();
-    else if (a == "--config") configs.push_back(value());
-    else if (a == "--obs-mode") obs_mode = value();
-    else if (a == "--steps") steps = number();
-    else if (a == "--batch") batch = number();
-    else if (a == "--device") device = value();
-    else if (a == "--seed") seed = number();
-    else if (a == "--eval-every") eval_every = number();
-    else if (a == "--checkpoint-every") ckpt_every = number();
-    else if (a == "--log-every") log_every = number();
-    else if (a == "--time-limit") time_limit = number();
-    else if (a == "--resume") resume = true;
-    else if (a == "--print-options") print_options = true;
-    else if (a == "--quiet") quiet = true;
-    else if (a == "--threads") threads = number();
-    else if (a.rfind("--", 0) == 0 && ext.extra_options.count(a.substr(2))) extra[a.substr(2)] = value();
-    else if (a.find(":=") != std::string::npos) continue;  // ROS remappings (rosrun, roslaunch)
-    else throw UsageError("unknown argument '" + a + "' (see --help)");
-  }
-  } catch (const UsageError& e) {
-    std::cerr << ext.program << ": " << e.what() << "\n";
-    return 2;
-  }
   auto usage_error = [&](const std::string& msg) {
     std::cerr << ext.program << ": " << msg << "\n";
     return 2;
   };
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      const std::string key = a.rfind("--", 0) == 0 ? a.substr(2) : "";
+      if (a == "--help" || a == "-h") {
+        std::cout << Usage(ext);
+        return 0;
+      } else if (a == "--resume") resume = true;
+      else if (a == "--print-options") print_options = true;
+      else if (a == "--quiet") quiet = true;
+      else if (kValued.count(key) || key == "config" || ext.extra_options.count(key)) {
+        if (i + 1 >= argc) throw cli::CliError("missing value after " + a);
+        if (key == "config") given.configs.push_back(argv[++i]);
+        else given.flags[key] = argv[++i];
+      } else if (a.find(":=") != std::string::npos) continue;  // ROS remappings (rosrun, roslaunch)
+      else throw cli::CliError("unknown argument '" + a + "' (see --help)");
+    }
+  } catch (const cli::CliError& e) {
+    return usage_error(e.what());
+  }
+  const std::string out_dir = given.flags.count("out") ? given.flags["out"] : "";
+  const std::string ckpt = out_dir + "/checkpoint.ckpt", run_file = out_dir + "/run.yaml";
+  std::unique_ptr<RunDirLock> lock;
+  RunRecord run = given;  // the flags in force: saved ones, then allowed changes
+  for (const char* k : {"data", "val"})
+    if (run.flags.count(k)) run.flags[k] = Absolute(run.flags[k]);
+  for (auto& c : run.configs) c = Absolute(c);
+  bool have_checkpoint = false;
+  try {
+    if (!out_dir.empty() && !print_options) {
+      std::filesystem::create_directories(out_dir);
+      lock = std::make_unique<RunDirLock>(out_dir);  // held until we return
+      have_checkpoint = FileExists(ckpt) || FileExists(ckpt + ".prev");
+    }
+    if (resume) {
+      if (out_dir.empty()) return usage_error("--resume needs --out DIR");
+      const bool have_record = FileExists(run_file);
+      if (!have_record && !have_checkpoint)
+        return usage_error("--resume: " + out_dir + " holds no run (no run.yaml, no checkpoint.ckpt)");
+      if (have_record) {
+        RunRecord saved = ReadRunRecord(run_file);
+        for (const auto& [k, v] : run.flags) {
+          if (kResumeMayChange.count(k) || k == "out") continue;
+          auto it = saved.flags.find(k);
+          if (it == saved.flags.end() || it->second != v)
+            return usage_error("--resume: --" + k + " " + given.flags[k] + " differs from the run in " + run_file +
+                               " (" + (it == saved.flags.end() ? "not given" : it->second) +
+                               "); on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, "
+                               "--threads and --quiet may change");
+        }
+        if (!given.configs.empty() && run.configs != saved.configs)
+          return usage_error("--resume: --config differs from the run in " + run_file +
+                             "; on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, "
+                             "--threads and --quiet may change");
+        for (const auto& [k, v] : run.flags) saved.flags[k] = v;
+        run = saved;
+      }
+    } else if (!out_dir.empty() && !print_options && (have_checkpoint || FileExists(run_file))) {
+      return usage_error(out_dir + " already holds a training run (" + (have_checkpoint ? ckpt : run_file) +
+                         "); continue it with --resume --out " + out_dir + ", or choose another --out");
+    }
+  } catch (const std::exception& e) {
+    std::cerr << ext.program << ": error: " << e.what() << "\n";
+    return 1;
+  }
+  auto flag = [&run](const std::string& k) { return run.flags.count(k) ? run.flags.at(k) : std::string(); };
+  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1, log_every = -1,
+            time_limit = -1;
+  try {
+    auto number = [&](const std::string& k, long long lo, long long hi, long long* v) {
+      if (run.flags.count(k)) *v = cli::ParseInt(k, run.flags.at(k), lo, hi);
+    };
+    number("steps", 0, 1LL << 40, &steps);
+    number("batch", 1, 1 << 20, &batch);
+    number("seed", 0, LLONG_MAX, &seed);
+    number("eval-every", 0, INT_MAX, &eval_every);
+    number("checkpoint-every", 0, INT_MAX, &ckpt_every);
+    number("log-every", 1, INT_MAX, &log_every);
+    number("time-limit", 0, 1LL << 40, &time_limit);
+    number("threads", 0, 4096, &threads);
+  } catch (const cli::CliError& e) {
+    return usage_error(e.what());
+  }
+  const std::string data_path = flag("data"), val_path = flag("val"), device = flag("device"),
+                    obs_mode = flag("obs-mode");
+  std::map<std::string, std::string> extra;
+  for (const auto& k : ext.extra_options)
+    if (run.flags.count(k)) extra[k] = run.flags.at(k);
 
   try {
     if (threads > 0) torch::set_num_threads(static_cast<int>(threads));
     MsprOptions options;
-    const std::string ckpt = out_dir + "/checkpoint.ckpt";
-    if (resume) {
-      if (out_dir.empty()) return usage_error("--resume needs --out DIR");
-      if (!FileExists(ckpt)) return usage_error("--resume: no checkpoint " + ckpt);
+    const bool from_checkpoint = resume && have_checkpoint;
+    if (from_checkpoint) {
       options = ReadCheckpointOptions(ckpt);
     } else {
-      options = MakePreset(preset, scale);
-      for (const std::string& c : configs) options = LoadOptionsFile(c, options);
+      options = MakePreset(run.flags.count("preset") ? run.flags["preset"] : "mspr",
+                           run.flags.count("scale") ? run.flags["scale"] : "paper");
+      for (const std::string& c : run.configs) options = LoadOptionsFile(c, options);
     }
     if (steps >= 0) options.trainer.steps = steps;
     if (batch > 0) options.trainer.batch_size = static_cast<int>(batch);
     if (!device.empty()) options.trainer.device = device;
-    if (seed >= 0 && !resume) options.trainer.seed = static_cast<uint64_t>(seed);
+    if (seed >= 0 && !from_checkpoint) options.trainer.seed = static_cast<uint64_t>(seed);
     if (eval_every >= 0) options.trainer.eval_every = static_cast<int>(eval_every);
     if (ckpt_every >= 0) options.trainer.checkpoint_every = static_cast<int>(ckpt_every);
     if (log_every > 0) options.trainer.log_every = static_cast<int>(log_every);
@@ -156,7 +256,7 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     }
     if (data_path.empty())
       return usage_error(std::string("--data FILE is required (see --help)") +
-                         (resume ? "; with --resume too: checkpoints do not hold the dataset" : ""));
+                         (resume ? "; " + run_file + " has none either" : ""));
     if (out_dir.empty() && !print_options) return usage_error("--out DIR is required (see --help)");
 
     auto load = [&](const std::string& path, bool validation) -> std::shared_ptr<const Dataset> {
@@ -178,21 +278,16 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       std::cout << OptionsToYaml(trainer.options());
       return 0;
     }
-    if (resume) {
+    // Once the data has loaded: from here on --resume --out DIR needs nothing else.
+    WriteRunRecord(run_file, run);
+    if (from_checkpoint) {
       trainer.LoadCheckpoint(ckpt);
       std::cerr << ext.program << ": resumed " << ckpt << " at step " << trainer.step() << "\n";
+    } else if (resume) {
+      std::cerr << ext.program << ": resumed " << out_dir << " before its first checkpoint: from step 0\n";
     }
-    {
-      // The resolved options, for the record.
-      std::string cmd = "mkdir -p '" + out_dir + "'";
-      if (std::system(cmd.c_str()) != 0) throw std::runtime_error("cannot create " + out_dir);
-      std::FILE* f = std::fopen((out_dir + "/options.yaml").c_str(), "w");
-      if (f) {
-        const std::string y = OptionsToYaml(trainer.options());
-        std::fwrite(y.data(), 1, y.size(), f);
-        std::fclose(f);
-      }
-    }
+    // The resolved options, for the record.
+    WriteTextAtomically(out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
 
     std::shared_ptr<const Dataset> val;
     if (!val_path.empty())
@@ -223,6 +318,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     trainer.Train(loop, evaluator);
     std::cerr << ext.program << ": done at step " << trainer.step() << "; wrote " << out_dir
               << "/checkpoint.ckpt and " << out_dir << "/policy.pt\n";
+  } catch (const cli::CliError& e) {
+    return usage_error(e.what());
   } catch (const std::exception& e) {
     std::cerr << ext.program << ": error: " << e.what() << "\n";
     return 1;

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/foreach_adamw.h"
@@ -118,13 +119,37 @@ void KeepFreedMemoryInHeap() {
 }
 
 void MakeDirs(const std::string& dir) {
-  std::string partial;
-  for (size_t i = 0; i <= dir.size(); ++i) {
-    if (i == dir.size() || dir[i] == '/') {
-      if (!partial.empty()) mkdir(partial.c_str(), 0755);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw std::runtime_error(dir + ": cannot create directory: " + ec.message());
+}
+
+// NaN guard: a training run stops (std::runtime_error) rather than write
+// non-finite weights over the last good checkpoint.
+void CheckFiniteWeights(const std::vector<torch::nn::Module*>& modules, int64_t step,
+                        const std::string& what) {
+  for (torch::nn::Module* m : modules) {
+    for (const auto& p : m->named_parameters()) {
+      if (!torch::isfinite(p.value()).all().item<bool>())
+        throw std::runtime_error("training diverged: weight '" + m->name() + "." + p.key() +
+                                 "' is NaN or Inf at step " + std::to_string(step) + "; " + what +
+                                 " not written (the last good checkpoint is kept)");
     }
-    if (i < dir.size()) partial.push_back(dir[i]);
   }
+}
+
+// Losses read back on a logged step; the representation terms count only when
+// a representation update ran in that step (they are NaN by design otherwise).
+void CheckFiniteLosses(const LossInfo& info, bool repr_updated, int64_t step) {
+  std::string bad;
+  for (const auto& [name, v] : info.Named()) {
+    const bool repr_term = name != "critic" && name != "q" && name != "actor" && name != "bc";
+    if (!std::isfinite(v) && (repr_updated || !repr_term))
+      bad += " " + name + "=" + std::to_string(v);
+  }
+  if (!bad.empty())
+    throw std::runtime_error("training diverged: non-finite loss at step " + std::to_string(step) + ":" +
+                             bad + "; stopped without writing a checkpoint (the last good one is kept)");
 }
 
 }  // namespace
@@ -623,6 +648,9 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   const LossInfo names;
   if (!loop.out_dir.empty()) {
     MakeDirs(loop.out_dir);
+    // Rows logged after the step this run starts from (a killed run's tail) go.
+    TruncateCsvRows(loop.out_dir + "/metrics.csv", step_);
+    TruncateCsvRows(loop.out_dir + "/eval.csv", step_);
     std::vector<std::string> cols{"step", "wall_s", "steps_per_s"};
     for (const auto& kv : names.Named()) cols.push_back(kv.first);
     metrics_csv = std::make_unique<CsvWriter>(loop.out_dir + "/metrics.csv", cols);
@@ -659,7 +687,9 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     // representation updates just before them.
     const int64_t next = step_ + 1;
     const bool logged = t.log_every > 0 && (next % t.log_every == 0 || next == total);
+    const bool repr_updated = repr_credit_ + options_.representation.updates_per_step >= 1.0 - 1e-9;
     const LossInfo info = Step(logged || std::isnan(last.repr));
+    if (logged) CheckFiniteLosses(info, repr_updated, step_);
     // Keep the last representation losses on steps without a representation update.
     LossInfo merged = info;
     if (std::isnan(info.repr)) {
@@ -694,6 +724,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   if (evaluator && (t.eval_every <= 0 || step_ % t.eval_every != 0)) run_eval();
   if (!loop.out_dir.empty()) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
+    CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export");
     ExportPolicy(loop.out_dir + "/policy.pt");
   }
 }
@@ -710,6 +741,9 @@ std::string NetworkYaml(const NetworkOptions& n) {
 }  // namespace
 
 void Trainer::SaveCheckpoint(const std::string& path) {
+  CheckFiniteWeights({repr_.get(), critic_.get(), actor_.get(), target_repr_.get(), target_critic_.get(),
+                      target_actor_.get()},
+                     step_, "checkpoint " + path);
   CheckpointHeader header;
   header.options = options_;
   header.step = step_;
@@ -747,11 +781,12 @@ void Trainer::SaveCheckpoint(const std::string& path) {
   std::ostringstream payload;
   archive.save_to(payload);
   file.payload = payload.str();
-  WriteCheckpointFile(path, file);
+  WriteCheckpointFile(path, file, /*keep_previous=*/true);
 }
 
-void Trainer::LoadCheckpoint(const std::string& path) {
-  const CheckpointFile file = ReadCheckpointFile(path, "trainer");
+void Trainer::LoadCheckpoint(const std::string& newest) {
+  std::string path;  // newest, or newest.prev when newest fails its CRC
+  const CheckpointFile file = ReadCheckpointFileOrPrevious(newest, "trainer", &path);
   const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
   if (NetworkYaml(header.options.network) != NetworkYaml(options_.network)) {
     throw CheckpointError(path + ": network options differ from this trainer's");
@@ -803,8 +838,9 @@ void Trainer::ExportPolicy(const std::string& path) {
   WriteCheckpointFile(path, file);
 }
 
-MsprOptions ReadCheckpointOptions(const std::string& path) {
-  const CheckpointFile file = ReadCheckpointFile(path);
+MsprOptions ReadCheckpointOptions(const std::string& newest) {
+  std::string path;
+  const CheckpointFile file = ReadCheckpointFileOrPrevious(newest, "", &path);
   return ParseCheckpointHeader(file.header, path).options;
 }
 

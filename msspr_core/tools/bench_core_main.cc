@@ -17,18 +17,20 @@
 
 #include <torch/csrc/autograd/profiler_legacy.h>
 
+#include "msspr_core/cli_args.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/trainer.h"
 
 namespace {
 
 using namespace msspr::core;
+namespace cli = msspr::cli;
 using Clock = std::chrono::steady_clock;
 
 const char kUsage[] =
     "usage: msspr_bench_core --out FILE.json [--device cpu|cuda] [--threads N] [--quick]\n"
     "                        [--precision fp32|bf16]\n"
-    "       msspr_bench_core --config YAML [--config YAML]... --out FILE.json [--steps N]\n"
+    "       msspr_bench_core --config YAML[,YAML...] --out FILE.json [--steps N]\n"
     "                        [--warmup N] [--obs-dim D] [--action-dim A] [--episodes E]\n"
     "                        [--length L] [--device D] [--threads N] [--precision P]\n"
     "\n"
@@ -175,45 +177,35 @@ int main(int argc, char** argv) {
   int threads = 0, steps = 200, warmup = 20, obs_dim = 2, action_dim = 2, episodes = 100,
       length = 1001;
   bool quick = false;
-  auto int_arg = [&](int& i, const std::string& flag, int* value) {
-    const std::string v = argv[++i];
-    char* end = nullptr;
-    const long x = std::strtol(v.c_str(), &end, 10);
-    if (v.empty() || *end != '\0' || x <= 0 || x > 100000000) {
-      std::cerr << "msspr_bench_core: " << flag << " needs a positive integer, got '" << v << "'\n";
-      std::exit(2);
-    }
-    *value = static_cast<int>(x);
-  };
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
+  try {
+    const cli::CliArgs args(argc, argv, {"help", "quick"},
+                            {"out", "device", "threads", "precision", "config", "profile", "steps",
+                             "warmup", "obs-dim", "action-dim", "episodes", "length"});
+    if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
-    } else if (a == "--out" && i + 1 < argc) out = argv[++i];
-    else if (a == "--device" && i + 1 < argc) device = argv[++i];
-    else if (a == "--threads" && i + 1 < argc) int_arg(i, a, &threads);
-    else if (a == "--precision" && i + 1 < argc) precision = argv[++i];
-    else if (a == "--config" && i + 1 < argc) configs.push_back(argv[++i]);
-    else if (a == "--profile" && i + 1 < argc) profile = argv[++i];
-    else if (a == "--steps" && i + 1 < argc) int_arg(i, a, &steps);
-    else if (a == "--warmup" && i + 1 < argc) int_arg(i, a, &warmup);
-    else if (a == "--obs-dim" && i + 1 < argc) int_arg(i, a, &obs_dim);
-    else if (a == "--action-dim" && i + 1 < argc) int_arg(i, a, &action_dim);
-    else if (a == "--episodes" && i + 1 < argc) int_arg(i, a, &episodes);
-    else if (a == "--length" && i + 1 < argc) int_arg(i, a, &length);
-    else if (a == "--quick") quick = true;
-    else {
-      std::cerr << "msspr_bench_core: unknown argument '" << a << "'\n" << kUsage;
-      return 2;
     }
-  }
-  if (out.empty()) {
-    std::cerr << kUsage;
-    return 2;
-  }
-  if (!precision.empty() && precision != "fp32" && precision != "bf16") {
-    std::cerr << "msspr_bench_core: --precision must be fp32 or bf16, got '" << precision << "'\n";
+    if (!args.positional().empty()) throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    out = args.Get("out", "");
+    if (out.empty()) throw cli::CliError("--out FILE.json is required");
+    device = args.Get("device", "cpu");
+    threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
+    quick = args.Has("quick");
+    precision = args.Has("precision") ? args.GetChoice("precision", "fp32", {"fp32", "bf16"}) : "";
+    // --config a.yaml,b.yaml: layered in order.
+    std::stringstream list(args.Get("config", ""));
+    for (std::string item; std::getline(list, item, ',');) {
+      if (!item.empty()) configs.push_back(item);
+    }
+    profile = args.Get("profile", "");
+    steps = static_cast<int>(args.GetInt("steps", steps, 1, 100000000));
+    warmup = static_cast<int>(args.GetInt("warmup", warmup, 0, 100000000));
+    obs_dim = static_cast<int>(args.GetInt("obs-dim", obs_dim, 1, 1000000));
+    action_dim = static_cast<int>(args.GetInt("action-dim", action_dim, 1, 1000000));
+    episodes = static_cast<int>(args.GetInt("episodes", episodes, 1, 100000000));
+    length = static_cast<int>(args.GetInt("length", length, 2, 100000000));
+  } catch (const cli::CliError& e) {
+    std::cerr << "msspr_bench_core: " << e.what() << "\n" << kUsage;
     return 2;
   }
   try {

@@ -20,7 +20,7 @@ int main(int argc, char** argv) {
   try {
     CliArgs args(argc, argv, {"help"}, {"max-problems"});
     bags = args.positional();
-    max_problems = args.GetInt("max-problems", 20);
+    max_problems = args.GetInt("max-problems", 20, 0, 1000000);
     if (args.Has("help") || bags.empty()) {
       std::cout << "usage: msspr_bag_info BAG [BAG...] [--max-problems N]\n"
                    "Prints episodes, steps, observation/action dimensions, images and gaps of\n"
@@ -93,6 +93,12 @@ int main(int argc, char** argv) {
                     static_cast<unsigned long>(r.missing_actions),
                     static_cast<unsigned long>(r.missing_images),
                     static_cast<unsigned long>(r.duplicates));
+      const uint64_t rejected = r.out_of_range_steps + r.nonfinite_observations + r.nonfinite_actions + r.bad_images;
+      if (rejected > 0)
+        std::printf("rejected:     %lu steps out of range, %lu observations and %lu actions with NaN/Inf, %lu bad images\n",
+                    static_cast<unsigned long>(r.out_of_range_steps),
+                    static_cast<unsigned long>(r.nonfinite_observations),
+                    static_cast<unsigned long>(r.nonfinite_actions), static_cast<unsigned long>(r.bad_images));
       const bool mixed = obs_dims.size() > 1 || act_dims.size() > 1 || image_sizes.size() > 1;
       if (!r.problems.empty() || mixed) {
         status = std::max(status, 1);

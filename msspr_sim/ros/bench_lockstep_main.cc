@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <vector>
 
 #include <ros/ros.h>
@@ -15,8 +16,21 @@
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_bench_lockstep", ros::init_options::AnonymousName);
-  msspr::ros_bridge::CliArgs args(argc, argv, {}, {"steps", "out", "label"});
-  const int steps = static_cast<int>(args.GetInt("steps", 5000));
+  std::unique_ptr<msspr::ros_bridge::CliArgs> parsed;
+  int steps = 0;
+  try {
+    parsed = std::make_unique<msspr::ros_bridge::CliArgs>(argc, argv, std::set<std::string>{"help"},
+                                                          std::set<std::string>{"steps", "out", "label"});
+    steps = static_cast<int>(parsed->GetInt("steps", 5000, 1, 100000000));
+    if (parsed->Has("help")) {
+      std::printf("usage: msspr_bench_lockstep [--steps N] [--out FILE.json] [--label NAME]\n");
+      return 0;
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "msspr_bench_lockstep: %s\n", e.what());
+    return 2;
+  }
+  const auto& args = *parsed;
   ros::NodeHandle nh;
   msspr::Observation::ConstPtr latest;
   auto sub = nh.subscribe<msspr::Observation>(

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <set>
 
 #include <ros/time.h>
 
@@ -39,10 +40,18 @@ Example (the full pointmaze-medium-navigate dataset, states only):
 
 int main(int argc, char** argv) {
   using namespace msspr;
+  std::unique_ptr<ros_bridge::CliArgs> parsed;
   try {
-    ros_bridge::CliArgs args(argc, argv, {"images", "no-compress", "quiet", "help"},
-                             {"out", "maze", "kind", "episodes", "val-episodes", "length",
-                              "noise", "image-episodes", "seed"});
+    parsed = std::make_unique<ros_bridge::CliArgs>(
+        argc, argv, std::set<std::string>{"images", "no-compress", "quiet", "help"},
+        std::set<std::string>{"out", "maze", "kind", "episodes", "val-episodes", "length", "noise",
+                              "image-episodes", "seed"});
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  const ros_bridge::CliArgs& args = *parsed;
+  try {
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
@@ -51,21 +60,25 @@ int main(int argc, char** argv) {
       std::cerr << "msspr_collect: --out FILE.bag is required\n" << kUsage;
       return 2;
     }
-    ros::Time::init();
     sim::CollectOptions opt;
-    opt.maze = args.Get("maze", "medium");
-    opt.kind = sim::ParseDatasetKind(args.Get("kind", "navigate"));
-    const bool stitch = opt.kind == sim::DatasetKind::kStitch;
-    const long episodes = args.GetInt("episodes", stitch ? 5000 : (opt.maze == "giant" ? 500 : 1000));
-    const long val = args.GetInt("val-episodes", episodes / 10);
-    opt.episode_length = static_cast<int>(
-        args.GetInt("length", stitch ? 201 : (opt.maze == "giant" ? 2001 : 1001)));
-    opt.noise_std = args.GetDouble("noise", 0.5);
-    opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0));
-    const long image_episodes =
-        args.Has("images") ? episodes + val : args.GetInt("image-episodes", 0);
-    if (episodes < 1 || val < 0 || opt.episode_length < 2 || image_episodes < 0)
-      throw std::invalid_argument("need --episodes >= 1, --val-episodes >= 0, --length >= 2");
+    long episodes = 0, val = 0, image_episodes = 0;
+    try {  // every flag is checked first: a bad one is a usage error (exit 2)
+      if (!args.positional().empty()) throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+      opt.maze = args.GetChoice("maze", "medium", {"arena", "medium", "large", "giant"});
+      opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
+      const bool stitch = opt.kind == sim::DatasetKind::kStitch;
+      episodes = args.GetInt("episodes", stitch ? 5000 : (opt.maze == "giant" ? 500 : 1000), 1, 100000000);
+      val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
+      opt.episode_length = static_cast<int>(
+          args.GetInt("length", stitch ? 201 : (opt.maze == "giant" ? 2001 : 1001), 2, 1000000));
+      opt.noise_std = args.GetDouble("noise", 0.5, 0.0, 1e6);
+      opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+      image_episodes = args.Has("images") ? episodes + val : args.GetInt("image-episodes", 0, 0, 100000000);
+    } catch (const std::exception& e) {
+      std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+      return 2;
+    }
+    ros::Time::init();
     const bool quiet = args.Has("quiet");
     const bool tty = isatty(STDERR_FILENO);
 

@@ -30,6 +30,15 @@ inline constexpr char kActionTopic[] = "/msspr/action";
 inline constexpr char kImageTopic[] = "/msspr/camera/image";
 inline constexpr char kCameraFrame[] = "msspr_camera";
 
+// Sanity limits of the reader: a message whose `step` is at or beyond
+// kMaxEpisodeSteps, or beyond twice the number of distinct steps its episode
+// carries, is rejected and counted (out_of_range_steps); images wider than
+// kMaxImageSide are inconsistent; an episode's images may take at most
+// kMaxEpisodeImageBytes.
+inline constexpr uint32_t kMaxEpisodeSteps = 1000000;
+inline constexpr uint32_t kMaxImageSide = 4096;
+inline constexpr uint64_t kMaxEpisodeImageBytes = uint64_t{4} << 30;
+
 // A bag that cannot be read, or whose content breaks the layout; what() names the file.
 class BagError : public std::runtime_error {
  public:
@@ -46,10 +55,14 @@ struct EpisodeMeta {
   std::vector<float> goal;    // [obs_dim]
 };
 
-// Writes dataset bags through the rosbag C++ API (no master needed).
+// Writes dataset bags through the rosbag C++ API (no master needed). It writes
+// to `path`.tmp.<pid> and renames it to `path` in Close(): an existing bag at
+// `path` stays untouched until the new one is complete, and a writer destroyed
+// without Close() (an error, an abandoned collection) removes its temporary
+// file and leaves `path` as it was.
 class DatasetBagWriter {
  public:
-  // Opens `path` for writing, LZ4-compressed unless lz4 is false; throws BagError.
+  // Opens the temporary file, LZ4-compressed unless lz4 is false; throws BagError.
   DatasetBagWriter(const std::string& path, double control_dt, bool lz4 = true);
   ~DatasetBagWriter();
 
@@ -61,10 +74,12 @@ class DatasetBagWriter {
                     int image_size, double success_radius);
 
   uint64_t messages() const { return messages_; }
+  // Finishes the bag and renames it to `path`; throws BagError.
   void Close();
 
  private:
-  std::string path_;
+  std::string path_, tmp_path_;
+  bool closed_ = false;
   double control_dt_;
   uint64_t tick_ = 0;
   uint64_t messages_ = 0;
@@ -95,6 +110,7 @@ struct BagReadReport {
   uint64_t messages = 0, episodes = 0, complete_episodes = 0, steps = 0;
   uint64_t missing_observations = 0, missing_actions = 0, missing_images = 0;
   uint64_t duplicates = 0, foreign_messages = 0;
+  uint64_t out_of_range_steps = 0, nonfinite_observations = 0, nonfinite_actions = 0, bad_images = 0;
   std::vector<std::string> problems;  // episode-level and bag-level, "episode 3: ..."
 };
 
@@ -105,7 +121,10 @@ class DatasetBagReader {
   ~DatasetBagReader();
 
   // Calls fn for each episode in increasing episode_id. Throws BagError naming the
-  // file when the bag is truncated or corrupt (after the episodes read so far).
+  // file when the bag is truncated or corrupt (after the episodes read so far),
+  // also for a message that cannot be deserialized. Exceptions of fn pass through.
+  // Steps out of range, observations/actions with NaN or Inf and inconsistent
+  // images are rejected, counted in report() and listed in the episode's problems.
   void ForEachEpisode(const std::function<void(BagEpisode&&)>& fn);
   const BagReadReport& report() const { return report_; }
   const std::string& path() const { return path_; }

@@ -86,47 +86,43 @@ std::map<int, std::pair<std::vector<float>, std::vector<float>>> LoadTasksFile(c
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_eval", ros::init_options::AnonymousName);
   using msspr::ros_bridge::CliArgs;
+  // Every flag is checked before anything else runs: a bad one is a usage error (exit 2).
   std::unique_ptr<CliArgs> args;
+  std::unique_ptr<msspr::sim::MazeMap> map_ptr;
+  std::string maze;
+  std::vector<int> tasks;
+  std::map<int, std::pair<std::vector<float>, std::vector<float>>> custom;  // id -> start, goal
+  int episodes = 0, max_steps = 0;
+  uint64_t seed = 0;
+  double step_timeout = 0;
   try {
     args = std::make_unique<CliArgs>(argc, argv, std::set<std::string>{"help"},
                                      std::set<std::string>{"maze", "tasks", "episodes", "max-steps", "seed",
                                                            "agent", "out", "plot", "success-plot", "step-timeout",
                                                            "tasks-file"});
-  } catch (const std::exception& e) {
-    std::cerr << "msspr_eval: " << e.what() << "\n" << kUsage;
-    return 2;
-  }
-  if (args->Has("help")) {
-    std::cout << kUsage;
-    return 0;
-  }
-  const std::string maze = args->Get("maze", "medium");
-  const auto map = msspr::sim::MazeMap::FromName(maze);
-  std::vector<int> tasks;
-  std::map<int, std::pair<std::vector<float>, std::vector<float>>> custom;  // id -> start, goal
-  try {
+    if (args->Has("help")) {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (!args->positional().empty()) throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
+    maze = args->Get("maze", "medium");
+    map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (args->Has("tasks-file")) {
       custom = LoadTasksFile(args->Get("tasks-file", ""));
       for (const auto& kv : custom) tasks.push_back(kv.first);
     } else {
-      std::stringstream ss(args->Get("tasks", "1,2,3,4,5"));
-      std::string t;
-      while (std::getline(ss, t, ',')) {
-        const int id = std::stoi(t);
-        if (id < 1 || id > static_cast<int>(map.Tasks().size()))
-          throw std::invalid_argument("task " + t + " is not one of the maze's tasks 1.." +
-                                      std::to_string(map.Tasks().size()));
-        tasks.push_back(id);
-      }
+      for (long id : args->GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map_ptr->Tasks().size())))
+        tasks.push_back(static_cast<int>(id));
     }
+    episodes = static_cast<int>(args->GetInt("episodes", 50, 1, 1000000));
+    max_steps = static_cast<int>(args->GetInt("max-steps", 1000, 1, 100000000));
+    seed = static_cast<uint64_t>(args->GetInt("seed", 0, 0));
+    step_timeout = args->GetDouble("step-timeout", 10.0, 1e-3, 1e6);
   } catch (const std::exception& e) {
-    std::cerr << "msspr_eval: " << e.what() << "\n";
+    std::cerr << "msspr_eval: " << e.what() << "\n" << kUsage;
     return 2;
   }
-  const int episodes = static_cast<int>(args->GetInt("episodes", 50));
-  const int max_steps = static_cast<int>(args->GetInt("max-steps", 1000));
-  const uint64_t seed = static_cast<uint64_t>(args->GetInt("seed", 0));
-  const double step_timeout = args->GetDouble("step-timeout", 10.0);
+  const msspr::sim::MazeMap& map = *map_ptr;
 
   ros::NodeHandle nh;
   std::deque<msspr::Observation::ConstPtr> inbox;  // every observation, in order
@@ -240,23 +236,24 @@ int main(int argc, char** argv) {
       msspr::sim::SaveSuccessPlot(report, args->Get("success-plot", ""));
       std::cout << "  success per task: " << args->Get("success-plot", "") << "\n";
     }
+    if (args->Has("plot")) {
+      std::vector<std::vector<Eigen::Vector2d>> paths;
+      std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
+      std::vector<bool> ok;
+      for (auto& task_results : results)
+        for (size_t k = 0; k < task_results.size() && k < 5; ++k) {  // 5 per task keeps it readable
+          paths.push_back(task_results[k].path);
+          sg.emplace_back(task_results[k].start, task_results[k].goal);
+          ok.push_back(task_results[k].success);
+        }
+      const std::string png = args->Get("plot", "");
+      msspr::sim::SaveTrajectoryPlot(map, paths, sg, ok, png);
+      std::cout << "  picture: " << png << "\n";
+    }
   } catch (const std::exception& e) {
+    std::cout << std::flush;
     ROS_FATAL("msspr_eval: %s", e.what());
     return 1;
-  }
-  if (args->Has("plot")) {
-    std::vector<std::vector<Eigen::Vector2d>> paths;
-    std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
-    std::vector<bool> ok;
-    for (auto& task_results : results)
-      for (size_t k = 0; k < task_results.size() && k < 5; ++k) {  // 5 per task keeps it readable
-        paths.push_back(task_results[k].path);
-        sg.emplace_back(task_results[k].start, task_results[k].goal);
-        ok.push_back(task_results[k].success);
-      }
-    const std::string png = args->Get("plot", "");
-    msspr::sim::SaveTrajectoryPlot(map, paths, sg, ok, png);
-    std::cout << "  picture: " << png << "\n";
   }
   std::cout << std::flush;
   return 0;

@@ -46,7 +46,7 @@ std::string CheckRgbImage(const sensor_msgs::Image& img, int size) {
   if (static_cast<int>(img.width) != size || static_cast<int>(img.height) != size)
     return "size " + std::to_string(img.width) + "x" + std::to_string(img.height) + ", expected " +
            std::to_string(size) + "x" + std::to_string(size);
-  if (img.step != img.width * 3 || img.data.size() != static_cast<size_t>(img.step) * img.height)
+  if (uint64_t{img.step} != uint64_t{img.width} * 3 || img.data.size() != uint64_t{img.step} * img.height)
     return "data of " + std::to_string(img.data.size()) + " bytes with step " +
            std::to_string(img.step) + " does not match " + std::to_string(size) + "x" +
            std::to_string(size) + "x3";

@@ -1,6 +1,7 @@
 #include "sim_node.h"
 
 #include <cmath>
+#include <sstream>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
@@ -11,6 +12,7 @@
 #include "ros_params.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr_sim/expert.h"
+#include "msspr_sim/maze_map.h"
 
 namespace msspr::ros_bridge {
 
@@ -48,11 +50,31 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
                                 o.observation_mode + "'");
   if (o.stepping != "lockstep" && o.stepping != "realtime")
     throw std::invalid_argument("~stepping must be lockstep or realtime, got '" + o.stepping + "'");
-  if (o.control_rate <= 0) throw std::invalid_argument("~control_rate must be > 0");
-  if (o.initial_task < -1 || o.initial_task > 5)
-    throw std::invalid_argument("~initial_task must be -1 (none), 0 (random) or 1..5");
-  if (o.auto_reset && o.episode_length < 2) throw std::invalid_argument("~episode_length must be >= 2");
-  if (o.max_episode_steps < 1) throw std::invalid_argument("~max_episode_steps must be >= 1");
+  // Every parameter is checked before the node starts: a bad one is fatal (exit 1).
+  auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
+    std::ostringstream s;
+    s << "~" << name << " must be " << rule << ", got " << v;
+    throw std::invalid_argument(s.str());
+  };
+  try {
+    sim::MazeMap::FromName(o.maze);
+  } catch (const std::exception&) {
+    bad("maze", "arena, medium, large or giant", "'" + o.maze + "'");
+  }
+  if (!(o.control_rate > 0 && std::isfinite(o.control_rate))) bad("control_rate", "> 0 (Hz)", o.control_rate);
+  if (!(o.action_timeout > 0 && std::isfinite(o.action_timeout))) bad("action_timeout", "> 0 (s)", o.action_timeout);
+  if (!(o.republish_timeout > 0 && std::isfinite(o.republish_timeout)))
+    bad("republish_timeout", "> 0 (s)", o.republish_timeout);
+  if (o.image_size < 8 || o.image_size > 1024) bad("image_size", "in 8..1024", o.image_size);
+  if (o.initial_task < -1 || o.initial_task > 5) bad("initial_task", "-1 (none), 0 (random) or 1..5", o.initial_task);
+  if (o.episode_length < 2) bad("episode_length", ">= 2", o.episode_length);
+  if (o.max_episode_steps < 1) bad("max_episode_steps", ">= 1", o.max_episode_steps);
+  if (o.num_episodes < 0) bad("num_episodes", ">= 0 (0: unbounded)", o.num_episodes);
+  if (o.val_episodes < 0) bad("val_episodes", ">= 0", o.val_episodes);
+  if (o.wait_for_subscribers < 0) bad("wait_for_subscribers", ">= 0", o.wait_for_subscribers);
+  if (o.seed < 0) bad("seed", ">= 0", o.seed);
+  if (o.world_frame.empty() || o.agent_frame.empty() || o.world_frame == o.agent_frame)
+    bad("world_frame/~agent_frame", "two different non-empty frames", o.world_frame + "/" + o.agent_frame);
   return o;
 }
 

@@ -92,7 +92,7 @@ if has_stage bench; then
     --out /tmp/r.json && record paper_fp32_repeat /tmp/r.json
   for v in batch_256 batch_4096 repr_every_250; do
     for p in fp32 bf16; do
-      "$B" --config $CONFIG --config scripts/gpu/$v.yaml --device cuda --steps 200 --warmup 20 \
+      "$B" --config $CONFIG,scripts/gpu/$v.yaml --device cuda --steps 200 --warmup 20 \
         --precision $p --out /tmp/r.json && record "paper_${v}_$p" /tmp/r.json
     done
   done

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <random>
+
 #include "msspr_core/trainer.h"
 #include "test_util.h"
 #include "torch_test_util.h"
@@ -48,7 +51,8 @@ TEST(CheckpointTest, RoundTripRestoresEverything) {
   const MsprOptions stored = ReadCheckpointOptions(dir.File("a.ckpt"));
   EXPECT_EQ(OptionsToYaml(stored), OptionsToYaml(a.options()));
   // No temporary file is left behind.
-  EXPECT_FALSE(std::ifstream(dir.File("a.ckpt.tmp")).good());
+  for (const auto& e : std::filesystem::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
 TEST(CheckpointTest, ResumedRunEqualsUninterruptedRun) {
@@ -129,6 +133,105 @@ TEST(CheckpointTest, ContainerRejectsWrongVersionAndKind) {
   bytes[8] = 99;  // format version
   WriteText(dir.File("v.ckpt"), bytes);
   ExpectErrorNamesFile(dir.File("v.ckpt"), [&] { ReadCheckpointFile(dir.File("v.ckpt")); });
+}
+
+// A trainer one step in, checkpointed at dir/checkpoint.ckpt.
+struct OneStepCheckpoint {
+  TempDir dir;
+  std::shared_ptr<const Dataset> data = RandomStateDataset();
+  Trainer t{ResumeOptions(), data};
+  std::string path = dir.File("checkpoint.ckpt");
+  OneStepCheckpoint() {
+    t.Step();
+    t.SaveCheckpoint(path);
+  }
+};
+
+TEST(CheckpointTest, KeepsThePreviousAndFallsBackToItWhenTheNewestIsTruncated) {
+  OneStepCheckpoint c;
+  Trainer& t = c.t;
+  const auto& data = c.data;
+  const std::string& path = c.path;
+  const std::string first = ReadText(path);
+  t.Step();
+  t.SaveCheckpoint(path);
+  const std::string second = ReadText(path);
+  EXPECT_EQ(ReadText(path + ".prev"), first);
+  std::mt19937_64 rng(7);  // seeded truncation offsets
+  auto truncate = [&] {
+    const size_t cut = std::uniform_int_distribution<size_t>(0, second.size() - 1)(rng);
+    WriteText(path, second.substr(0, cut));
+    return cut;
+  };
+  for (int k = 0; k < 12; ++k) {
+    const size_t cut = truncate();
+    Trainer u(ResumeOptions(), data);
+    u.LoadCheckpoint(path);  // newest fails its CRC / length: the previous one
+    EXPECT_EQ(u.step(), 1) << "cut at " << cut;
+    EXPECT_EQ(ReadCheckpointOptions(path).trainer.seed, ResumeOptions().trainer.seed);
+  }
+  // Without a previous checkpoint, a truncated one is a clear error naming it.
+  std::filesystem::remove(path + ".prev");
+  for (int k = 0; k < 6; ++k) {
+    truncate();
+    Trainer u(ResumeOptions(), data);
+    ExpectErrorNamesFile(path, [&] { u.LoadCheckpoint(path); });
+  }
+}
+
+TEST(CheckpointTest, NonFiniteWeightsNeverOverwriteTheLastGoodCheckpoint) {
+  OneStepCheckpoint c;
+  Trainer& t = c.t;
+  const auto& data = c.data;
+  const std::string& path = c.path;
+  const std::string good = ReadText(path);
+  {
+    torch::NoGradGuard no_grad;
+    t.actor()->parameters()[0].view(-1)[0] = std::numeric_limits<float>::quiet_NaN();
+  }
+  try {
+    t.SaveCheckpoint(path);
+    FAIL() << "NaN weights were written";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("diverged"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(ReadText(path), good);
+  // The training loop stops at the first logged step with a non-finite loss,
+  // without writing a checkpoint or an export.
+  TempDir out;
+  MsprOptions o = ResumeOptions();
+  o.trainer.log_every = 1;
+  o.trainer.checkpoint_every = 1;
+  Trainer u(o, data);
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : u.critic()->parameters()) p.fill_(std::numeric_limits<float>::infinity());
+  }
+  TrainLoopOptions loop;
+  loop.out_dir = out.path();
+  loop.quiet = true;
+  try {
+    u.Train(loop, nullptr);
+    FAIL() << "training went on with non-finite losses";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("non-finite loss at step 1"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(out.File("checkpoint.ckpt")));
+  EXPECT_FALSE(std::filesystem::exists(out.File("policy.pt")));
+}
+
+TEST(CheckpointTest, RunDirLockAdmitsOneRun) {
+  TempDir dir;
+  {
+    RunDirLock a(dir.path());
+    try {
+      RunDirLock b(dir.path());
+      FAIL() << "a second lock was granted";
+    } catch (const CheckpointError& e) {
+      EXPECT_NE(std::string(e.what()).find("another training run"), std::string::npos) << e.what();
+    }
+  }
+  RunDirLock again(dir.path());  // released with the first
 }
 
 }  // namespace

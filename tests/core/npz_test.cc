@@ -111,6 +111,66 @@ TEST_F(NpzTest, MalformedFilesNameFileAndKey) {
   ExpectErrorNames(dir_.File("truncated.npz"), "");
 }
 
+// Hostile files: NaN / Inf, a header that lies about the shape, negative and
+// overflowing dimensions, a truncated entry. Each fails with NpzError naming
+// the file (and the array), never with a huge allocation or a std:: error.
+const char kHostileScript[] = R"(
+import numpy as np, zipfile, io, sys
+d = sys.argv[1] if len(sys.argv) > 1 else '%DIR%'
+n = 12
+obs = np.arange(n * 2, dtype=np.float32).reshape(n, 2)
+act = np.zeros((n, 3), dtype=np.float32)
+term = np.zeros(n, dtype=np.float32); term[-1] = 1
+bad = obs.copy(); bad[4, 1] = np.nan; bad[7, 0] = np.inf
+np.savez(d + '/nan_obs.npz', observations=bad, actions=act, terminals=term)
+bad_act = act.copy(); bad_act[2, 2] = -np.inf
+np.savez(d + '/inf_act.npz', observations=obs, actions=bad_act, terminals=term)
+def npy(shape_text, payload, descr='<f4'):
+    h = "{'descr': '%s', 'fortran_order': False, 'shape': %s, }" % (descr, shape_text)
+    h += ' ' * ((64 - (10 + len(h) + 1) % 64) % 64) + '\n'
+    return b'\x93NUMPY\x01\x00' + len(h).to_bytes(2, 'little') + h.encode() + payload
+def write(name, obs_entry):
+    with zipfile.ZipFile(d + '/' + name, 'w') as z:
+        z.writestr('observations.npy', obs_entry)
+        z.writestr('actions.npy', npy('(12, 3)', act.tobytes()))
+        z.writestr('terminals.npy', npy('(12,)', term.tobytes()))
+write('lying.npz', npy('(100000000000, 2)', obs.tobytes()))
+write('short.npz', npy('(12, 2)', obs.tobytes()[:40]))
+write('negative.npz', npy('(-5, 2)', obs.tobytes()))
+write('overflow.npz', npy('(4611686018427387904, 4611686018427387904)', obs.tobytes()))
+write('garbled.npz', npy('(12, zz)', obs.tobytes()))
+)";
+
+TEST_F(NpzTest, HostileFilesFailNamingFileAndArray) {
+  std::string s = kHostileScript;
+  s.replace(s.find("%DIR%"), 5, dir_.path());
+  ASSERT_EQ(RunPython(s, dir_.path()), 0);
+  for (const char* name : {"lying.npz", "short.npz", "negative.npz", "overflow.npz", "garbled.npz"})
+    ExpectErrorNames(dir_.File(name), "observations");
+  ExpectErrorNames(dir_.File("nan_obs.npz"), "observations");
+  ExpectErrorNames(dir_.File("inf_act.npz"), "actions");
+  try {
+    LoadNpzDataset(dir_.File("nan_obs.npz"));
+  } catch (const NpzError& e) {
+    EXPECT_NE(std::string(e.what()).find("2 non-finite values"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("row 4"), std::string::npos) << e.what();
+  }
+  try {
+    LoadNpzDataset(dir_.File("lying.npz"));
+  } catch (const NpzError& e) {
+    EXPECT_NE(std::string(e.what()).find("header says shape"), std::string::npos) << e.what();
+  }
+  // The array readers name the file too.
+  EXPECT_THROW(ReadNpzFloat(dir_.File("negative.npz"), "observations", nullptr), NpzError);
+  EXPECT_THROW(ReadNpzFloat(dir_.File("lying.npz"), "observations", nullptr), NpzError);
+  // Every prefix of a valid file: an NpzError, nothing else.
+  const std::string full = testing_util::ReadText(dir_.File("plain.npz"));
+  for (size_t cut : {size_t{0}, size_t{30}, full.size() / 3, full.size() - 22, full.size() - 1}) {
+    WriteText(dir_.File("cut.npz"), full.substr(0, cut));
+    ExpectErrorNames(dir_.File("cut.npz"), "");
+  }
+}
+
 TEST_F(NpzTest, ExportRoundTripsAndNumpyReadsIt) {
   const Dataset d = LoadNpzDataset(dir_.File("compressed.npz"));
   for (bool compress : {false, true}) {

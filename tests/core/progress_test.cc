@@ -50,6 +50,32 @@ TEST(ProgressTest, PlainLinesWhenNotATerminal) {
   EXPECT_NE(text.find("100/100"), std::string::npos);
 }
 
+TEST(ProgressTest, CsvWriteErrorsNameTheFile) {
+  // /dev/full accepts the open and fails every write (ENOSPC).
+  try {
+    CsvWriter w("/dev/full", {"step", "x"});
+    w.Write({1, 2});
+    FAIL() << "no error writing to /dev/full";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("/dev/full"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ProgressTest, TruncateCsvRowsDropsRowsAfterAStepAndAPartialLastRow) {
+  TempDir dir;
+  const std::string path = dir.File("m.csv");
+  testing_util::WriteText(path, "step,x\n10,1\n20,2\n30,3\n40,4\n5");  // "5": cut short by a kill
+  EXPECT_EQ(TruncateCsvRows(path, 20), 3);
+  EXPECT_EQ(ReadText(path), "step,x\n10,1\n20,2\n");
+  EXPECT_EQ(TruncateCsvRows(path, 20), 0);
+  EXPECT_EQ(TruncateCsvRows(dir.File("missing.csv"), 0), 0);
+  {
+    CsvWriter w(path, {"step", "x"});  // appends after the kept rows, no second header
+    w.Write({30, 9});
+  }
+  EXPECT_EQ(ReadText(path), "step,x\n10,1\n20,2\n30,9\n");
+}
+
 }  // namespace
 }  // namespace core
 }  // namespace msspr

@@ -1,13 +1,19 @@
 // The agent's ROS layer without a master: bags into the core dataset, the
 // in-process evaluator, and msspr_train killed mid-run and resumed.
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <cmath>
 #include <fstream>
+#include <random>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -20,7 +26,10 @@
 #include "msspr/Action.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
+#include "msspr_core/npz.h"
+#include "msspr_core/options.h"
 #include "msspr_core/policy.h"
+#include "torch_test_util.h"
 
 namespace msspr::agent {
 namespace {
@@ -157,8 +166,8 @@ TEST(MazeEvaluator, DeterministicAndSane) {
   EXPECT_THROW(EvaluateOnMaze(policy, opt), std::invalid_argument);
 }
 
-// Runs msspr_train; returns the pid.
-pid_t StartTrain(const std::vector<std::string>& args, const std::string& log) {
+// Runs msspr_train; returns the pid. fault: MSSPR_FAULT_KILL_IN_CHECKPOINT for the child.
+pid_t StartTrain(const std::vector<std::string>& args, const std::string& log, const char* fault = nullptr) {
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> argv;
@@ -167,7 +176,8 @@ pid_t StartTrain(const std::vector<std::string>& args, const std::string& log) {
     std::vector<std::string> copy = args;
     for (auto& a : copy) argv.push_back(a.data());
     argv.push_back(nullptr);
-    freopen(log.c_str(), "w", stderr);
+    if (fault) setenv("MSSPR_FAULT_KILL_IN_CHECKPOINT", fault, 1);
+    freopen(log.c_str(), "a", stderr);
     freopen(log.c_str(), "a", stdout);
     execv(exe.c_str(), argv.data());
     _exit(127);
@@ -175,44 +185,134 @@ pid_t StartTrain(const std::vector<std::string>& args, const std::string& log) {
   return pid;
 }
 
-int CountLines(const std::string& path) {
-  std::ifstream f(path);
-  int n = 0;
-  for (std::string line; std::getline(f, line);) ++n;
-  return n;
-}
-
-TEST(TrainCli, KilledMidRunResumesAndFinishes) {
-  const std::string out = Tmp("run");
-  const std::string bag = std::string(MSSPR_SOURCE_DIR) + "/rosbags/pointmaze-medium-navigate-sample.bag";
-  const std::vector<std::string> args = {"--data", bag, "--scale", "cpu", "--batch", "32", "--steps", "400",
-                                         "--checkpoint-every", "20", "--log-every", "10", "--out", out,
-                                         "--seed", "3", "--quiet"};
-  const pid_t pid = StartTrain(args, out + ".log1");
-  const std::string ckpt = out + "/checkpoint.ckpt";
-  // Kill it without warning once a checkpoint exists (well before the end).
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
-  while (!Exists(ckpt) && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  ASSERT_TRUE(Exists(ckpt)) << "no checkpoint appeared";
-  kill(pid, SIGKILL);
+int Wait(pid_t pid) {
   int status = 0;
   waitpid(pid, &status, 0);
-  ASSERT_TRUE(WIFSIGNALED(status)) << "the run finished before it could be killed";
-  EXPECT_FALSE(Exists(out + "/policy.pt"));
-  // The checkpoint on disk is whole (atomic rename), and the run resumes to the end.
-  const pid_t resumed = StartTrain({"--resume", "--data", bag, "--out", out, "--quiet"}, out + ".log2");
-  waitpid(resumed, &status, 0);
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0) << "see " << out << ".log2";
-  EXPECT_TRUE(Exists(out + "/policy.pt"));
-  auto policy = core::Policy::Load(out + "/policy.pt");
-  EXPECT_EQ(policy.obs_dim(), 2);
-  std::ifstream log(out + ".log2");
-  std::string text((std::istreambuf_iterator<char>(log)), {});
-  EXPECT_NE(text.find("resumed"), std::string::npos) << text;
-  EXPECT_NE(text.find("done at step 400"), std::string::npos) << text;
-  EXPECT_GT(CountLines(out + "/metrics.csv"), 1);
+  return status;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream f(path);
+  return std::string((std::istreambuf_iterator<char>(f)), {});
+}
+
+// metrics.csv without its wall-clock columns (wall_s, steps_per_s).
+std::vector<std::string> LossRows(const std::string& path) {
+  std::vector<std::string> rows;
+  std::ifstream f(path);
+  for (std::string line; std::getline(f, line);) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    std::string row;
+    for (size_t i = 0; i < cells.size(); ++i)
+      if (i != 1 && i != 2) row += cells[i] + ",";
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// A tiny run: 12 short trajectories and a tiny network, a few seconds in all.
+struct TinyRun {
+  std::string dir, data, config;
+  explicit TinyRun(const std::string& name) : dir(Tmp(name)), data(dir + "/data.npz"), config(dir + "/tiny.yaml") {
+    mkdir(dir.c_str(), 0755);
+    std::mt19937_64 rng(1);
+    std::normal_distribution<float> normal;
+    core::DatasetBuilder b(2, 2);
+    for (int e = 0; e < 12; ++e) {
+      std::vector<float> obs(30 * 2), act(30 * 2);
+      for (auto& v : obs) v = normal(rng);
+      for (auto& v : act) v = std::tanh(normal(rng));
+      b.AddEpisode(obs, act);
+    }
+    core::SaveNpzDataset(b.Build(), data);
+    core::MsprOptions o = core::testing_util::TinyOptions();
+    o.representation.updates_per_step = 1.0;
+    std::ofstream(config) << core::OptionsToYaml(o);
+  }
+  ~TinyRun() { std::filesystem::remove_all(dir); }
+  std::vector<std::string> Args(const std::string& out) const {
+    return {"--data", data, "--val", data, "--config", config, "--steps", "40", "--batch", "16",
+            "--checkpoint-every", "3", "--log-every", "1", "--eval-every", "5", "--threads", "1",
+            "--seed", "3", "--quiet", "--out", out};
+  }
+};
+
+TEST(TrainCli, KilledAtRandomPointsResumesBitExact) {
+  TinyRun tiny("killed");
+  const std::string ref = tiny.dir + "/ref", run = tiny.dir + "/run";
+  ASSERT_EQ(Wait(StartTrain(tiny.Args(ref), ref + ".log")), 0) << ReadAll(ref + ".log");
+
+  // Kill the same run again and again: once inside a checkpoint write (the
+  // fault hook), then at seeded random moments, resuming each time.
+  std::mt19937 rng(2024);
+  int kills = 0, attempts = 0, status = 0;
+  for (; attempts < 12; ++attempts) {
+    const bool fresh = !Exists(run + "/run.yaml");
+    const std::vector<std::string> args = fresh ? tiny.Args(run)
+                                                : std::vector<std::string>{"--resume", "--out", run, "--quiet"};
+    const pid_t pid = StartTrain(args, run + ".log", attempts == 0 ? "2" : nullptr);
+    if (attempts > 0 && attempts < 8) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(300, 2500)(rng)));
+      kill(pid, SIGKILL);
+    }
+    status = Wait(pid);
+    if (WIFSIGNALED(status)) {
+      ++kills;
+      continue;
+    }
+    ASSERT_TRUE(WIFEXITED(status));
+    ASSERT_EQ(WEXITSTATUS(status), 0) << ReadAll(run + ".log");
+    break;
+  }
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << ReadAll(run + ".log");
+  EXPECT_GE(kills, 1);
+  const std::string log = ReadAll(run + ".log");
+  EXPECT_NE(log.find("resumed"), std::string::npos) << log;
+
+  // Bit for bit: the exported weights, every logged loss, every evaluation row.
+  auto a = core::Policy::Load(ref + "/policy.pt"), b = core::Policy::Load(run + "/policy.pt");
+  using Pair = std::pair<torch::nn::Module*, torch::nn::Module*>;
+  for (const Pair& m : std::vector<Pair>{{a.repr().get(), b.repr().get()},
+                                         {a.actor().get(), b.actor().get()},
+                                         {a.critic().get(), b.critic().get()}}) {
+    const auto pa = m.first->parameters(), pb = m.second->parameters();
+    ASSERT_EQ(pa.size(), pb.size());
+    for (size_t i = 0; i < pa.size(); ++i) EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "parameter " << i;
+  }
+  const auto ref_rows = LossRows(ref + "/metrics.csv"), run_rows = LossRows(run + "/metrics.csv");
+  EXPECT_EQ(ref_rows.size(), 41u);  // header + 40 steps, no duplicates
+  EXPECT_EQ(run_rows, ref_rows);
+  EXPECT_EQ(ReadAll(run + "/eval.csv"), ReadAll(ref + "/eval.csv"));
+}
+
+TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
+  TinyRun tiny("resume_rules");
+  const std::string out = tiny.dir + "/run";
+  ASSERT_EQ(Wait(StartTrain(tiny.Args(out), out + ".log")), 0) << ReadAll(out + ".log");
+  auto exit_code = [&](const std::vector<std::string>& args, const std::string& log) {
+    const int st = Wait(StartTrain(args, log));
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  };
+  // A changed option: exit 2, naming it.
+  EXPECT_EQ(exit_code({"--resume", "--out", out, "--batch", "32"}, out + ".batch"), 2);
+  EXPECT_NE(ReadAll(out + ".batch").find("--batch 32 differs"), std::string::npos) << ReadAll(out + ".batch");
+  EXPECT_EQ(exit_code({"--resume", "--out", out, "--data", tiny.config}, out + ".data"), 2);
+  // A fresh run into a directory that holds one: exit 2.
+  EXPECT_EQ(exit_code(tiny.Args(out), out + ".again"), 2);
+  EXPECT_NE(ReadAll(out + ".again").find("--resume"), std::string::npos);
+  // An allowed change: more steps.
+  EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "45", "--quiet"}, out + ".more"), 0)
+      << ReadAll(out + ".more");
+  EXPECT_EQ(LossRows(out + "/metrics.csv").size(), 46u);
+  // A second run while one holds the directory's lock.
+  const int fd = open((out + "/.lock").c_str(), O_RDWR);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(flock(fd, LOCK_EX | LOCK_NB), 0);
+  EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "50"}, out + ".locked"), 1);
+  EXPECT_NE(ReadAll(out + ".locked").find("another training run"), std::string::npos) << ReadAll(out + ".locked");
+  close(fd);
 }
 
 }  // namespace

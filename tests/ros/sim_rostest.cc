@@ -85,6 +85,17 @@ TEST(SimBadInput, RejectsAndKeepsServing) {
   EXPECT_TRUE(h.WaitFor([&] { return h.Counter("clipped") >= 1 && h.Counter("stale") >= 1; }, 5.0));
 }
 
+// Sim time frozen (/use_sim_time, no /clock): diagnostics still arrive.
+TEST(SimFrozenClock, DiagnosticsKeepFlowing) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  int arrays = 0;
+  ros::Subscriber sub = h.nh().subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 10, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr&) { ++arrays; });
+  EXPECT_TRUE(h.WaitFor([&] { return arrays >= 3; }, 30.0)) << arrays << " diagnostics arrays";
+  EXPECT_EQ(ros::Time::now().toSec(), 0.0);  // the clock really is frozen
+}
+
 // The reset, set_goal and pause services.
 TEST(SimServices, ResetSetGoalPause) {
   RosTestHelper h;

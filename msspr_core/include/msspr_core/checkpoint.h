@@ -43,11 +43,35 @@ std::string CheckpointHeaderToYaml(const CheckpointHeader& header);
 // Throws CheckpointError naming `path` when the header is not valid.
 CheckpointHeader ParseCheckpointHeader(const std::string& yaml, const std::string& path);
 
-// Writes atomically (path + ".tmp", then rename). Throws CheckpointError.
-void WriteCheckpointFile(const std::string& path, const CheckpointFile& file);
+// Writes durably and atomically: a unique temporary file beside `path`
+// (pid + random suffix), fsync, rename over `path`, fsync of the directory.
+// keep_previous: the file being replaced stays as `path`.prev. Leftover
+// temporaries of killed writers are removed. Throws CheckpointError.
+void WriteCheckpointFile(const std::string& path, const CheckpointFile& file, bool keep_previous = false);
 // Reads and verifies (magic, version, lengths, CRC). When expected_kind is
 // not empty the kind must match. Throws CheckpointError naming the file.
 CheckpointFile ReadCheckpointFile(const std::string& path, const std::string& expected_kind = "");
+// As ReadCheckpointFile; when `path` is missing, truncated or fails its CRC
+// and `path`.prev exists, says so on stderr and reads that instead.
+// used_path (optional) receives the file actually read.
+CheckpointFile ReadCheckpointFileOrPrevious(const std::string& path, const std::string& expected_kind = "",
+                                            std::string* used_path = nullptr);
+
+// An exclusive flock on DIR/.lock for as long as the object lives (the kernel
+// releases it when the process ends or is killed): one training run per
+// output directory. Throws CheckpointError naming the directory when another
+// process holds it.
+class RunDirLock {
+ public:
+  explicit RunDirLock(const std::string& dir);
+  ~RunDirLock();
+  RunDirLock(const RunDirLock&) = delete;
+  RunDirLock& operator=(const RunDirLock&) = delete;
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+};
 
 }  // namespace core
 }  // namespace msspr

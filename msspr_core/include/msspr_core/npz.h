@@ -29,7 +29,8 @@ struct NpyInfo {
   std::string descr;            // numpy dtype string, e.g. "<f4", "|u1"
   bool fortran_order = false;
   std::vector<int64_t> shape;
-  int64_t numel() const;
+  int64_t data_offset = 0;      // bytes of the .npy header before the data
+  int64_t numel() const;        // -1 for a negative dimension or an overflow
 };
 
 // Lists the array names (without ".npy") of an .npz file.
@@ -42,7 +43,9 @@ std::vector<uint8_t> ReadNpzUint8(const std::string& path, const std::string& ke
 
 // Loads an OGBench (or core) dataset file. Float observations become
 // states; uint8 observations [N, H, W, C] become images; an `images` array
-// is read too when present. Throws NpzError naming the file and the key.
+// is read too when present. Throws NpzError naming the file and the key,
+// also when a header disagrees with its entry's size (truncated or lying),
+// and when observations or actions hold NaN or Inf (with their count).
 Dataset LoadNpzDataset(const std::string& path);
 
 // Writes `data` in the same format: `observations` (states if any, else

@@ -39,7 +39,8 @@ class ProgressBar {
 
 // Appends rows to a CSV file with a fixed header written when the file is
 // new or empty (so a resumed run keeps appending to the same file). Throws
-// std::runtime_error naming the file when it cannot be opened.
+// std::runtime_error naming the file when it cannot be opened or a row
+// cannot be written (disk full, I/O error).
 class CsvWriter {
  public:
   CsvWriter(const std::string& path, const std::vector<std::string>& columns);
@@ -52,6 +53,12 @@ class CsvWriter {
   size_t num_columns_;
   std::ofstream out_;
 };
+
+// Drops the rows of a CSV file (first column: step) whose step is above
+// max_step, and a last row cut short (no final newline), keeping the header:
+// a resumed run then appends without duplicates. Returns the rows dropped;
+// a missing file is not an error. Throws std::runtime_error naming the file.
+int64_t TruncateCsvRows(const std::string& path, int64_t max_step);
 
 }  // namespace core
 }  // namespace msspr

@@ -1,8 +1,7 @@
 #include "msspr_sim/eval_protocol.h"
 
-#include <sys/stat.h>
-
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -16,11 +15,11 @@ namespace msspr::sim {
 namespace {
 
 void MakeParentDirs(const std::string& path) {
-  const auto slash = path.find_last_of('/');
-  if (slash == std::string::npos || slash == 0) return;
-  const std::string dir = path.substr(0, slash);
-  for (size_t i = 1; i <= dir.size(); ++i)
-    if (i == dir.size() || dir[i] == '/') mkdir(dir.substr(0, i).c_str(), 0755);
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  if (dir.empty()) return;
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw std::runtime_error(path + ": cannot create directory " + dir.string() + ": " + ec.message());
 }
 
 std::string Escape(const std::string& s) {

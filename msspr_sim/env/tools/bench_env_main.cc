@@ -8,6 +8,7 @@
 #include <iostream>
 #include <string>
 
+#include "msspr_core/cli_args.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/point_maze.h"
 
@@ -23,15 +24,16 @@ double Seconds(Clock::time_point a, Clock::time_point b) {
 int main(int argc, char** argv) {
   namespace sim = msspr::sim;
   std::string out, maze = "medium";
-  for (int k = 1; k < argc; ++k) {
-    if (!std::strcmp(argv[k], "--out") && k + 1 < argc) {
-      out = argv[++k];
-    } else if (!std::strcmp(argv[k], "--maze") && k + 1 < argc) {
-      maze = argv[++k];
-    } else {
-      std::cerr << "usage: " << argv[0] << " [--out FILE.json] [--maze NAME]\n";
-      return 2;
-    }
+  try {
+    const msspr::cli::CliArgs args(argc, argv, {"help"}, {"out", "maze"});
+    if (args.Has("help") || !args.positional().empty())
+      throw msspr::cli::CliError(args.Has("help") ? "" : "unexpected argument '" + args.positional()[0] + "'");
+    out = args.Get("out", "");
+    maze = args.GetChoice("maze", "medium", {"arena", "medium", "large", "giant"});
+  } catch (const msspr::cli::CliError& e) {
+    if (*e.what()) std::cerr << "msspr_bench_env: " << e.what() << "\n";
+    std::cerr << "usage: msspr_bench_env [--out FILE.json] [--maze NAME]\n";
+    return *e.what() ? 2 : 0;
   }
   try {
     // Env steps/s, state only, random-ish actions.
