@@ -13,6 +13,33 @@ STEPS=${MSSPR_BENCH_STEPS:-200}
 # Both sides with OpenMP's passive wait (msspr's tools set it themselves).
 export OMP_WAIT_POLICY=PASSIVE
 mkdir -p "$OUT"
+# The CPU-scale pixel step: the shipped preset against the earlier one (Impala CNN on
+# 64x64, batch 32, fp32), synthetic 64x64 images, 1 thread.
+cat > "$OUT/pixels_impala_b32.yaml" <<'YAML'
+network: {obs_mode: pixels, cnn: impala, image_downsample: 1}
+representation: {weight_rew: 0.5, augment_prob: 0.0}
+agent: {bc_weight: 0.01}
+trainer: {batch_size: 32, precision: fp32}
+YAML
+echo "[bench] CPU-scale pixel steps (1 thread)"
+pix_rows=()
+for cfg in config/pointmaze_pixels_cpu.yaml "config/pointmaze_pixels_cpu.yaml,$OUT/pixels_impala_b32.yaml"; do
+  line=$("$BENCH" --config "$cfg" --threads 1 --steps 20 --warmup 5 --episodes 20 --length 201 \
+           --out "$OUT/pix_tmp.json" 2>/dev/null | tail -1)
+  [ -n "$line" ] && pix_rows+=("$line")
+done
+rm -f "$OUT/pix_tmp.json" "$OUT/pixels_impala_b32.yaml"
+/usr/bin/python3 - "$OUT/train_pixels.json" "${pix_rows[@]}" <<'PY'
+import json, sys
+rows = [json.loads(r) for r in sys.argv[2:]]
+names = ['config/pointmaze_pixels_cpu.yaml (light CNN, 32x32, bf16, batch 128)',
+         'earlier preset (Impala CNN, 64x64, fp32, batch 32)']
+for n, r in zip(names, rows):
+    r['config'] = n
+    r['samples_per_s'] = round(1000.0 * r['batch'] / r['ms_per_step'], 1)
+    print(f"  {n}: {r['ms_per_step']:.1f} ms/step, {r['samples_per_s']} samples/s")
+json.dump({'rows': rows}, open(sys.argv[1], 'w'), indent=2)
+PY
 if [ ! -f "$REF" ]; then
   echo "[bench] train_vs_reference: the reference $REF is not there; nothing to compare with"
   printf '{"reference": null, "note": "reference script not found at %s"}\n' "$REF" > "$JSON"

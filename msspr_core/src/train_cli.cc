@@ -48,8 +48,9 @@ const char kUsage[] =
     "  --time-limit S     stop after S seconds of wall time (then the final evaluation,\n"
     "                     checkpoint and export); 0: none\n"
     "  --resume           continue the run in DIR (its data, flags and checkpoint.ckpt); only\n"
-    "                     --steps, --time-limit, --eval-every, --checkpoint-every, --threads\n"
-    "                     and --quiet may differ from the saved run (DIR/run.yaml)\n"
+    "                     --steps, --time-limit, --eval-every, --checkpoint-every, --log-every,\n"
+    "                     --threads, --quiet and the --eval-* flags may differ from the saved\n"
+    "                     run (DIR/run.yaml)\n"
     "  --print-options    print the resolved options as YAML and exit\n"
     "  --threads N        torch CPU threads (default: torch's choice; 1 is often fastest\n"
     "                     on shared cores)\n"
@@ -74,8 +75,15 @@ std::string Usage(const TrainCliExtensions& ext) {
 
 // Flags that may differ from the saved run on --resume; any other flag given
 // with --resume must repeat the saved value (README "Resuming").
-const std::set<std::string> kResumeMayChange = {"steps", "time-limit", "eval-every", "checkpoint-every",
-                                                "threads", "quiet"};
+// Neither changes what is learned: the run's length and schedule of side
+// work, threads, output, and the in-simulator evaluation (ROS msspr_train).
+const std::set<std::string> kResumeMayChange = {
+    "steps",     "time-limit", "eval-every",    "checkpoint-every", "log-every",
+    "threads",   "quiet",      "eval-episodes", "eval-tasks",       "eval-seed",
+    "eval-maze", "eval-max-steps"};
+const char kResumeRule[] =
+    "; on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, --log-every, "
+    "--threads, --quiet and the --eval-* flags may change";
 
 std::string Absolute(const std::string& list) {  // each of "a,b,c", made absolute
   std::string out, item;
@@ -188,13 +196,10 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
           if (it == saved.flags.end() || it->second != v)
             return usage_error("--resume: --" + k + " " + given.flags[k] + " differs from the run in " + run_file +
                                " (" + (it == saved.flags.end() ? "not given" : it->second) +
-                               "); on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, "
-                               "--threads and --quiet may change");
+                               ")" + kResumeRule);
         }
         if (!given.configs.empty() && run.configs != saved.configs)
-          return usage_error("--resume: --config differs from the run in " + run_file +
-                             "; on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, "
-                             "--threads and --quiet may change");
+          return usage_error("--resume: --config differs from the run in " + run_file + kResumeRule);
         for (const auto& [k, v] : run.flags) saved.flags[k] = v;
         run = saved;
       }

@@ -135,6 +135,17 @@ LatencyResult TimeAct(const std::string& name, MsprOptions o, std::shared_ptr<co
 
 }  // namespace
 
+// Writes the JSON to `path` and prints it; 1 when the file cannot be written.
+int WriteJson(const std::string& path, const std::string& json) {
+  std::ofstream f(path);
+  if (!(f << json)) {
+    std::cerr << "msspr_bench_core: cannot write " << path << "\n";
+    return 1;
+  }
+  std::cout << json;
+  return 0;
+}
+
 // --config mode: one configuration, timed after warm-up.
 int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
                const std::string& device, const std::string& precision, int steps, int warmup,
@@ -160,14 +171,7 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
     << o.representation.updates_per_step << ", \"timed_steps\": " << r.steps
     << ", \"warmup_steps\": " << warmup << ", \"ms_per_step\": " << r.ms_per_step
     << ", \"peak_rss_mb\": " << PeakRssMb() << "}\n";
-  std::ofstream f(out);
-  if (!f) {
-    std::cerr << "msspr_bench_core: cannot write " << out << "\n";
-    return 1;
-  }
-  f << j.str();
-  std::cout << j.str();
-  return 0;
+  return WriteJson(out, j.str());
 }
 
 int main(int argc, char** argv) {
@@ -309,13 +313,7 @@ int main(int argc, char** argv) {
     }
     j << "  ],\n  \"peak_rss_mb\": " << PeakRssMb() << ",\n  \"bench_seconds\": " << total_s
       << "\n}\n";
-    std::ofstream f(out);
-    if (!f) {
-      std::cerr << "msspr_bench_core: cannot write " << out << "\n";
-      return 1;
-    }
-    f << j.str();
-    std::cout << j.str();
+    return WriteJson(out, j.str());
   } catch (const std::exception& e) {
     std::cerr << "msspr_bench_core: error: " << e.what() << "\n";
     return 1;
