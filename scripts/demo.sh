@@ -4,6 +4,7 @@
 # per-task table and writes build/demo/{results.json,trajectories.png,success.png}.
 #   MSSPR_DEMO_PIXELS=1 make demo    serve from 64x64 camera images instead of states
 #   DEMO_EPISODES=50 make demo       episodes per task (default 20)
+#   DEMO_TASKS_FILE=config/eval_tasks_medium_easy.yaml make demo   custom tasks
 set -euo pipefail
 BUILD=${1:-build}
 cd "$(dirname "$0")/.."
@@ -18,6 +19,7 @@ CKPT=msspr_policy_node/checkpoints/pointmaze-medium-$([ "$PIXELS" = true ] && ec
 if [ -f "$CKPT" ]; then
   echo "[demo] pointmaze-medium: msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo images || echo states)), lockstep over ROS"
   LAUNCH=(demo.launch pixels:="$PIXELS")
+  [ -n "${DEMO_TASKS_FILE:-}" ] && LAUNCH+=(tasks_file:="$(readlink -f "$DEMO_TASKS_FILE")")
 else
   echo "[demo] no $CKPT: evaluating the scripted expert instead"
   LAUNCH=(expert_demo.launch)
