@@ -34,7 +34,9 @@ for mode in state pixels; do
   echo "[bench] msspr_policy_node observation -> action over ROS ($mode)"
   ROS_NAMESPACE=msspr "$BIN/msspr_policy_node" _checkpoint:="$PWD/$CKPT" _observation_mode:=$mode >/dev/null 2>&1 &
   SIM=$!
-  ROS_NAMESPACE=msspr "$BIN/msspr_bench_policy" --node policy --label $mode --out "$OUT/policy_$mode.json"
+  # --pixels explicitly: the node may not have set its ~observation_mode yet.
+  ROS_NAMESPACE=msspr "$BIN/msspr_bench_policy" --node policy --label $mode $([ "$mode" = pixels ] && echo --pixels) \
+    --out "$OUT/policy_$mode.json"
   kill $SIM; wait $SIM 2>/dev/null || true
 done
 SIM=
