@@ -49,6 +49,31 @@ void ShiftImage(uint8_t* img, int h, int w, int c, int dy, int dx, std::vector<u
   }
 }
 
+void ShiftSampleImages(const std::vector<std::pair<int, int>>& shifts,
+                       const std::vector<torch::Tensor*>& images) {
+  // images: tensors of [B * n, H, W, C] uint8, the n images of sample k in
+  // rows k * n .. k * n + n - 1; each gets sample k's shift.
+  if (shifts.empty()) return;
+  const int64_t b = static_cast<int64_t>(shifts.size());
+  std::vector<uint8_t> scratch;
+  for (torch::Tensor* t : images) {
+    TORCH_CHECK(t->dim() == 4 && t->scalar_type() == torch::kUInt8 && t->is_contiguous() &&
+                    t->size(0) % b == 0,
+                "ShiftSampleImages: expects contiguous uint8 [B * n, H, W, C] images");
+    const int64_t per_sample = t->size(0) / b;  // the sample's images are consecutive rows
+    const int h = t->size(1), w = t->size(2), c = t->size(3);
+    const int64_t stride = int64_t{h} * w * c;
+    uint8_t* data = t->data_ptr<uint8_t>();
+    for (int64_t k = 0; k < b; ++k) {
+      const auto [dy, dx] = shifts[k];
+      if (dy == 0 && dx == 0) continue;
+      for (int64_t j = 0; j < per_sample; ++j) {
+        ShiftImage(data + (k * per_sample + j) * stride, h, w, c, dy, dx, &scratch);
+      }
+    }
+  }
+}
+
 // Per-step masked means summed over the steps: values and mask [H, B] -> [].
 torch::Tensor SumOfMaskedMeans(const torch::Tensor& values, const torch::Tensor& mask) {
   return ((values * mask).sum(1) / mask.sum(1).clamp_min(1.0)).sum();
@@ -254,30 +279,6 @@ std::vector<std::pair<int, int>> Trainer::DrawShifts(int64_t batch) {
   return shifts;
 }
 
-static void ShiftSampleImages(const std::vector<std::pair<int, int>>& shifts,
-                       const std::vector<torch::Tensor*>& images) {
-  // images: tensors of [B * n, H, W, C] uint8, the n images of sample k in
-  // rows k * n .. k * n + n - 1; each gets sample k's shift.
-  if (shifts.empty()) return;
-  const int64_t b = static_cast<int64_t>(shifts.size());
-  std::vector<uint8_t> scratch;
-  for (torch::Tensor* t : images) {
-    TORCH_CHECK(t->dim() == 4 && t->scalar_type() == torch::kUInt8 && t->is_contiguous() &&
-                    t->size(0) % b == 0,
-                "ShiftSampleImages: expects contiguous uint8 [B * n, H, W, C] images");
-    const int64_t per_sample = t->size(0) / b;  // the sample's images are consecutive rows
-    const int h = t->size(1), w = t->size(2), c = t->size(3);
-    const int64_t stride = int64_t{h} * w * c;
-    uint8_t* data = t->data_ptr<uint8_t>();
-    for (int64_t k = 0; k < b; ++k) {
-      const auto [dy, dx] = shifts[k];
-      if (dy == 0 && dx == 0) continue;
-      for (int64_t j = 0; j < per_sample; ++j) {
-        ShiftImage(data + (k * per_sample + j) * stride, h, w, c, dy, dx, &scratch);
-      }
-    }
-  }
-}
 
 TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool augment,
                                              const Dataset* data) {
@@ -338,6 +339,10 @@ ChunkBatch Trainer::SampleChunks() {
 }
 
 bool Trainer::bf16() const { return options_.trainer.precision == "bf16"; }
+
+bool Trainer::ReprUpdateDue(double extra_credit) const {
+  return repr_credit_ + extra_credit >= 1.0 - 1e-9;
+}
 
 torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
   const RepresentationOptions& r = options_.representation;
@@ -448,6 +453,11 @@ Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& bat
   return lat;
 }
 
+Trainer::TransitionLatents Trainer::EncodeTransitionsForUpdate(const TransitionBatch& batch) {
+  PrecisionScope precision(bf16(), device_);
+  return EncodeTransitions(batch);
+}
+
 torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
                                   LossInfo* info) {
   if (options_.agent.critic_grad_to_encoder && torch::GradMode::is_enabled()) {
@@ -541,11 +551,7 @@ void Trainer::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& no
     UpdateCritic(batch, nullptr, noise, info);
     return;
   }
-  TransitionLatents lat;
-  {
-    PrecisionScope precision(bf16(), device_);
-    lat = EncodeTransitions(batch);
-  }
+  const TransitionLatents lat = EncodeTransitionsForUpdate(batch);
   UpdateCritic(batch, &lat, noise, info);
 }
 
@@ -565,11 +571,7 @@ void Trainer::UpdateCritic(const TransitionBatch& batch, const TransitionLatents
 }
 
 void Trainer::UpdateActor(const TransitionBatch& batch, LossInfo* info) {
-  TransitionLatents lat;
-  {
-    PrecisionScope precision(bf16(), device_);
-    lat = EncodeTransitions(batch);
-  }
+  const TransitionLatents lat = EncodeTransitionsForUpdate(batch);
   UpdateActor(batch, lat, info);
 }
 
@@ -600,7 +602,7 @@ LossInfo Trainer::Step(bool collect_info) {
   ++step_;
   if (step_ % options_.agent.target_update_every == 0) UpdateTargets();
   repr_credit_ += options_.representation.updates_per_step;
-  while (repr_credit_ >= 1.0 - 1e-9) {
+  while (ReprUpdateDue()) {
     UpdateRepresentation(SampleChunks(), out);
     repr_credit_ -= 1.0;
   }
@@ -615,11 +617,7 @@ LossInfo Trainer::Step(bool collect_info) {
   }
   // The encoders are not changed by the critic update, so the critic and the
   // actor share one encoding of the batch.
-  TransitionLatents lat;
-  {
-    PrecisionScope precision(bf16(), device_);
-    lat = EncodeTransitions(batch);
-  }
+  const TransitionLatents lat = EncodeTransitionsForUpdate(batch);
   UpdateCritic(batch, &lat, noise, out);
   UpdateActor(batch, lat, out);
   return info;
@@ -687,7 +685,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     // representation updates just before them.
     const int64_t next = step_ + 1;
     const bool logged = t.log_every > 0 && (next % t.log_every == 0 || next == total);
-    const bool repr_updated = repr_credit_ + options_.representation.updates_per_step >= 1.0 - 1e-9;
+    const bool repr_updated = ReprUpdateDue(options_.representation.updates_per_step);
     const LossInfo info = Step(logged || std::isnan(last.repr));
     if (logged) CheckFiniteLosses(info, repr_updated, step_);
     // Keep the last representation losses on steps without a representation update.
@@ -724,7 +722,6 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   if (evaluator && (t.eval_every <= 0 || step_ % t.eval_every != 0)) run_eval();
   if (!loop.out_dir.empty()) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
-    CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export");
     ExportPolicy(loop.out_dir + "/policy.pt");
   }
 }
@@ -821,6 +818,7 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
 }
 
 void Trainer::ExportPolicy(const std::string& path) {
+  CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export " + path);
   CheckpointHeader header;
   header.options = options_;
   header.step = step_;

@@ -144,6 +144,7 @@ class Trainer {
   // Throws CheckpointError naming the file on a truncated or foreign file.
   void LoadCheckpoint(const std::string& path);
   // Inference export (encoders, goal head, actor, critic) for Policy::Load.
+  // Throws std::runtime_error, writing nothing, when a weight is NaN or Inf.
   void ExportPolicy(const std::string& path);
 
  private:
@@ -152,6 +153,11 @@ class Trainer {
   // one (dy, dx) per sample.
   std::vector<std::pair<int, int>> DrawShifts(int64_t batch);
   bool bf16() const;
+  // Whether the accumulated representation credit (plus `extra_credit`, the
+  // credit the next step adds) calls for a representation update.
+  bool ReprUpdateDue(double extra_credit = 0.0) const;
+  // EncodeTransitions under trainer.precision, as the updates use it.
+  TransitionLatents EncodeTransitionsForUpdate(const TransitionBatch& batch);
   // lat null: the critic's gradient reaches the encoders.
   torch::Tensor CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
                            const torch::Tensor& noise, LossInfo* info);
