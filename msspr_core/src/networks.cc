@@ -61,19 +61,33 @@ torch::Tensor ResidualBlockImpl::forward(const torch::Tensor& x) {
   return x1 + x2;
 }
 
-ImpalaCnnImpl::ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps, int64_t in_size) {
+namespace {
+// The flattened CNN features, layer-normalised (in fp32) when `norm` is set.
+torch::Tensor Features(const torch::Tensor& h, torch::nn::LayerNorm& norm) {
+  const torch::Tensor flat = h.flatten(1);
+  return norm ? norm->forward(flat.to(torch::kFloat32)) : flat;
+}
+}  // namespace
+
+ImpalaCnnImpl::ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps, int64_t in_size,
+                             bool feature_norm_on) {
   block1 = register_module("block1", ResidualBlock(in_channels, 16));
   block2 = register_module("block2", ResidualBlock(16, 32));
   block3 = register_module("block3", ResidualBlock(32, 32));
   const int64_t side = (in_size + 7) / 8;  // three maxpools (3, stride 2, pad 1)
+  if (feature_norm_on) {
+    feature_norm = register_module(
+        "feature_norm", torch::nn::LayerNorm(torch::nn::LayerNormOptions({32 * side * side}).eps(eps)));
+  }
   fc = register_module("fc", Mlp(std::vector<int64_t>{32 * side * side, out_dim}, true, true, eps));
 }
 
 torch::Tensor ImpalaCnnImpl::forward(const torch::Tensor& x) {
-  return fc->forward(block3->forward(block2->forward(block1->forward(x))).flatten(1));
+  return fc->forward(Features(block3->forward(block2->forward(block1->forward(x))), feature_norm));
 }
 
-LightCnnImpl::LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim, double eps) {
+LightCnnImpl::LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim, double eps,
+                           bool feature_norm_on) {
   auto conv = [](int64_t in, int64_t out) {
     return nn::Conv2d(nn::Conv2dOptions(in, out, 3).stride(2).padding(1));
   };
@@ -81,6 +95,10 @@ LightCnnImpl::LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim
   conv2 = register_module("conv2", conv(16, 32));
   conv3 = register_module("conv3", conv(32, 32));
   const int64_t side = (in_size + 7) / 8;
+  if (feature_norm_on) {
+    feature_norm = register_module(
+        "feature_norm", torch::nn::LayerNorm(torch::nn::LayerNormOptions({32 * side * side}).eps(eps)));
+  }
   fc = register_module("fc", Mlp(std::vector<int64_t>{32 * side * side, out_dim}, true, true, eps));
 }
 
@@ -88,7 +106,7 @@ torch::Tensor LightCnnImpl::forward(const torch::Tensor& x) {
   torch::Tensor h = torch::relu(conv1->forward(x));
   h = torch::relu(conv2->forward(h));
   h = torch::relu(conv3->forward(h));
-  return fc->forward(h.flatten(1));
+  return fc->forward(Features(h, feature_norm));
 }
 
 namespace {
@@ -105,9 +123,9 @@ StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) : downsample(o.image
     const int64_t channels = int64_t{o.image_channels} * o.frame_stack;
     const int64_t side = o.image_height / std::max(1, o.image_downsample);
     if (o.cnn == "light") {
-      light_cnn = register_module("light_cnn", LightCnn(channels, side, o.zs_dim, o.layer_norm_eps));
+      light_cnn = register_module("light_cnn", LightCnn(channels, side, o.zs_dim, o.layer_norm_eps, o.cnn_feature_norm));
     } else {
-      cnn = register_module("cnn", ImpalaCnn(channels, o.zs_dim, o.layer_norm_eps, side));
+      cnn = register_module("cnn", ImpalaCnn(channels, o.zs_dim, o.layer_norm_eps, side, o.cnn_feature_norm));
     }
   } else {
     mlp = register_module("mlp", Mlp(Sizes(o.obs_dim, o.encoder_hidden, o.encoder_layers, o.zs_dim),

@@ -226,6 +226,8 @@ void ValidateOptions(const MsprOptions& o) {
   Require(o.trainer.batch_size > 0, "trainer.batch_size must be > 0");
   Require(o.trainer.precision == "fp32" || o.trainer.precision == "bf16",
           "trainer.precision must be 'fp32' or 'bf16', got '" + o.trainer.precision + "'");
+  Require(o.trainer.pipeline == "auto" || o.trainer.pipeline == "on" || o.trainer.pipeline == "off",
+          "trainer.pipeline must be 'auto', 'on' or 'off', got '" + o.trainer.pipeline + "'");
 }
 
 }  // namespace core

@@ -1,5 +1,6 @@
 #include "msspr_core/trainer.h"
 
+#include <ATen/Parallel.h>
 #include <ATen/autocast_mode.h>
 #include <torch/version.h>
 #include <sys/stat.h>
@@ -13,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "async_worker.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/foreach_adamw.h"
 #include "msspr_core/progress.h"
@@ -125,6 +127,42 @@ class PrecisionScope {
 };
 
 torch::Tensor F32(const torch::Tensor& t) { return t.to(torch::kFloat32); }
+
+}  // namespace
+}  // namespace core
+}  // namespace msspr
+
+// The OpenMP runtime that LibTorch loaded (weak: null without one). Its
+// thread count is per calling thread, unlike at::set_num_threads, which is
+// process-wide and also drops oneDNN's cached convolution primitives.
+extern "C" {
+__attribute__((weak)) void omp_set_num_threads(int);
+__attribute__((weak)) int omp_get_max_threads(void);
+}
+
+namespace msspr {
+namespace core {
+namespace {
+
+// Sets the calling thread's intra-op thread count for a scope (no-op for
+// n <= 0 or without OpenMP).
+class ThreadCountScope {
+ public:
+  explicit ThreadCountScope(int n) {
+    if (n <= 0 || omp_set_num_threads == nullptr || omp_get_max_threads == nullptr) return;
+    prev_ = omp_get_max_threads();
+    if (prev_ != n) omp_set_num_threads(n);
+    else prev_ = 0;
+  }
+  ~ThreadCountScope() {
+    if (prev_ > 0) omp_set_num_threads(prev_);
+  }
+  ThreadCountScope(const ThreadCountScope&) = delete;
+  ThreadCountScope& operator=(const ThreadCountScope&) = delete;
+
+ private:
+  int prev_ = 0;
+};
 
 // glibc serves blocks over 128 KiB-32 MiB (its adaptive threshold) with
 // mmap and returns them on free, so every step's activations are fresh pages
@@ -440,6 +478,11 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
 }
 
 Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& batch) {
+  Sync();
+  return Encode(batch);
+}
+
+Trainer::TransitionLatents Trainer::Encode(const TransitionBatch& batch) {
   // One call of the online encoder over observation, value goal and actor
   // goal (no gradient: actor and critic read the encoders detached).
   torch::NoGradGuard no_grad;
@@ -455,7 +498,7 @@ Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& bat
 
 Trainer::TransitionLatents Trainer::EncodeTransitionsForUpdate(const TransitionBatch& batch) {
   PrecisionScope precision(bf16(), device_);
-  return EncodeTransitions(batch);
+  return Encode(batch);
 }
 
 torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
@@ -533,7 +576,7 @@ torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionL
   return loss;
 }
 
-void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
+void Trainer::RepresentationBackward(const ChunkBatch& batch, LossInfo* info) {
   ClearGrads(*repr_);
   torch::Tensor loss;
   {
@@ -541,11 +584,17 @@ void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
     loss = RepresentationLoss(batch, info);
   }
   loss.backward();
+}
+
+void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
+  Sync();
+  RepresentationBackward(batch, info);
   repr_opt_->step();
 }
 
 void Trainer::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& noise,
                            LossInfo* info) {
+  Sync();
   const bool through = options_.agent.critic_grad_to_encoder;
   if (through) {
     UpdateCritic(batch, nullptr, noise, info);
@@ -571,6 +620,7 @@ void Trainer::UpdateCritic(const TransitionBatch& batch, const TransitionLatents
 }
 
 void Trainer::UpdateActor(const TransitionBatch& batch, LossInfo* info) {
+  Sync();
   const TransitionLatents lat = EncodeTransitionsForUpdate(batch);
   UpdateActor(batch, lat, info);
 }
@@ -591,24 +641,57 @@ void Trainer::UpdateActor(const TransitionBatch& batch, const TransitionLatents&
 }
 
 void Trainer::UpdateTargets() {
+  Sync();
   HardUpdate(*target_repr_, *repr_);
   HardUpdate(*target_critic_, *critic_);
   HardUpdate(*target_actor_, *actor_);
 }
 
+bool Trainer::pipelined() const {
+  const std::string& p = options_.trainer.pipeline;
+  if (p == "off" || !device_.is_cpu() || options_.agent.critic_grad_to_encoder) return false;
+  return p == "on" || at::get_num_threads() >= 2;
+}
+
+void Trainer::Sync() {
+  if (worker_) worker_->Wait();
+}
+
+Trainer::~Trainer() {
+  if (!worker_) return;
+  try {
+    worker_->Wait();
+  } catch (const std::exception&) {
+    // The error of an update nobody waits for any more: the trainer is gone.
+  }
+}
+
 LossInfo Trainer::Step(bool collect_info) {
   LossInfo info;
   LossInfo* out = collect_info ? &info : nullptr;
+  // Pipelined: this thread keeps ceil(n / 2) of torch's n threads for the
+  // representation update, the worker gets the rest for the actor-critic one.
+  const bool pipe = pipelined();
+  const int threads = at::get_num_threads();
+  const int worker_threads = std::max(1, threads / 2);
+  const ThreadCountScope main_threads(pipe ? std::max(1, threads - threads / 2) : 0);
   ++step_;
-  if (step_ % options_.agent.target_update_every == 0) UpdateTargets();
+  if (step_ % options_.agent.target_update_every == 0) {
+    Sync();
+    UpdateTargets();
+  }
   repr_credit_ += options_.representation.updates_per_step;
   while (ReprUpdateDue()) {
-    UpdateRepresentation(SampleChunks(), out);
+    // The previous step's actor-critic update reads the encoders while this
+    // forward and backward run; the optimiser step waits for it.
+    RepresentationBackward(SampleChunks(), out);
+    Sync();
+    repr_opt_->step();
     repr_credit_ -= 1.0;
   }
-  const TransitionBatch batch = SampleTransitions();
-  const torch::Tensor noise =
-      torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+  TransitionBatch batch = SampleTransitions();
+  torch::Tensor noise = torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+  Sync();
   if (options_.agent.critic_grad_to_encoder) {
     // The critic update changes the encoders: the actor re-encodes.
     UpdateCritic(batch, noise, out);
@@ -617,13 +700,28 @@ LossInfo Trainer::Step(bool collect_info) {
   }
   // The encoders are not changed by the critic update, so the critic and the
   // actor share one encoding of the batch.
-  const TransitionLatents lat = EncodeTransitionsForUpdate(batch);
-  UpdateCritic(batch, &lat, noise, out);
-  UpdateActor(batch, lat, out);
+  auto actor_critic = [this](const TransitionBatch& b, const torch::Tensor& n, LossInfo* o) {
+    const TransitionLatents lat = EncodeTransitionsForUpdate(b);
+    UpdateCritic(b, &lat, n, o);
+    UpdateActor(b, lat, o);
+  };
+  if (pipe && !collect_info) {
+    if (!worker_) worker_ = std::make_unique<AsyncWorker>();
+    worker_->Run([actor_critic, worker_threads, b = std::move(batch), n = std::move(noise)] {
+      // Torch's per-thread setup first (it sets the thread's count to the
+      // process-wide one), then this worker's share.
+      at::internal::lazy_init_num_threads();
+      const ThreadCountScope scope(worker_threads);
+      actor_critic(b, n, nullptr);
+    });
+    return info;
+  }
+  actor_critic(batch, noise, out);
   return info;
 }
 
 LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed) {
+  Sync();
   const MsprOptions& o = options_;
   BatchSampler sampler(data, o.relabel, o.agent.gamma, o.agent.n_step, o.representation.horizon,
                        o.network.goal_horizon);
@@ -637,7 +735,10 @@ LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed
   return info;
 }
 
-Policy Trainer::MakePolicy() { return Policy(options_, repr_, actor_, critic_, device_); }
+Policy Trainer::MakePolicy() {
+  Sync();
+  return Policy(options_, repr_, actor_, critic_, device_);
+}
 
 void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   const TrainerOptions& t = options_.trainer;
@@ -738,6 +839,7 @@ std::string NetworkYaml(const NetworkOptions& n) {
 }  // namespace
 
 void Trainer::SaveCheckpoint(const std::string& path) {
+  Sync();
   CheckFiniteWeights({repr_.get(), critic_.get(), actor_.get(), target_repr_.get(), target_critic_.get(),
                       target_actor_.get()},
                      step_, "checkpoint " + path);
@@ -782,6 +884,7 @@ void Trainer::SaveCheckpoint(const std::string& path) {
 }
 
 void Trainer::LoadCheckpoint(const std::string& newest) {
+  Sync();
   std::string path;  // newest, or newest.prev when newest fails its CRC
   const CheckpointFile file = ReadCheckpointFileOrPrevious(newest, "trainer", &path);
   const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
@@ -818,6 +921,7 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
 }
 
 void Trainer::ExportPolicy(const std::string& path) {
+  Sync();
   CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export " + path);
   CheckpointHeader header;
   header.options = options_;

@@ -76,15 +76,20 @@ struct TrainResult {
   int steps = 0;
   double steps_per_s = 0;
   double ms_per_step = 0;
+  bool pipelined = false;
 };
 
 TrainResult TimeTraining(const std::string& name, MsprOptions o,
                          std::shared_ptr<const Dataset> data, int warmup, int steps) {
   Trainer t(o, data);
-  for (int i = 0; i < warmup; ++i) t.Step();
+  // As Trainer::Train runs them: losses are read back on logged steps only.
+  const int log_every = std::max(1, o.trainer.log_every);
+  for (int i = 0; i < warmup; ++i) t.Step(false);
+  t.Sync();
   if (t.device().is_cuda()) torch::cuda::synchronize();
   const auto start = Clock::now();
-  for (int i = 0; i < steps; ++i) t.Step();
+  for (int i = 0; i < steps; ++i) t.Step((i + 1) % log_every == 0);
+  t.Sync();
   if (t.device().is_cuda()) torch::cuda::synchronize();
   const double s = std::chrono::duration<double>(Clock::now() - start).count();
   TrainResult r;
@@ -93,6 +98,7 @@ TrainResult TimeTraining(const std::string& name, MsprOptions o,
   r.steps = steps;
   r.steps_per_s = steps / s;
   r.ms_per_step = 1000.0 * s / steps;
+  r.pipelined = t.pipelined();
   std::cerr << "  " << name << ": batch " << r.batch << ", " << r.ms_per_step << " ms/step ("
             << r.steps_per_s << " steps/s)\n";
   return r;
@@ -166,7 +172,8 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
   std::ostringstream j;
   j.precision(6);
   j << "{\"device\": \"" << device << "\", \"threads\": " << torch::get_num_threads()
-    << ", \"precision\": \"" << o.trainer.precision << "\", \"obs_mode\": \"" << o.network.obs_mode
+    << ", \"precision\": \"" << o.trainer.precision << "\", \"pipelined\": " << (r.pipelined ? "true" : "false")
+    << ", \"obs_mode\": \"" << o.network.obs_mode
     << "\", \"batch\": " << r.batch << ", \"updates_per_step\": "
     << o.representation.updates_per_step << ", \"timed_steps\": " << r.steps
     << ", \"warmup_steps\": " << warmup << ", \"ms_per_step\": " << r.ms_per_step
@@ -299,7 +306,8 @@ int main(int argc, char** argv) {
       const TrainResult& r = train[i];
       j << "    {\"name\": \"" << r.name << "\", \"batch\": " << r.batch
         << ", \"timed_steps\": " << r.steps << ", \"steps_per_s\": " << r.steps_per_s
-        << ", \"ms_per_step\": " << r.ms_per_step << "}" << (i + 1 < train.size() ? "," : "")
+        << ", \"ms_per_step\": " << r.ms_per_step << ", \"pipelined\": " << (r.pipelined ? "true" : "false")
+        << "}" << (i + 1 < train.size() ? "," : "")
         << "\n";
     }
     j << "  ],\n  \"cpu_scale_states_breakdown_ms\": {";

@@ -114,6 +114,46 @@ TEST(NetworksTest, LightCnnAndDownsampling) {
             (std::vector<int64_t>{1, n.zs_dim}));
 }
 
+// network.cnn_feature_norm: the projection sees layer-normalised features, so
+// scaling the CNN's last convolution (its features) leaves the latent alone.
+TEST(NetworksTest, CnnFeatureNormMakesTheLatentScaleFree) {
+  torch::manual_seed(2);
+  NetworkOptions n = StateNet();
+  n.obs_mode = "pixels";
+  for (const char* cnn : {"light", "impala"}) {
+    n.cnn = cnn;
+    n.image_downsample = 2;
+    n.cnn_feature_norm = true;
+    StateEncoder enc(n);
+    const torch::Tensor img = torch::randint(0, 256, {2, 64, 64, 3}, torch::kUInt8);
+    const torch::Tensor z = enc->forward(img);
+    EXPECT_EQ(z.sizes(), (std::vector<int64_t>{2, n.zs_dim})) << cnn;
+    ASSERT_TRUE(static_cast<bool>(enc->light_cnn ? enc->light_cnn->feature_norm : enc->cnn->feature_norm)) << cnn;
+    if (!enc->light_cnn) continue;  // Impala: the shape and the norm are there
+    {
+      torch::NoGradGuard no_grad;
+      // ReLU(7 (Wx + b)) = 7 ReLU(Wx + b): the features scale by 7.
+      enc->light_cnn->conv3->weight.mul_(7.0);
+      enc->light_cnn->conv3->bias.mul_(7.0);
+    }
+    const double normed_change = (enc->forward(img) - z).abs().max().item<double>();
+    // Without it the same scaling moves the latent.
+    n.cnn_feature_norm = false;
+    StateEncoder plain(n);
+    const torch::Tensor z0 = plain->forward(img);
+    {
+      torch::NoGradGuard no_grad;
+      plain->light_cnn->conv3->weight.mul_(7.0);
+      plain->light_cnn->conv3->bias.mul_(7.0);
+    }
+    const double plain_change = (plain->forward(img) - z0).abs().max().item<double>();
+    // Only LayerNorm's epsilon keeps the normalised one from exactly 0.
+    EXPECT_LT(normed_change, 0.02 * plain_change);
+    EXPECT_GT(plain_change, 0.05);
+    n.cnn_feature_norm = true;
+  }
+}
+
 TEST(NetworksTest, GoalVectorsHaveNormSqrtDim) {
   torch::manual_seed(1);
   const NetworkOptions n = StateNet();

@@ -449,6 +449,84 @@ TEST(TrainerTest, LightCnnPixelStepWithDownsampling) {
   }
 }
 
+// Restores torch's thread count at the end of a test.
+struct ThreadCountGuard {
+  int saved = torch::get_num_threads();
+  ~ThreadCountGuard() { torch::set_num_threads(saved); }
+};
+
+// All weights of a trainer, online and target, in one vector.
+torch::Tensor AllWeights(Trainer& t) {
+  return torch::cat({Flat(*t.repr()), Flat(*t.critic()), Flat(*t.actor()), Flat(*t.target_repr()),
+                     Flat(*t.target_critic()), Flat(*t.target_actor())});
+}
+
+// The pipelined schedule (actor-critic update of step i on a worker thread,
+// beside the representation update of step i + 1) gives the sequential
+// schedule's weights bit for bit: each of its two threads runs with one
+// torch thread, as the sequential trainer does here.
+TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
+  if (!torch::Device(TinyOptions().trainer.device).is_cpu()) GTEST_SKIP() << "CPU only";
+  ThreadCountGuard guard;
+  for (const char* precision : {"fp32", "bf16"}) {
+    for (double updates : {1.0, 0.5}) {
+      for (bool pixels : {false, true}) {
+        MsprOptions o = pixels ? PixelOptions(0.5) : TinyOptions();
+        o.trainer.precision = precision;
+        o.representation.updates_per_step = updates;
+        o.agent.target_update_every = 4;  // target copies inside the run
+        auto data = pixels ? testing_util::RandomImageDataset() : RandomStateDataset();
+        o.trainer.pipeline = "off";
+        torch::set_num_threads(1);
+        Trainer sequential(o, data);
+        EXPECT_FALSE(sequential.pipelined());
+        std::vector<LossInfo> seq_info;
+        for (int i = 0; i < 10; ++i) seq_info.push_back(sequential.Step(i % 3 == 2));
+        o.trainer.pipeline = "auto";
+        torch::set_num_threads(2);
+        Trainer pipelined(o, data);
+        EXPECT_TRUE(pipelined.pipelined());
+        std::vector<LossInfo> pipe_info;
+        for (int i = 0; i < 10; ++i) pipe_info.push_back(pipelined.Step(i % 3 == 2));
+        const std::string what = std::string(precision) + " updates_per_step " + std::to_string(updates) +
+                                 (pixels ? " pixels" : " state");
+        EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
+        for (int i = 2; i < 10; i += 3) {
+          EXPECT_TRUE(std::isfinite(pipe_info[i].critic)) << what;
+          EXPECT_EQ(seq_info[i].critic, pipe_info[i].critic) << what << " step " << i;
+          EXPECT_EQ(seq_info[i].actor, pipe_info[i].actor) << what << " step " << i;
+        }
+        // Steps without losses return before their actor-critic update is done;
+        // the accessors wait for it (and it ran: the critic moved).
+        const torch::Tensor before = Flat(*pipelined.critic()).clone();
+        pipelined.Step(false);
+        EXPECT_FALSE(torch::equal(before, Flat(*pipelined.critic()))) << what;
+        // Threads as the user set them, after the step.
+        EXPECT_EQ(torch::get_num_threads(), 2);
+      }
+    }
+  }
+}
+
+TEST(TrainerTest, PipelineIsOffWhereItWouldChangeTheResult) {
+  if (!torch::Device(TinyOptions().trainer.device).is_cpu()) GTEST_SKIP() << "CPU only";
+  ThreadCountGuard guard;
+  torch::set_num_threads(2);
+  MsprOptions o = TinyOptions();
+  o.trainer.pipeline = "off";
+  EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());
+  o.trainer.pipeline = "auto";
+  o.agent.critic_grad_to_encoder = true;  // the critic update writes the encoders
+  EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());
+  torch::set_num_threads(1);
+  o.agent.critic_grad_to_encoder = false;
+  EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());
+  o.trainer.pipeline = "on";
+  EXPECT_TRUE(Trainer(o, RandomStateDataset()).pipelined());
+  o.trainer.pipeline = "sometimes";
+  EXPECT_THROW(ValidateOptions(o), OptionsError);
+}
+
 TEST(TrainerTest, ForeachAdamWEqualsAdamW) {
   torch::manual_seed(5);
   std::vector<torch::Tensor> a, b;

@@ -44,11 +44,14 @@ TORCH_MODULE(ResidualBlock);
 class ImpalaCnnImpl : public torch::nn::Module {
  public:
   // in_size: the side of the (square) input; 64 gives 2048 features.
-  ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps = 1e-6, int64_t in_size = 64);
+  // feature_norm: LayerNorm over the flattened features before fc.
+  ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps = 1e-6, int64_t in_size = 64,
+                bool feature_norm = false);
   // x: [B, C, S, S] float32 in [0, 1] -> [B, out_dim] float32
   torch::Tensor forward(const torch::Tensor& x);
 
   ResidualBlock block1{nullptr}, block2{nullptr}, block3{nullptr};
+  torch::nn::LayerNorm feature_norm{nullptr};  // null unless feature_norm
   Mlp fc{nullptr};
 };
 TORCH_MODULE(ImpalaCnn);
@@ -58,11 +61,13 @@ TORCH_MODULE(ImpalaCnn);
 // (S/8) x (S/8) x 32 features.
 class LightCnnImpl : public torch::nn::Module {
  public:
-  LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim, double eps = 1e-6);
+  LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim, double eps = 1e-6,
+               bool feature_norm = false);
   // x: [B, C, S, S] float32 in [0, 1] -> [B, out_dim] float32
   torch::Tensor forward(const torch::Tensor& x);
 
   torch::nn::Conv2d conv1{nullptr}, conv2{nullptr}, conv3{nullptr};
+  torch::nn::LayerNorm feature_norm{nullptr};  // null unless feature_norm
   Mlp fc{nullptr};
 };
 TORCH_MODULE(LightCnn);

@@ -32,6 +32,10 @@ struct NetworkOptions {
   std::string cnn = "impala";      // pixels: "impala" (the paper's Impala CNN small) or "light"
                                    // (three stride-2 conv3x3 + ReLU, 16/32/32 channels)
   int image_downsample = 1;        // pixels: average-pool the image by this factor (1, 2 or 4)
+  // pixels: LayerNorm over the CNN's flattened features before its linear
+  // projection (the MLP block's Pre-LN applied to the projection, which the
+  // paper's sketch leaves without one: it bounds the latents' scale).
+  bool cnn_feature_norm = false;
                                    // inside the encoder, before the CNN (the data stays 64x64)
   int encoder_hidden = 512;        // E_s MLP hidden width (state mode)
   int encoder_layers = 2;          // E_s hidden layers
@@ -61,6 +65,7 @@ struct NetworkOptions {
     v("frame_stack", frame_stack);
     v("cnn", cnn);
     v("image_downsample", image_downsample);
+    v("cnn_feature_norm", cnn_feature_norm);
     v("encoder_hidden", encoder_hidden);
     v("encoder_layers", encoder_layers);
     v("zs_dim", zs_dim);
@@ -181,6 +186,13 @@ struct TrainerOptions {
   double time_limit_s = 0;         // stop Train() after this wall time (s) of the run; 0 = none
   std::string precision = "fp32";  // "fp32", or "bf16": matrix products and convolutions in
                                    // bfloat16 (autocast: LayerNorm, losses, optimiser in fp32)
+  // "auto", "on" or "off". On the CPU, a step's actor-critic update runs on a
+  // second thread beside the next step's representation update (the two read
+  // the encoders, only the representation update writes them, after the
+  // actor-critic update is done), each with half of torch's threads. The
+  // result equals the sequential schedule's. "auto": on for the CPU with 2 or
+  // more torch threads (and without agent.critic_grad_to_encoder).
+  std::string pipeline = "auto";
 
   template <class V>
   void Visit(V& v) {
@@ -193,6 +205,7 @@ struct TrainerOptions {
     v("checkpoint_every", checkpoint_every);
     v("time_limit_s", time_limit_s);
     v("precision", precision);
+    v("pipeline", pipeline);
   }
 };
 

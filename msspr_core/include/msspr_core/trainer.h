@@ -23,6 +23,8 @@
 namespace msspr {
 namespace core {
 
+class AsyncWorker;
+
 // Observations below ("obs"): [B, obs_dim] float32 (state mode) or
 // [B, H, W, C * frame_stack] uint8 (pixels mode); goals likewise.
 struct TransitionBatch {
@@ -71,6 +73,9 @@ class Trainer {
   // validates the options, seeds torch and the sampler with trainer.seed and
   // builds the networks on trainer.device. Throws OptionsError.
   Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data);
+  ~Trainer();  // waits for a pipelined update still running
+  Trainer(const Trainer&) = delete;
+  Trainer& operator=(const Trainer&) = delete;
 
   const MsprOptions& options() const { return options_; }
   int64_t step() const { return step_; }
@@ -80,7 +85,18 @@ class Trainer {
   // updates (updates_per_step, fractions accumulate), one critic and one
   // actor update. Returns the losses of this step (all NaN when
   // collect_info is false: no device-to-host reads, which sync a GPU).
+  // With trainer.pipeline active and collect_info false, the step's
+  // actor-critic update may still run on the worker thread when Step
+  // returns: it overlaps the next step's representation update, and every
+  // other member function (and the destructor) waits for it first. The
+  // results are those of the sequential schedule.
   LossInfo Step(bool collect_info = true);
+  // Whether Step runs pipelined (trainer.pipeline, the device, the thread
+  // count: see TrainerOptions::pipeline).
+  bool pipelined() const;
+  // Waits for a pipelined actor-critic update still running (rethrows its
+  // exception). Called by every member function that reads the networks.
+  void Sync();
 
   // Runs Step() until options().trainer.steps with progress, CSV and the
   // evaluator every trainer.eval_every steps (and at the end).
@@ -125,12 +141,30 @@ class Trainer {
   void UpdateTargets();
 
   // Networks (online and target).
-  Representation& repr() { return repr_; }
-  Critic& critic() { return critic_; }
-  Actor& actor() { return actor_; }
-  Representation& target_repr() { return target_repr_; }
-  Critic& target_critic() { return target_critic_; }
-  Actor& target_actor() { return target_actor_; }
+  Representation& repr() {
+    Sync();
+    return repr_;
+  }
+  Critic& critic() {
+    Sync();
+    return critic_;
+  }
+  Actor& actor() {
+    Sync();
+    return actor_;
+  }
+  Representation& target_repr() {
+    Sync();
+    return target_repr_;
+  }
+  Critic& target_critic() {
+    Sync();
+    return target_critic_;
+  }
+  Actor& target_actor() {
+    Sync();
+    return target_actor_;
+  }
 
   // A Policy sharing the online networks (no copy).
   Policy MakePolicy();
@@ -156,7 +190,11 @@ class Trainer {
   // Whether the accumulated representation credit (plus `extra_credit`, the
   // credit the next step adds) calls for a representation update.
   bool ReprUpdateDue(double extra_credit = 0.0) const;
-  // EncodeTransitions under trainer.precision, as the updates use it.
+  // EncodeTransitions without Sync (the worker thread calls it).
+  TransitionLatents Encode(const TransitionBatch& batch);
+  // The representation loss and its backward (no optimiser step).
+  void RepresentationBackward(const ChunkBatch& batch, LossInfo* info);
+  // Encode under trainer.precision, as the updates use it.
   TransitionLatents EncodeTransitionsForUpdate(const TransitionBatch& batch);
   // lat null: the critic's gradient reaches the encoders.
   torch::Tensor CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
@@ -181,6 +219,9 @@ class Trainer {
   Critic critic_{nullptr}, target_critic_{nullptr};
   Actor actor_{nullptr}, target_actor_{nullptr};
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
+  // The pipelined actor-critic update's thread (trainer.pipeline); created
+  // on first use. Last member: destroyed (and joined) first.
+  std::unique_ptr<AsyncWorker> worker_;
 };
 
 // Reads the options stored in a checkpoint's (or policy export's) header.
