@@ -127,34 +127,34 @@ MsprOptions MakePreset(const std::string& preset, const std::string& scale) {
   return o;
 }
 
-MsprOptions ApplyOptionsYaml(const std::string& yaml_text, const MsprOptions& base,
-                             const std::string& source) {
+namespace {
+
+YAML::Node ParseOptionsYaml(const std::string& yaml_text, const std::string& source) {
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
     throw OptionsError(source + ": YAML parse error: " + e.what());
   }
-  MsprOptions o = base;
-  if (!root || root.IsNull()) return o;
-  if (!root.IsMap()) throw OptionsError(source + ": top level must be a map");
-  std::set<std::string> seen;
-  if (root["preset"] || root["scale"]) {
-    std::string preset = "mspr", scale = "paper";
-    try {
-      if (root["preset"]) preset = root["preset"].as<std::string>();
-      if (root["scale"]) scale = root["scale"].as<std::string>();
-    } catch (const YAML::Exception& e) {
-      throw OptionsError(source + ": bad preset/scale: " + e.what());
-    }
-    try {
-      o = MakePreset(preset, scale);
-    } catch (const OptionsError& e) {
-      throw OptionsError(source + ": " + e.what());
-    }
-    seen.insert("preset");
-    seen.insert("scale");
+  if (root && !root.IsNull() && !root.IsMap()) throw OptionsError(source + ": top level must be a map");
+  return root;
+}
+
+// The file's `key:` (preset or scale), or "" when it has none.
+std::string TopLevelName(const YAML::Node& root, const char* key, const std::string& source) {
+  if (!root || root.IsNull() || !root[key]) return "";
+  try {
+    return root[key].as<std::string>();
+  } catch (const YAML::Exception& e) {
+    throw OptionsError(source + ": bad " + key + ": " + e.what());
   }
+}
+
+// The sections of `root` on top of `o`; preset and scale are accepted and
+// left to the caller.
+MsprOptions ApplySections(const YAML::Node& root, MsprOptions o, const std::string& source) {
+  if (!root || root.IsNull()) return o;
+  std::set<std::string> seen{"preset", "scale"};
   ReadSection(root, "network", o.network, source, seen);
   ReadSection(root, "representation", o.representation, source, seen);
   ReadSection(root, "agent", o.agent, source, seen);
@@ -167,12 +167,73 @@ MsprOptions ApplyOptionsYaml(const std::string& yaml_text, const MsprOptions& ba
   return o;
 }
 
-MsprOptions LoadOptionsFile(const std::string& path, const MsprOptions& base) {
+MsprOptions PresetFor(const std::string& preset, const std::string& scale, const std::string& source) {
+  try {
+    return MakePreset(preset, scale);
+  } catch (const OptionsError& e) {
+    throw OptionsError(source + ": " + e.what());
+  }
+}
+
+std::string ReadFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw OptionsError(path + ": cannot open options file");
   std::stringstream buffer;
   buffer << in.rdbuf();
-  return ApplyOptionsYaml(buffer.str(), base, path);
+  return buffer.str();
+}
+
+}  // namespace
+
+MsprOptions ApplyOptionsYaml(const std::string& yaml_text, const MsprOptions& base,
+                             const std::string& source) {
+  const YAML::Node root = ParseOptionsYaml(yaml_text, source);
+  const std::string preset = TopLevelName(root, "preset", source);
+  const std::string scale = TopLevelName(root, "scale", source);
+  MsprOptions o = base;
+  if (!preset.empty() || !scale.empty()) {
+    o = PresetFor(preset.empty() ? "mspr" : preset, scale.empty() ? "paper" : scale, source);
+  }
+  return ApplySections(root, o, source);
+}
+
+MsprOptions ResolveOptions(const std::string& preset, const std::string& scale,
+                           const std::vector<std::string>& config_files, std::vector<std::string>* notes,
+                           const std::string& default_preset, const std::string& default_scale) {
+  std::vector<YAML::Node> roots;
+  std::string file_preset, file_scale, preset_source, scale_source;
+  for (const std::string& path : config_files) {
+    roots.push_back(ParseOptionsYaml(ReadFile(path), path));
+    const std::string p = TopLevelName(roots.back(), "preset", path);
+    const std::string s = TopLevelName(roots.back(), "scale", path);
+    if (!p.empty()) {
+      if (!preset.empty() && p != preset && notes) {
+        notes->push_back("--preset " + preset + " overrides 'preset: " + p + "' of " + path);
+      }
+      file_preset = p;
+      preset_source = path;
+    }
+    if (!s.empty()) {
+      if (!scale.empty() && s != scale && notes) {
+        notes->push_back("--scale " + scale + " overrides 'scale: " + s + "' of " + path);
+      }
+      file_scale = s;
+      scale_source = path;
+    }
+  }
+  const std::string use_preset = !preset.empty() ? preset : !file_preset.empty() ? file_preset : default_preset;
+  const std::string use_scale = !scale.empty() ? scale : !file_scale.empty() ? file_scale : default_scale;
+  // An unknown name is reported with the file that gave it, if one did.
+  std::string source = "options";
+  if (preset.empty() && !preset_source.empty()) source = preset_source;
+  else if (scale.empty() && !scale_source.empty()) source = scale_source;
+  MsprOptions o = PresetFor(use_preset, use_scale, source);
+  for (size_t i = 0; i < roots.size(); ++i) o = ApplySections(roots[i], o, config_files[i]);
+  return o;
+}
+
+MsprOptions LoadOptionsFile(const std::string& path, const MsprOptions& base) {
+  return ApplyOptionsYaml(ReadFile(path), base, path);
 }
 
 std::string OptionsToYaml(const MsprOptions& options) {

@@ -34,9 +34,10 @@ const char kUsage[] =
     "                     logged to eval.csv at every --eval-every\n"
     "  --out DIR          output directory: metrics.csv, eval.csv, checkpoint.ckpt, policy.pt,\n"
     "                     options.yaml\n"
-    "  --preset NAME      mspr (default) | D | DI | DIR (ablations)\n"
-    "  --scale NAME       paper (default) | cpu\n"
-    "  --config YAML      options file applied on top of the preset (may repeat)\n"
+    "  --preset NAME      mspr (default) | D | DI | DIR (ablations); wins over a config's preset:\n"
+    "  --scale NAME       paper (default) | cpu; wins over a config's scale:\n"
+    "  --config YAML      options file applied on top of the preset (may repeat; later files\n"
+    "                     override earlier ones key by key)\n"
     "  --obs-mode MODE    state | pixels (default: pixels when the dataset has only images)\n"
     "  --steps N          training steps (overrides trainer.steps)\n"
     "  --batch N          batch size (overrides trainer.batch_size)\n"
@@ -242,9 +243,10 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     if (from_checkpoint) {
       options = ReadCheckpointOptions(ckpt);
     } else {
-      options = MakePreset(run.flags.count("preset") ? run.flags["preset"] : "mspr",
-                           run.flags.count("scale") ? run.flags["scale"] : "paper");
-      for (const std::string& c : run.configs) options = LoadOptionsFile(c, options);
+      std::vector<std::string> notes;
+      options = ResolveOptions(run.flags.count("preset") ? run.flags["preset"] : "",
+                               run.flags.count("scale") ? run.flags["scale"] : "", run.configs, &notes);
+      for (const std::string& n : notes) std::cerr << "msspr_train: " << n << "\n";
     }
     if (steps >= 0) options.trainer.steps = steps;
     if (batch > 0) options.trainer.batch_size = static_cast<int>(batch);

@@ -156,8 +156,7 @@ int WriteJson(const std::string& path, const std::string& json) {
 int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
                const std::string& device, const std::string& precision, int steps, int warmup,
                int obs_dim, int action_dim, int episodes, int length, const std::string& profile) {
-  MsprOptions o = MakePreset("mspr", "cpu");
-  for (const auto& c : configs) o = LoadOptionsFile(c, o);
+  MsprOptions o = ResolveOptions("", "", configs, nullptr, "mspr", "cpu");
   o.trainer.device = device;
   if (!precision.empty()) o.trainer.precision = precision;
   const bool pixels = o.network.obs_mode == "pixels";

@@ -103,8 +103,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    MsprOptions o = MakePreset("mspr", "cpu");
-    for (const auto& c : configs) o = LoadOptionsFile(c, o);
+    MsprOptions o = ResolveOptions("", "", configs, nullptr, "mspr", "cpu");
     o.trainer.device = device;
     if (!precision.empty()) o.trainer.precision = precision;
     auto data = SyntheticDataset(2, 2, 100, 1001);

@@ -131,6 +131,77 @@ TEST(OptionsTest, OverridesApplyOnTopOfPreset) {
   EXPECT_EQ(o.representation.weight_goal_act, 0.0);
 }
 
+// Layering (ResolveOptions, as msspr_train --preset/--scale/--config uses it).
+TEST(OptionsTest, ExplicitPresetWinsOverTheConfigsPreset) {
+  TempDir dir;
+  const std::string task = dir.File("task.yaml");
+  WriteText(task, "preset: mspr\nscale: cpu\nagent:\n  bc_weight: 0.02\n");
+  std::vector<std::string> notes;
+  const MsprOptions o = ResolveOptions("D", "", {task}, &notes);
+  const MsprOptions d = MakePreset("D", "cpu");
+  EXPECT_EQ(o.representation.weight_rew, d.representation.weight_rew);
+  EXPECT_EQ(o.representation.weight_inv, 0.0);
+  EXPECT_EQ(o.representation.weight_goal_act, 0.0);
+  EXPECT_EQ(o.network.zs_dim, 256);  // the file's scale: cpu still applies
+  EXPECT_DOUBLE_EQ(o.agent.bc_weight, 0.02);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("--preset D overrides 'preset: mspr'"), std::string::npos) << notes[0];
+  // An explicit scale wins too.
+  notes.clear();
+  EXPECT_EQ(ResolveOptions("", "paper", {task}, &notes).network.zs_dim, MakePreset("mspr", "paper").network.zs_dim);
+  EXPECT_EQ(notes.size(), 1u);
+}
+
+TEST(OptionsTest, ConfigsLayerInOrderWithoutResettingEachOther) {
+  TempDir dir;
+  const std::string a = dir.File("a.yaml"), b = dir.File("b.yaml"), c = dir.File("c.yaml");
+  WriteText(a, "scale: cpu\nagent:\n  bc_weight: 0.02\ntrainer:\n  batch_size: 64\n");
+  WriteText(b, "preset: DIR\ntrainer:\n  batch_size: 32\n");  // names a preset
+  WriteText(c, "trainer:\n  steps: 7\n");
+  const MsprOptions o = ResolveOptions("", "", {a, b, c});
+  EXPECT_EQ(o.network.zs_dim, 256);          // a's scale
+  EXPECT_DOUBLE_EQ(o.agent.bc_weight, 0.02);  // a's key survives b's preset
+  EXPECT_EQ(o.trainer.batch_size, 32);       // b overrides a key by key
+  EXPECT_EQ(o.trainer.steps, 7);
+  EXPECT_EQ(o.representation.weight_goal_act, 0.0);  // DIR
+  EXPECT_GT(o.representation.weight_rew, 0.0);
+  // No preset anywhere: the defaults (mspr, paper).
+  const MsprOptions plain = ResolveOptions("", "", {c});
+  EXPECT_EQ(plain.network.zs_dim, MakePreset("mspr", "paper").network.zs_dim);
+  EXPECT_EQ(plain.representation.weight_goal_act, MakePreset("mspr", "paper").representation.weight_goal_act);
+  // A bad name in a file names the file.
+  const std::string bad = dir.File("bad.yaml");
+  WriteText(bad, "preset: DX\n");
+  try {
+    ResolveOptions("", "", {a, bad});
+    ADD_FAILURE() << "no error";
+  } catch (const OptionsError& e) {
+    EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+  }
+}
+
+TEST(OptionsTest, ShippedTaskConfigsNameNoPreset) {
+  // Only the ablation configs choose a preset; a task config under --preset D
+  // must not bring the full model back.
+  const std::string root = MSSPR_CONFIG_DIR;
+  DIR* d = opendir(root.c_str());
+  ASSERT_NE(d, nullptr) << root;
+  int checked = 0;
+  while (dirent* e = readdir(d)) {
+    const std::string name = e->d_name;
+    if (name.size() < 5 || name.substr(name.size() - 5) != ".yaml") continue;
+    const YAML::Node y = YAML::LoadFile(root + "/" + name);
+    if (name.rfind("ablation_", 0) == 0) {
+      EXPECT_TRUE(y["preset"].IsDefined()) << name;
+    } else if (name.rfind("eval_tasks", 0) != 0) {
+      EXPECT_FALSE(y["preset"].IsDefined()) << name << " names a preset";
+      ++checked;
+    }
+  }
+  closedir(d);
+  EXPECT_GT(checked, 5);
+}
+
 TEST(OptionsTest, ValidateRejectsBadValues) {
   MsprOptions o = MakePreset("mspr", "cpu");
   o.network.obs_dim = 2;

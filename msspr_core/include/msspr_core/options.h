@@ -240,6 +240,22 @@ MsprOptions ApplyOptionsYaml(const std::string& yaml_text, const MsprOptions& ba
 // Throws OptionsError naming the file when it cannot be read or parsed.
 MsprOptions LoadOptionsFile(const std::string& path, const MsprOptions& base);
 
+// The options of a run from a preset, a scale and config files, layered:
+// 1. the preset and the scale: an explicit `preset` / `scale` (non-empty,
+//    e.g. from --preset / --scale) wins over the files' `preset:` / `scale:`
+//    keys; otherwise the last file naming one gives it; otherwise
+//    `default_preset` / `default_scale`;
+// 2. MakePreset of those, once;
+// 3. every file's sections, in order (a later file overrides an earlier one
+//    key by key; a file's preset or scale key never resets what came before).
+// `notes` (when not null) receives a line for each file key that an explicit
+// preset or scale overrode. Throws OptionsError naming the file.
+MsprOptions ResolveOptions(const std::string& preset, const std::string& scale,
+                           const std::vector<std::string>& config_files,
+                           std::vector<std::string>* notes = nullptr,
+                           const std::string& default_preset = "mspr",
+                           const std::string& default_scale = "paper");
+
 // Serialises all options as YAML text that ApplyOptionsYaml reads back.
 std::string OptionsToYaml(const MsprOptions& options);
 
