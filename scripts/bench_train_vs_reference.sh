@@ -21,10 +21,12 @@ representation: {weight_rew: 0.5, augment_prob: 0.0}
 agent: {bc_weight: 0.01}
 trainer: {batch_size: 32, precision: fp32}
 YAML
-echo "[bench] CPU-scale pixel steps (1 thread)"
+echo "[bench] CPU-scale pixel steps (1 thread; the shipped preset also at 2, pipelined)"
 pix_rows=()
-for cfg in config/pointmaze_pixels_cpu.yaml "config/pointmaze_pixels_cpu.yaml,$OUT/pixels_impala_b32.yaml"; do
-  line=$("$BENCH" --config "$cfg" --threads 1 --steps 20 --warmup 5 --episodes 20 --length 201 \
+for run in "config/pointmaze_pixels_cpu.yaml 1" "config/pointmaze_pixels_cpu.yaml 2" \
+           "config/pointmaze_pixels_cpu.yaml,$OUT/pixels_impala_b32.yaml 1"; do
+  set -- $run
+  line=$("$BENCH" --config "$1" --threads "$2" --steps 20 --warmup 5 --episodes 20 --length 201 \
            --out "$OUT/pix_tmp.json" 2>/dev/null | tail -1)
   [ -n "$line" ] && pix_rows+=("$line")
 done
@@ -33,11 +35,12 @@ rm -f "$OUT/pix_tmp.json" "$OUT/pixels_impala_b32.yaml"
 import json, sys
 rows = [json.loads(r) for r in sys.argv[2:]]
 names = ['config/pointmaze_pixels_cpu.yaml (light CNN, 32x32, bf16, batch 128)',
+         'config/pointmaze_pixels_cpu.yaml (light CNN, 32x32, bf16, batch 128)',
          'earlier preset (Impala CNN, 64x64, fp32, batch 32)']
 for n, r in zip(names, rows):
     r['config'] = n
     r['samples_per_s'] = round(1000.0 * r['batch'] / r['ms_per_step'], 1)
-    print(f"  {n}: {r['ms_per_step']:.1f} ms/step, {r['samples_per_s']} samples/s")
+    print(f"  {n}, {r['threads']} thread(s): {r['ms_per_step']:.1f} ms/step, {r['samples_per_s']} samples/s")
 json.dump({'rows': rows}, open(sys.argv[1], 'w'), indent=2)
 PY
 if [ ! -f "$REF" ]; then

@@ -532,6 +532,14 @@ DatasetBagReader::DatasetBagReader(std::string path)
 
 DatasetBagReader::~DatasetBagReader() = default;
 
+uint64_t DatasetBagReader::CountObservations() const {
+  try {
+    return rosbag::View(*bag_, rosbag::TopicQuery(std::vector<std::string>{kObservationTopic})).size();
+  } catch (const rosbag::BagException& e) {
+    throw BagError(path_ + ": cannot read the bag index: " + e.what());
+  }
+}
+
 void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& fn) {
   report_ = BagReadReport{};
   std::map<uint32_t, PartialEpisode> open;

@@ -128,6 +128,9 @@ class DatasetBagReader {
   void ForEachEpisode(const std::function<void(BagEpisode&&)>& fn);
   const BagReadReport& report() const { return report_; }
   const std::string& path() const { return path_; }
+  // Observation messages in the bag (all splits), from its index: an upper
+  // bound on the steps ForEachEpisode yields, to reserve memory up front.
+  uint64_t CountObservations() const;
 
  private:
   std::string path_;
