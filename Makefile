@@ -11,7 +11,7 @@ CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
                -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON \
                -DCATKIN_DEVEL_PREFIX=$(DEVEL)
 
-.PHONY: all deps configure build test demo bench core clean format
+.PHONY: all deps configure build build-demo test demo bench core clean format
 
 all: build
 
@@ -29,8 +29,16 @@ test: deps
 	@$(MAKE) --no-print-directory build
 	@scripts/run_tests.sh $(BUILD)
 
+# What `make demo` runs (launch/demo.launch and the tools beside it): the
+# libraries, nodes and tools only, none of the test binaries.
+DEMO_TARGETS := msspr_sim_node msspr_expert_node msspr_policy_node msspr_eval msspr_collect \
+                msspr_bag_info msspr_train
+
+build-demo: configure
+	cmake --build $(BUILD) -j$(JOBS) --target $(DEMO_TARGETS)
+
 demo: deps
-	@$(MAKE) --no-print-directory build
+	@$(MAKE) --no-print-directory build-demo
 	@scripts/demo.sh $(BUILD)
 
 bench: deps

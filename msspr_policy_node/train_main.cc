@@ -9,6 +9,7 @@
 
 #include "bag_dataset.h"
 #include "maze_evaluator.h"
+#include "msspr_sim/learning_curve.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/train_cli.h"
@@ -89,6 +90,11 @@ int main(int argc, char** argv) {
       std::cerr << "msspr_train: no \"val\" episodes in " << data_path << ": no validation losses\n";
       return nullptr;
     }
+  };
+  // out_dir/learning_curve.png after every evaluation and at the end.
+  ext.after_eval = [](const std::string& out_dir) {
+    msspr::sim::SaveLearningCurvePlot(out_dir + "/eval.csv", out_dir + "/metrics.csv",
+                                      out_dir + "/learning_curve.png");
   };
   ext.make_evaluator = [](msspr::core::Trainer& trainer, const std::map<std::string, std::string>& extra,
                           const std::string& out_dir) -> msspr::core::Evaluator {

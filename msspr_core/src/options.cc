@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -53,11 +54,21 @@ class YamlWriter {
     out_ << YAML::Key << key << YAML::Value << value;
   }
   void operator()(const char* key, double& value) {
-    // Round-trips exactly: 17 significant digits.
-    std::ostringstream s;
-    s.precision(17);
-    s << value;
-    out_ << YAML::Key << key << YAML::Value << s.str();
+    out_ << YAML::Key << key << YAML::Value << ShortestRoundTrip(value);
+  }
+
+  // The fewest significant digits that read back as the same double: 0.3,
+  // not 0.29999999999999999 (17 digits, the most any double needs).
+  static std::string ShortestRoundTrip(double v) {
+    std::string text;
+    for (int digits = std::isfinite(v) ? 1 : 17; digits <= 17; ++digits) {
+      std::ostringstream s;
+      s.precision(digits);
+      s << v;
+      text = s.str();
+      if (!std::isfinite(v) || std::strtod(text.c_str(), nullptr) == v) break;
+    }
+    return text;
   }
 
  private:

@@ -322,6 +322,7 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     TrainLoopOptions loop;
     loop.out_dir = out_dir;
     loop.quiet = quiet;
+    if (ext.after_eval) loop.on_eval_written = [&ext, out_dir] { ext.after_eval(out_dir); };
     trainer.Train(loop, evaluator);
     std::cerr << ext.program << ": done at step " << trainer.step() << "; wrote " << out_dir
               << "/checkpoint.ckpt and " << out_dir << "/policy.pt\n";

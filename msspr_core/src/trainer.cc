@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <iostream>
 
 #include "async_worker.h"
 #include "msspr_core/checkpoint.h"
@@ -213,6 +214,15 @@ void CheckFiniteLosses(const LossInfo& info, bool repr_updated, int64_t step) {
   if (!bad.empty())
     throw std::runtime_error("training diverged: non-finite loss at step " + std::to_string(step) + ":" +
                              bad + "; stopped without writing a checkpoint (the last good one is kept)");
+}
+
+void NotifyEvalWritten(const TrainLoopOptions& loop) {
+  if (!loop.on_eval_written) return;
+  try {
+    loop.on_eval_written();
+  } catch (const std::exception& e) {
+    std::cerr << "warning: " << e.what() << " (training goes on)\n";
+  }
 }
 
 }  // namespace
@@ -769,6 +779,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
       if (eval_csv) eval_csv->WriteRow({std::to_string(step_), kv.first, std::to_string(kv.second)});
     }
     if (!loop.quiet) bar.Message(line);
+    NotifyEvalWritten(loop);
   };
   LossInfo last;
   auto out_of_time = [&]() {
@@ -825,6 +836,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
     ExportPolicy(loop.out_dir + "/policy.pt");
   }
+  NotifyEvalWritten(loop);
 }
 
 namespace {

@@ -132,6 +132,21 @@ TEST(OptionsTest, OverridesApplyOnTopOfPreset) {
 }
 
 // Layering (ResolveOptions, as msspr_train --preset/--scale/--config uses it).
+TEST(OptionsTest, YamlPrintsTheShortestFloatThatReadsBackExactly) {
+  MsprOptions o = MakePreset("mspr", "cpu");
+  o.representation.weight_rew = 0.3;
+  o.agent.bc_weight = 0.1 + 0.2;  // 0.30000000000000004: needs all 17 digits
+  o.agent.gamma = 0.995;
+  const std::string yaml = OptionsToYaml(o);
+  EXPECT_NE(yaml.find("weight_rew: 0.3\n"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("gamma: 0.995\n"), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find("0.29999"), std::string::npos) << yaml;
+  const MsprOptions back = ApplyOptionsYaml(yaml, MsprOptions());
+  EXPECT_EQ(back.agent.bc_weight, 0.1 + 0.2);
+  EXPECT_EQ(back.representation.weight_rew, 0.3);
+  EXPECT_EQ(back.agent.gamma, 0.995);
+}
+
 TEST(OptionsTest, ExplicitPresetWinsOverTheConfigsPreset) {
   TempDir dir;
   const std::string task = dir.File("task.yaml");

@@ -243,6 +243,8 @@ TEST(TrainCli, KilledAtRandomPointsResumesBitExact) {
   TinyRun tiny("killed");
   const std::string ref = tiny.dir + "/ref", run = tiny.dir + "/run";
   ASSERT_EQ(Wait(StartTrain(tiny.Args(ref), ref + ".log")), 0) << ReadAll(ref + ".log");
+  // The learning curve is drawn at every evaluation (here validation losses only).
+  EXPECT_TRUE(Exists(ref + "/learning_curve.png"));
 
   // Kill the same run again and again: once inside a checkpoint write (the
   // fault hook), then at seeded random moments, resuming each time.

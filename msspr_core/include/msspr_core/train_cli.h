@@ -37,6 +37,9 @@ struct TrainCliExtensions {
   std::function<Evaluator(Trainer& trainer, const std::map<std::string, std::string>& extra,
                           const std::string& out_dir)>
       make_evaluator;
+  // Called with out_dir after each evaluation is logged and at the end (e.g.
+  // to draw out_dir/learning_curve.png); nullptr for nothing.
+  std::function<void(const std::string& out_dir)> after_eval;
 };
 
 // Parses argv, trains, writes out_dir/{metrics.csv, eval.csv, checkpoint.ckpt,

@@ -65,6 +65,10 @@ using Evaluator = std::function<EvalResult(Policy& policy, int64_t step)>;
 struct TrainLoopOptions {
   std::string out_dir;
   bool quiet = false;  // no progress output
+  // Called after each evaluation's rows are in eval.csv, and once more after
+  // the final checkpoint (e.g. to draw the learning curve); its exceptions
+  // are reported as warnings, and training goes on.
+  std::function<void()> on_eval_written;
 };
 
 class Trainer {
