@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <utility>
@@ -476,18 +477,20 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
         o.representation.updates_per_step = updates;
         o.agent.target_update_every = 4;  // target copies inside the run
         auto data = pixels ? testing_util::RandomImageDataset() : RandomStateDataset();
-        o.trainer.pipeline = "off";
-        torch::set_num_threads(1);
-        Trainer sequential(o, data);
-        EXPECT_FALSE(sequential.pipelined());
-        std::vector<LossInfo> seq_info;
-        for (int i = 0; i < 10; ++i) seq_info.push_back(sequential.Step(i % 3 == 2));
-        o.trainer.pipeline = "auto";
-        torch::set_num_threads(2);
-        Trainer pipelined(o, data);
-        EXPECT_TRUE(pipelined.pipelined());
-        std::vector<LossInfo> pipe_info;
-        for (int i = 0; i < 10; ++i) pipe_info.push_back(pipelined.Step(i % 3 == 2));
+        // 10 steps, losses read back on every third; the trainer and those losses.
+        auto run = [&](const char* pipeline, int threads, std::vector<LossInfo>* info) {
+          o.trainer.pipeline = pipeline;
+          torch::set_num_threads(threads);
+          auto t = std::make_unique<Trainer>(o, data);
+          EXPECT_EQ(t->pipelined(), threads > 1);
+          for (int i = 0; i < 10; ++i) info->push_back(t->Step(i % 3 == 2));
+          return t;
+        };
+        std::vector<LossInfo> seq_info, pipe_info;
+        const auto seq_trainer = run("off", 1, &seq_info);
+        const auto pipe_trainer = run("auto", 2, &pipe_info);
+        Trainer& sequential = *seq_trainer;
+        Trainer& pipelined = *pipe_trainer;
         const std::string what = std::string(precision) + " updates_per_step " + std::to_string(updates) +
                                  (pixels ? " pixels" : " state");
         EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
