@@ -179,7 +179,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   for (auto& c : run.configs) c = Absolute(c);
   bool have_checkpoint = false;
   try {
-    if (!out_dir.empty() && !print_options) {
+    // --resume of a directory that is not there: refused below, without creating it.
+    if (!out_dir.empty() && !print_options && (!resume || std::filesystem::is_directory(out_dir))) {
       std::filesystem::create_directories(out_dir);
       lock = std::make_unique<RunDirLock>(out_dir);  // held until we return
       have_checkpoint = FileExists(ckpt) || FileExists(ckpt + ".prev");

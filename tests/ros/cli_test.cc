@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -85,6 +86,21 @@ TEST(Cli, TrainRejectsBadFlags) {
        {"--seed", "missing value after --seed"},
        {"--resume", "--resume needs --out DIR"},
        {"--resume --out /nonexistent/run", "holds no run"}});
+  EXPECT_FALSE(std::filesystem::exists("/nonexistent/run")) << "a refused --resume creates nothing";
+}
+
+TEST(Cli, ValueMapAndMakeTasksRejectBadFlags) {
+  ExpectUsageErrors(MSSPR_VALUE_MAP_EXE,
+                    {{"--maze medium", "--policy is required"},
+                     {"--policy p.pt --goal 1", "--goal expects X,Y"},
+                     {"--policy p.pt --goal -4,0", "is inside a wall"},
+                     {"--policy p.pt --goal-task 6", "--goal-task 6 is out of range"},
+                     {"--policy p.pt --goal 0,0 --goal-task 1", "not both"},
+                     {"--policy p.pt --rollouts 0", "--rollouts 0 is out of range"}});
+  ExpectUsageErrors(MSSPR_MAKE_TASKS_EXE,
+                    {{"--maze nowhere", "--maze 'nowhere' is not one of"},
+                     {"--n 0", "--n 0 is out of range"},
+                     {"--noise 3", "--noise 3 is out of range"}});
 }
 
 TEST(Cli, BenchToolsRejectBadFlags) {
