@@ -64,7 +64,8 @@ int main(int argc, char** argv) {
   ext.program = "msspr_train";
   ext.data_help =
       "msspr dataset bags (a.bag[,b.bag...]; the \"train\" split) or an OGBench .npz";
-  ext.extra_options = {"eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps"};
+  ext.extra_options = {"eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps",
+                       "eval-tasks-file"};
   ext.extra_usage =
       "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0):\n"
       "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
@@ -72,8 +73,11 @@ int main(int argc, char** argv) {
       "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
       "  --eval-seed S      evaluation seed (default 0; same episodes as msspr_eval --seed S)\n"
       "  --eval-max-steps N step limit (default 1000)\n"
+      "  --eval-tasks-file YAML  also evaluate custom start/goal pairs (msspr_eval --tasks-file\n"
+      "                     format; msspr_make_tasks draws random ones), --eval-episodes each\n"
       "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
-      "DIR/eval/step_<N>.json (the msspr_eval results format).\n"
+      "DIR/eval/step_<N>.json (the msspr_eval results format); with --eval-tasks-file also\n"
+      "success_custom<id> and mean_success_custom, and DIR/eval/step_<N>_custom.json.\n"
       "Example: rosrun msspr msspr_train --data medium-navigate.bag --scale cpu --steps 20000 \\\n"
       "           --eval-every 2000 --out runs/medium\n";
   ext.load_dataset = [](const std::string& path, bool validation, const msspr::core::MsprOptions& options)
@@ -128,14 +132,36 @@ int main(int argc, char** argv) {
       return nullptr;
     }
     eo.maze = maze;
+    msspr::agent::MazeEvalOptions custom = eo;
+    if (extra.count("eval-tasks-file")) {
+      const auto map = msspr::sim::MazeMap::FromName(maze);
+      try {
+        custom.custom_tasks = msspr::sim::LoadCustomTasks(get("eval-tasks-file", ""), &map);
+      } catch (const std::runtime_error& e) {
+        throw msspr::cli::CliError("--eval-tasks-file: " + std::string(e.what()));
+      }
+    }
     const auto start = std::chrono::steady_clock::now();
-    return [eo, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
+    return [eo, custom, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
       const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
       msspr::core::EvalResult r;
       for (size_t i = 0; i < result.tasks.size(); ++i)
         r.emplace_back("success_task" + std::to_string(result.tasks[i]), result.success[i]);
       r.emplace_back("mean_success", result.mean_success);
-      r.emplace_back("eval_s", result.seconds);
+      double eval_s = result.seconds;
+      if (!custom.custom_tasks.empty()) {
+        const auto cr = msspr::agent::EvaluateOnMaze(policy, custom);
+        for (size_t i = 0; i < cr.tasks.size(); ++i)
+          r.emplace_back("success_custom" + std::to_string(cr.tasks[i]), cr.success[i]);
+        r.emplace_back("mean_success_custom", cr.mean_success);
+        eval_s += cr.seconds;
+        if (!out_dir.empty()) {
+          char name[64];
+          std::snprintf(name, sizeof name, "/eval/step_%08lld_custom.json", static_cast<long long>(step));
+          msspr::agent::WriteResultsJson(cr, custom, "msspr step " + std::to_string(step), out_dir + name);
+        }
+      }
+      r.emplace_back("eval_s", eval_s);
       r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
       if (!out_dir.empty()) {
         char name[64];

@@ -14,11 +14,11 @@
 #include <sstream>
 
 #include <ros/ros.h>
-#include <yaml-cpp/yaml.h>
 
 #include "cli_args.h"
 #include "msspr/Observation.h"
 #include "msspr/Reset.h"
+#include "msspr_sim/custom_tasks.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/maze_plot.h"
@@ -39,7 +39,8 @@ Evaluates the agent that answers the sim's observations (lockstep), by OGBench's
   --tasks-file YAML   custom tasks instead of the maze's five, e.g.
                         tasks:
                           - {id: 1, start: [0.0, 0.0], goal: [8.0, 0.0]}
-                      (start/goal in metres; sent through reset + set_goal)
+                      (start/goal in metres; sent through reset + set_goal; msspr_make_tasks
+                      draws random ones)
   --step-timeout S    seconds without a new observation before an episode counts as stalled (default 10)
 )";
 
@@ -49,37 +50,6 @@ struct EpisodeResult {
   std::vector<Eigen::Vector2d> path;
   Eigen::Vector2d start, goal;
 };
-
-// Reads custom tasks: "tasks: [{id: 1, start: [x, y], goal: [x, y]}, ...]". Throws
-// std::runtime_error naming the file and what is wrong.
-std::map<int, std::pair<std::vector<float>, std::vector<float>>> LoadTasksFile(const std::string& path) {
-  std::map<int, std::pair<std::vector<float>, std::vector<float>>> out;
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const std::exception& e) {
-    throw std::runtime_error(path + ": " + e.what());
-  }
-  if (!root["tasks"] || !root["tasks"].IsSequence() || root["tasks"].size() == 0)
-    throw std::runtime_error(path + ": needs a non-empty list 'tasks'");
-  for (const auto& t : root["tasks"]) {
-    for (const auto& kv : t) {
-      const std::string k = kv.first.as<std::string>();
-      if (k != "id" && k != "start" && k != "goal")
-        throw std::runtime_error(path + ": unknown key '" + k + "' in a task (expected id, start, goal)");
-    }
-    if (!t["id"] || !t["start"] || !t["goal"])
-      throw std::runtime_error(path + ": every task needs id, start and goal");
-    const int id = t["id"].as<int>();
-    auto s = t["start"].as<std::vector<float>>();
-    auto g = t["goal"].as<std::vector<float>>();
-    if (s.size() != 2 || g.size() != 2)
-      throw std::runtime_error(path + ": task " + std::to_string(id) + ": start and goal need 2 numbers");
-    if (!out.emplace(id, std::make_pair(s, g)).second)
-      throw std::runtime_error(path + ": task id " + std::to_string(id) + " appears twice");
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -108,8 +78,11 @@ int main(int argc, char** argv) {
     maze = args->Get("maze", "medium");
     map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (args->Has("tasks-file")) {
-      custom = LoadTasksFile(args->Get("tasks-file", ""));
-      for (const auto& kv : custom) tasks.push_back(kv.first);
+      for (const auto& t : msspr::sim::LoadCustomTasks(args->Get("tasks-file", ""), map_ptr.get())) {
+        custom[t.id] = {{static_cast<float>(t.start.x()), static_cast<float>(t.start.y())},
+                        {static_cast<float>(t.goal.x()), static_cast<float>(t.goal.y())}};
+        tasks.push_back(t.id);
+      }
     } else {
       for (long id : args->GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map_ptr->Tasks().size())))
         tasks.push_back(static_cast<int>(id));

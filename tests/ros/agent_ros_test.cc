@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -166,6 +167,94 @@ TEST(MazeEvaluator, DeterministicAndSane) {
   EXPECT_THROW(EvaluateOnMaze(policy, opt), std::invalid_argument);
 }
 
+TEST(MazeEvaluator, CustomTasksStartExactlyWhereTheySay) {
+  auto policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);
+  MazeEvalOptions opt;
+  opt.episodes = 2;
+  opt.max_steps = 400;
+  opt.keep_paths = true;
+  sim::CustomTask near, far;
+  near.id = 7;
+  near.start = {0.0, 0.0};
+  near.goal = {0.5, 0.0};  // inside the success radius: done before the first step
+  far.id = 9;
+  far.start = {0.0, 0.0};
+  far.goal = {4.0, 0.0};  // the next cell
+  opt.custom_tasks = {near, far};
+  const auto r = EvaluateOnMaze(policy, opt);
+  ASSERT_EQ(r.tasks, (std::vector<int>{7, 9}));
+  EXPECT_EQ(r.success[0], 1.0);
+  EXPECT_EQ(r.mean_steps_success[0], 0.0);
+  for (size_t t = 0; t < 2; ++t)
+    for (const auto& [start, goal] : r.start_goal[t]) {
+      EXPECT_EQ(start, opt.custom_tasks[t].start);
+      EXPECT_EQ(goal, opt.custom_tasks[t].goal);
+    }
+  // No reset noise: both episodes of a task are the same episode.
+  EXPECT_EQ(r.paths[1][0], r.paths[1][1]);
+  EXPECT_EQ(r.success[1], 1.0) << "the shipped policy should cross one cell";
+  opt.custom_tasks[1].goal = {-4.0, 0.0};  // a wall cell
+  EXPECT_THROW(EvaluateOnMaze(policy, opt), std::invalid_argument);
+}
+
+// The value map's true value is the discounted return of the episode that
+// EvaluateOnMaze runs from the same start, and its prediction is the critic
+// at that start; a trained critic tracks the true values.
+TEST(ValueMap, MatchesRolloutsAndTheCritic) {
+  auto policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);
+  const auto map = sim::MazeMap::FromName("medium");
+  ValueMapOptions vo;
+  vo.goal = map.CellCenter(map.Tasks()[0].goal);
+  vo.per_cell = 1;
+  vo.rollouts = 1;
+  vo.start_noise = 0.0;
+  vo.max_steps = 400;
+  const auto r = ComputeValueMap(policy, vo);
+  ASSERT_EQ(r.points.size(), map.FreeCells().size());
+  EXPECT_EQ(r.episodes, static_cast<int>(map.FreeCells().size()));
+  const double g = policy.options().agent.gamma;
+  MazeEvalOptions eo;
+  eo.episodes = 1;
+  eo.max_steps = vo.max_steps;
+  for (size_t i = 0; i < r.points.size(); ++i) {
+    const auto& p = r.points[i];
+    EXPECT_EQ(p.xy, map.CellCenter(map.FreeCells()[i]));
+    sim::CustomTask t;
+    t.id = static_cast<int>(i) + 1;
+    t.start = p.xy;
+    t.goal = vo.goal;
+    eo.custom_tasks.push_back(t);
+  }
+  const auto ev = EvaluateOnMaze(policy, eo);
+  double succ = 0;
+  for (size_t i = 0; i < r.points.size(); ++i) {
+    const auto& p = r.points[i];
+    const int steps = ev.success[i] > 0 ? static_cast<int>(ev.mean_steps_success[i]) : vo.max_steps;
+    EXPECT_NEAR(p.true_value, -(1 - std::pow(g, steps)) / (1 - g), 1e-9) << "point " << i;
+    EXPECT_EQ(p.success, ev.success[i]);
+    succ += ev.success[i] / r.points.size();
+    torch::InferenceMode guard;
+    const auto obs = torch::tensor({static_cast<float>(p.xy.x()), static_cast<float>(p.xy.y())});
+    const auto goal = torch::tensor({static_cast<float>(vo.goal.x()), static_cast<float>(vo.goal.y())});
+    const double q = policy.Q(obs, policy.Act(obs, goal), goal).min().item<double>();
+    EXPECT_NEAR(p.predicted, q, 1e-4 * (1 + std::abs(q)));
+  }
+  EXPECT_NEAR(r.mean_success, succ, 1e-12);
+  EXPECT_GT(r.correlation, 0.5) << "the shipped critic should rank starts by their true value";
+  EXPECT_LT(r.mean_abs_error, 50.0);
+  // Pictures and JSON.
+  const std::string dir = ::testing::TempDir() + "/value_map_test";
+  WriteValueMap(r, vo, "test", dir);
+  for (const char* f : {"value_predicted.png", "value_true.png", "value_error.png", "value_map.json"})
+    EXPECT_TRUE(std::ifstream(dir + "/" + f).good()) << f;
+  std::ifstream js(dir + "/value_map.json");
+  const std::string text((std::istreambuf_iterator<char>(js)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"mean_abs_error\": "), std::string::npos);
+  EXPECT_NE(text.find("\"correlation\": "), std::string::npos);
+  vo.goal = {-4.0, 0.0};
+  EXPECT_THROW(ComputeValueMap(policy, vo), std::invalid_argument);
+}
+
 // Runs msspr_train; returns the pid. fault: MSSPR_FAULT_KILL_IN_CHECKPOINT for the child.
 pid_t StartTrain(const std::vector<std::string>& args, const std::string& log, const char* fault = nullptr) {
   const pid_t pid = fork();
@@ -287,6 +376,33 @@ TEST(TrainCli, KilledAtRandomPointsResumesBitExact) {
   EXPECT_EQ(ref_rows.size(), 41u);  // header + 40 steps, no duplicates
   EXPECT_EQ(run_rows, ref_rows);
   EXPECT_EQ(ReadAll(run + "/eval.csv"), ReadAll(ref + "/eval.csv"));
+}
+
+TEST(TrainCli, EvaluatesCustomTasksBesideTheOfficialOnes) {
+  TinyRun tiny("custom_tasks");
+  const std::string out = tiny.dir + "/run";
+  const std::string tasks = std::string(MSSPR_SOURCE_DIR) + "/config/eval_tasks_medium_easy.yaml";
+  std::vector<std::string> args = tiny.Args(out);
+  for (const char* a : {"--eval-maze", "medium", "--eval-episodes", "1", "--eval-max-steps", "20",
+                               "--eval-tasks", "2", "--eval-tasks-file"})
+    args.push_back(a);
+  args.push_back(tasks);
+  args[std::find(args.begin(), args.end(), "--steps") - args.begin() + 1] = "10";
+  ASSERT_EQ(Wait(StartTrain(args, out + ".log")), 0) << ReadAll(out + ".log");
+  const std::string eval = ReadAll(out + "/eval.csv");
+  for (const char* key : {"10,success_task2,", "10,success_custom1,", "10,success_custom3,", "10,mean_success,",
+                          "10,mean_success_custom,"})
+    EXPECT_NE(eval.find(key), std::string::npos) << key << "\n" << eval;
+  const std::string js = ReadAll(out + "/eval/step_00000010_custom.json");
+  EXPECT_NE(js.find("\"start\": [16.0000, 0.0000], \"goal\": [20.0000, 0.0000]"), std::string::npos) << js;
+  // A tasks file with a goal in a wall: a usage error naming the file, before any training.
+  const std::string bad = tiny.dir + "/bad_tasks.yaml";
+  std::ofstream(bad) << "tasks:\n  - {id: 1, start: [0, 0], goal: [-4, 0]}\n";
+  args.back() = bad;
+  args[std::find(args.begin(), args.end(), "--out") - args.begin() + 1] = tiny.dir + "/run2";
+  const int st = Wait(StartTrain(args, out + ".bad"));
+  EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << ReadAll(out + ".bad");
+  EXPECT_NE(ReadAll(out + ".bad").find(bad + ": task 1: goal"), std::string::npos) << ReadAll(out + ".bad");
 }
 
 TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {

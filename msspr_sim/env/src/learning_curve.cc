@@ -125,7 +125,9 @@ bool SaveLearningCurvePlot(const std::string& eval_csv, const std::string& metri
   const auto metrics = ReadMetrics(metrics_csv, losses);
   std::map<std::string, Series> success;
   for (const auto& [name, s] : eval) {
-    if (name == "mean_success" || name.rfind("success_task", 0) == 0) success[name] = s;
+    // Official tasks one by one, and the mean over custom tasks (--eval-tasks-file) as one line.
+    if (name == "mean_success" || name == "mean_success_custom" || name.rfind("success_task", 0) == 0)
+      success[name] = s;
   }
   if (success.empty() && metrics.empty()) return false;
 
@@ -178,7 +180,8 @@ bool SaveLearningCurvePlot(const std::string& eval_csv, const std::string& metri
     for (const auto& [x, y] : s) pct[x] = 100 * y;
     const cv::Scalar c = task_colors[i++ % 7];
     DrawSeries(img, sp, pct, c, 1, false);
-    cv::putText(img, name.substr(std::string("success_").size()), {width - right + 12, legend_y}, font, 0.42, c,
+    const std::string label = name == "mean_success_custom" ? "custom" : name.substr(std::string("success_").size());
+    cv::putText(img, label, {width - right + 12, legend_y}, font, 0.42, c,
                 1, cv::LINE_AA);
     legend_y += 18;
   }

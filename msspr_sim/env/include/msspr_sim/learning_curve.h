@@ -7,8 +7,8 @@
 
 namespace msspr::sim {
 
-// Reads eval_csv (rows "step,name,value": success_task<i> and mean_success
-// are drawn, other names ignored) and metrics_csv (a header with "step" and
+// Reads eval_csv (rows "step,name,value": success_task<i>, mean_success and
+// mean_success_custom are drawn, other names ignored) and metrics_csv (a header with "step" and
 // loss columns; "critic" and "repr" are drawn) and writes png_path: success
 // per task and the mean (%) against step on top, the two losses (log scale)
 // below. A missing or empty CSV leaves its panel empty. Returns false, writing

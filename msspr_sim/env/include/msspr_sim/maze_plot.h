@@ -22,6 +22,23 @@ void SaveTrajectoryPlot(const MazeMap& map,
                         const std::vector<bool>& success, const std::string& png_path,
                         int pixels_per_cell = 40);
 
+// How SaveScalarFieldPlot colours values.
+enum class ColorScale {
+  kSequential,  // viridis from lo (dark) to hi (yellow)
+  kDiverging,   // blue (lo) - white (0) - red (hi), for signed errors; lo = -hi
+};
+
+// A heatmap over the maze: each values[k] paints a square of side patch_m
+// metres centred at points[k], over the maze's walls (dark grey) and free
+// cells (light grey); a marker at `goal`; a colour bar with lo and hi on the
+// right and `title` above. Values outside [lo, hi] are clipped. Throws
+// std::invalid_argument on mismatched sizes or lo >= hi, std::runtime_error
+// naming the path if it cannot be written.
+void SaveScalarFieldPlot(const MazeMap& map, const std::vector<Eigen::Vector2d>& points,
+                         const std::vector<double>& values, double patch_m, double lo, double hi,
+                         ColorScale scale, const Eigen::Vector2d& goal, const std::string& title,
+                         const std::string& png_path, int pixels_per_cell = 48);
+
 }  // namespace msspr::sim
 
 #endif  // MSSPR_SIM_MAZE_PLOT_H_
