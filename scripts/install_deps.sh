@@ -5,7 +5,7 @@ set -euo pipefail
 PKGS=(
   ros-core-dev python3-rostest rosbash
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev
-  libcv-bridge-dev libimage-transport-dev
+  libcv-bridge-dev libimage-transport-dev libvisualization-msgs-dev
   python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs
   libmujoco-dev libqhull-dev
   libtorch-dev libopenblas0-openmp

@@ -6,6 +6,8 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/JointState.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include "dataset_bag.h"
 #include "msg_conversion.h"
@@ -45,6 +47,10 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   o.publish_clock = Param(pnh, "publish_clock", o.publish_clock);
   o.world_frame = Param(pnh, "world_frame", o.world_frame);
   o.agent_frame = Param(pnh, "agent_frame", o.agent_frame);
+  o.robot_description = Param(pnh, "robot_description", o.robot_description);
+  o.publish_markers = Param(pnh, "publish_markers", o.publish_markers);
+  o.path_length = Param(pnh, "path_length", o.path_length);
+  o.marker_rate = Param(pnh, "marker_rate", o.marker_rate);
   if (o.observation_mode != "state" && o.observation_mode != "pixels" && o.observation_mode != "both")
     throw std::invalid_argument("~observation_mode must be state, pixels or both, got '" +
                                 o.observation_mode + "'");
@@ -73,6 +79,8 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   if (o.val_episodes < 0) bad("val_episodes", ">= 0", o.val_episodes);
   if (o.wait_for_subscribers < 0) bad("wait_for_subscribers", ">= 0", o.wait_for_subscribers);
   if (o.seed < 0) bad("seed", ">= 0", o.seed);
+  if (o.path_length < 2) bad("path_length", ">= 2", o.path_length);
+  if (!(o.marker_rate > 0 && std::isfinite(o.marker_rate))) bad("marker_rate", "> 0 (Hz)", o.marker_rate);
   if (o.world_frame.empty() || o.agent_frame.empty() || o.world_frame == o.agent_frame)
     bad("world_frame/~agent_frame", "two different non-empty frames", o.world_frame + "/" + o.agent_frame);
   return o;
@@ -92,6 +100,22 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
   episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", 10, /*latch=*/true);
   if (options_.publish_clock) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
   diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  // The robot description, when one is loaded: checked against the MuJoCo model
+  // (a mismatch is fatal), then joint_states and tf2 along its joints.
+  std::string key, xml;
+  if (!options_.robot_description.empty() && nh_.searchParam(options_.robot_description, key) &&
+      nh_.getParam(key, xml)) {
+    robot_ = CheckPointRobotUrdf(xml, "parameter " + key, *env_, options_.world_frame, options_.agent_frame);
+    joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
+    ROS_INFO_STREAM_NAMED("msspr_sim", "robot_description " << key << ": robot '" << robot_->name << "', "
+                                           << robot_->chain.size() << " prismatic joints, radius "
+                                           << robot_->radius << " m: agrees with the simulation");
+  } else {
+    ROS_INFO_STREAM_NAMED("msspr_sim", "no robot_description parameter: tf2 " << options_.world_frame << " -> "
+                                           << options_.agent_frame << " only");
+  }
+  if (options_.publish_markers)
+    marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
   if (pixels()) {
     image_pub_ = it_.advertise("camera/image", 10);
     goal_image_pub_ = nh_.advertise<sensor_msgs::Image>("goal_image", 1, /*latch=*/true);
@@ -129,6 +153,8 @@ void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
     env_->ResetToTask(task_id, seed);
   active_ = true;
   have_action_ = false;
+  path_.clear();
+  markers_due_ = true;
   ++counters_.episodes;
   msspr::EpisodeInfo info;
   info.header.stamp = TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip);
@@ -187,14 +213,45 @@ void SimNode::Publish() {
     c.clock = o.header.stamp;
     clock_pub_.publish(c);
   }
-  geometry_msgs::TransformStamped tf;
-  tf.header.stamp = o.header.stamp;
-  tf.header.frame_id = options_.world_frame;
-  tf.child_frame_id = options_.agent_frame;
-  tf.transform.translation.x = o.state[0];
-  tf.transform.translation.y = o.state[1];
-  tf.transform.rotation.w = 1.0;
-  tf_.sendTransform(tf);
+  if (robot_) {  // along the URDF's joints: joint k moves by qpos[k] = state[k] along its axis
+    std::vector<geometry_msgs::TransformStamped> tfs;
+    sensor_msgs::JointState js;
+    js.header.stamp = o.header.stamp;
+    for (size_t k = 0; k < robot_->chain.size(); ++k) {
+      const auto& j = robot_->chain[k];
+      const Eigen::Vector3d t = j.origin + j.axis * static_cast<double>(o.state[k]);
+      geometry_msgs::TransformStamped tf;
+      tf.header.stamp = o.header.stamp;
+      tf.header.frame_id = j.parent;
+      tf.child_frame_id = j.child;
+      tf.transform.translation.x = t.x();
+      tf.transform.translation.y = t.y();
+      tf.transform.translation.z = t.z();
+      tf.transform.rotation.w = 1.0;
+      tfs.push_back(tf);
+      js.name.push_back(j.name);
+      js.position.push_back(o.state[k]);
+    }
+    tf_.sendTransform(tfs);
+    joint_state_pub_.publish(js);
+  } else {
+    geometry_msgs::TransformStamped tf;
+    tf.header.stamp = o.header.stamp;
+    tf.header.frame_id = options_.world_frame;
+    tf.child_frame_id = options_.agent_frame;
+    tf.transform.translation.x = o.state[0];
+    tf.transform.translation.y = o.state[1];
+    tf.transform.rotation.w = 1.0;
+    tf_.sendTransform(tf);
+  }
+  if (options_.publish_markers) {
+    path_.emplace_back(o.state[0], o.state[1]);
+    while (static_cast<int>(path_.size()) > options_.path_length) path_.pop_front();
+    markers_stamp_ = o.header.stamp;
+    markers_dirty_ = true;
+    MaybePublishMarkers(markers_due_);
+    markers_due_ = false;
+  }
   if (pixels()) {
     const auto img = env_->Render();
     image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
@@ -202,6 +259,76 @@ void SimNode::Publish() {
   obs_pub_.publish(o);
   last_publish_time_ = ros::WallTime::now();
   if (o.last && !options_.auto_reset) active_ = false;  // wait for a reset
+}
+
+void SimNode::MaybePublishMarkers(bool now_anyway) {
+  if (!options_.publish_markers || !markers_dirty_) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if (!now_anyway && (now - last_marker_time_).toSec() < 1.0 / options_.marker_rate) return;
+  PublishMarkers(markers_stamp_);
+  markers_dirty_ = false;
+  last_marker_time_ = now;
+}
+
+void SimNode::PublishMarkers(const ros::Time& stamp) {
+  visualization_msgs::MarkerArray arr;
+  auto base = [&](const std::string& ns, int type) {
+    visualization_msgs::Marker m;
+    m.header.stamp = stamp;
+    m.header.frame_id = options_.world_frame;
+    m.ns = ns;
+    m.id = 0;
+    m.type = type;
+    m.action = visualization_msgs::Marker::ADD;
+    m.pose.orientation.w = 1.0;
+    m.color.a = 1.0;
+    return m;
+  };
+  const auto& map = env_->map();
+  // Walls: one cube per wall cell, as the MuJoCo scene's blocks.
+  visualization_msgs::Marker walls = base("walls", visualization_msgs::Marker::CUBE_LIST);
+  walls.scale.x = walls.scale.y = sim::kCellSize;
+  walls.scale.z = sim::kWallHeight;
+  walls.color.r = walls.color.g = walls.color.b = 0.35f;
+  for (int i = 0; i < map.rows(); ++i)
+    for (int j = 0; j < map.cols(); ++j)
+      if (map.IsWall({i, j})) {
+        const Eigen::Vector2d c = map.CellCenter({i, j});
+        geometry_msgs::Point p;
+        p.x = c.x();
+        p.y = c.y();
+        p.z = sim::kWallHeight / 2;
+        walls.points.push_back(p);
+      }
+  arr.markers.push_back(walls);
+  // Goal: a disc of the success radius on the floor.
+  visualization_msgs::Marker goal = base("goal", visualization_msgs::Marker::CYLINDER);
+  goal.pose.position.x = env_->goal().x();
+  goal.pose.position.y = env_->goal().y();
+  goal.pose.position.z = 0.05;
+  goal.scale.x = goal.scale.y = 2 * env_->options().success_radius;
+  goal.scale.z = 0.1;
+  goal.color.g = 0.8f;
+  goal.color.r = 0.1f;
+  goal.color.b = 0.2f;
+  goal.color.a = 0.6f;
+  arr.markers.push_back(goal);
+  // The agent's recent path (this episode).
+  visualization_msgs::Marker path = base("path", visualization_msgs::Marker::LINE_STRIP);
+  path.scale.x = 0.15;
+  path.color.r = 0.15f;
+  path.color.g = 0.35f;
+  path.color.b = 0.9f;
+  for (const auto& q : path_) {
+    geometry_msgs::Point p;
+    p.x = q.x();
+    p.y = q.y();
+    p.z = 0.1;
+    path.points.push_back(p);
+  }
+  if (path.points.size() < 2) path.action = visualization_msgs::Marker::DELETE;
+  arr.markers.push_back(path);
+  marker_pub_.publish(arr);
 }
 
 void SimNode::DoStep(const Eigen::Vector2d& action) {
@@ -267,6 +394,7 @@ void SimNode::OnRealtimeTick(const ros::WallTimerEvent&) {
 }
 
 void SimNode::OnWatchdog(const ros::WallTimerEvent&) {
+  MaybePublishMarkers(false);  // the last steps' path, once the rate allows
   if (!started_) {
     const bool subs_ok = obs_pub_.getNumSubscribers() >= static_cast<uint32_t>(options_.wait_for_subscribers);
     const bool agent_ok = !options_.auto_reset || action_sub_.getNumPublishers() > 0;

@@ -10,6 +10,8 @@
 #include <Eigen/Core>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
+#include <deque>
+#include <optional>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "msspr/Action.h"
@@ -18,6 +20,7 @@
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
 #include "msspr_sim/point_maze.h"
+#include "robot_model.h"
 
 namespace msspr::ros_bridge {
 
@@ -43,6 +46,12 @@ struct SimNodeOptions {
   bool publish_clock = true;
   std::string world_frame = "world";
   std::string agent_frame = "agent";
+  // The robot description to check against the simulation and to follow in
+  // tf2 (searched up the namespaces; absent: tf2 world -> agent only).
+  std::string robot_description = "robot_description";
+  bool publish_markers = true;             // markers: walls, goal, recent path (latched)
+  int path_length = 500;                   // points of the path marker
+  double marker_rate = 5.0;                // Hz of wall time, at most
 };
 
 // Reads ~params into SimNodeOptions, logs every value; throws std::invalid_argument.
@@ -77,6 +86,10 @@ class SimNode {
   void DoStep(const Eigen::Vector2d& action);
   msspr::Observation MakeObservation() const;
   void Publish();
+  void PublishMarkers(const ros::Time& stamp);
+  // Publishes the markers when they changed and 1 / marker_rate s of wall time
+  // have passed since the last time (or now_anyway).
+  void MaybePublishMarkers(bool now_anyway);
   bool NextAutoEpisode();  // false when the collection is complete
 
   SimNodeOptions options_;
@@ -86,6 +99,12 @@ class SimNode {
   // goal_image is a plain latched publisher: image_transport publishes only to
   // transports that have a subscriber at that moment, which loses the latch.
   ros::Publisher obs_pub_, episode_pub_, clock_pub_, diag_pub_, goal_image_pub_;
+  ros::Publisher joint_state_pub_, marker_pub_;
+  std::optional<PointRobotModel> robot_;  // from robot_description, checked
+  std::deque<Eigen::Vector2d> path_;      // recent positions, for the path marker
+  bool markers_due_ = true, markers_dirty_ = false;
+  ros::Time markers_stamp_;
+  ros::WallTime last_marker_time_;
   image_transport::Publisher image_pub_;
   ros::Subscriber action_sub_;
   ros::ServiceServer reset_srv_, goal_srv_, pause_srv_;

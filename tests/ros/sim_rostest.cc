@@ -17,7 +17,12 @@
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/point_maze.h"
+#include "robot_model.h"
 #include "ros_test_helper.h"
+#include <sensor_msgs/JointState.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/MarkerArray.h>
 
 namespace msspr::testing {
 namespace {
@@ -144,6 +149,90 @@ TEST(SimServices, ResetSetGoalPause) {
   h.SendAction(id, 0, {1.f, 0.f});
   ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 5.0));
   EXPECT_FLOAT_EQ(h.latest()->goal[0], 8.f);  // the goal set above holds
+}
+
+// sim.launch's robot_description, joint_states, tf2 and markers agree with the maze
+// and with the observations.
+TEST(SimRobotAndMarkers, AgreeWithTheMaze) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  const auto map = sim::MazeMap::FromName("medium");
+  // robot_description: present, parsed by urdfdom, and consistent with the simulation.
+  std::string xml;
+  ASSERT_TRUE(h.nh().getParam("robot_description", xml)) << "no robot_description in " << h.nh().getNamespace();
+  sim::PointMaze env(sim::PointMazeOptions{});
+  const auto robot = ros_bridge::CheckPointRobotUrdf(xml, "robot_description", env, "world", "agent");
+  EXPECT_EQ(robot.chain.size(), 2u);
+
+  visualization_msgs::MarkerArray::ConstPtr markers;
+  sensor_msgs::JointState::ConstPtr joints;
+  auto msub = h.nh().subscribe<visualization_msgs::MarkerArray>(
+      "markers", 10, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { markers = m; });
+  auto jsub = h.nh().subscribe<sensor_msgs::JointState>(
+      "joint_states", 100, [&](const sensor_msgs::JointState::ConstPtr& j) { joints = j; });
+  tf2_ros::Buffer tf_buffer;
+  tf2_ros::TransformListener tf_listener(tf_buffer);
+  // joint_states and /tf are not latched: connect before the steps that publish them.
+  ASSERT_TRUE(h.WaitFor([&] { return jsub.getNumPublishers() > 0 && msub.getNumPublishers() > 0; }, 10.0));
+  ros::WallDuration(1.0).sleep();  // the tf listener's own connection
+  const auto res = CallReset(h.nh(), 2, 5);
+  ASSERT_TRUE(res.ok) << res.message;
+  // Walk a few steps east so that the path has points.
+  const uint32_t id = res.observation.episode_id;
+  for (uint32_t k = 0; k < 5; ++k) {
+    h.SendAction(id, k, {0.5f, 0.f});
+    ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == k + 1; }, 10.0));
+  }
+  const auto obs = *h.latest();
+  auto find = [&](const std::string& ns) -> const visualization_msgs::Marker* {
+    if (!markers) return nullptr;
+    for (const auto& m : markers->markers)
+      if (m.ns == ns) return &m;
+    return nullptr;
+  };
+  // The path marker is refreshed at 5 Hz of wall time: wait for one that ends at the current state.
+  ASSERT_TRUE(h.WaitFor([&] {
+    const auto* p = find("path");
+    return p && !p->points.empty() && std::abs(p->points.back().x - obs.state[0]) < 1e-4 &&
+           std::abs(p->points.back().y - obs.state[1]) < 1e-4;
+  }, 10.0)) << "no path marker up to the current state";
+  const auto* walls = find("walls");
+  ASSERT_NE(walls, nullptr);
+  EXPECT_EQ(walls->header.frame_id, "world");
+  size_t n_walls = 0;
+  for (int i = 0; i < map.rows(); ++i)
+    for (int j = 0; j < map.cols(); ++j) n_walls += map.IsWall({i, j}) ? 1 : 0;
+  ASSERT_EQ(walls->points.size(), n_walls);
+  for (const auto& p : walls->points) {
+    const sim::Cell c = map.XYToCell({p.x, p.y});
+    EXPECT_TRUE(map.IsWall(c)) << p.x << ", " << p.y;
+    EXPECT_NEAR(p.x, map.CellCenter(c).x(), 1e-9);
+    EXPECT_NEAR(p.y, map.CellCenter(c).y(), 1e-9);
+  }
+  EXPECT_DOUBLE_EQ(walls->scale.x, sim::kCellSize);
+  const auto* goal = find("goal");
+  ASSERT_NE(goal, nullptr);
+  EXPECT_NEAR(goal->pose.position.x, res.goal[0], 1e-5);
+  EXPECT_NEAR(goal->pose.position.y, res.goal[1], 1e-5);
+  EXPECT_DOUBLE_EQ(goal->scale.x, 2.0);  // the success radius, 1 m
+  const auto* path = find("path");
+  EXPECT_EQ(path->points.size(), 6u);  // the start and five steps
+  EXPECT_NEAR(path->points.front().x, res.observation.state[0], 1e-5);
+  // joint_states and tf2 follow the state.
+  ASSERT_TRUE(h.WaitFor([&] { return joints && std::abs(joints->position[0] - obs.state[0]) < 1e-5; }, 10.0));
+  ASSERT_EQ(joints->name, (std::vector<std::string>{"agent_x", "agent_y"}));
+  EXPECT_NEAR(joints->position[1], obs.state[1], 1e-5);
+  geometry_msgs::TransformStamped tf;
+  ASSERT_TRUE(h.WaitFor([&] {
+    try {
+      tf = tf_buffer.lookupTransform("world", "agent", ros::Time(0));
+      return std::abs(tf.transform.translation.x - obs.state[0]) < 1e-5;
+    } catch (const tf2::TransformException&) {
+      return false;
+    }
+  }, 10.0));
+  EXPECT_NEAR(tf.transform.translation.y, obs.state[1], 1e-5);
+  EXPECT_NEAR(tf.transform.translation.z, sim::kAgentRadius, 1e-9);
 }
 
 // A live recording (rosbag record of sim + navigate expert) equals msspr_collect's writer.

@@ -80,6 +80,19 @@ class PointMaze {
   // RenderAt(goal()).
   std::vector<uint8_t> RenderGoal() const;
 
+  // The agent's joints as the loaded MuJoCo model has them, in model order
+  // (for checks of a robot description against the simulation).
+  struct AgentJoint {
+    std::string name;
+    std::string type;  // "slide" (the point maze's only kind), "hinge", "ball" or "free"
+    Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+    bool limited = false;
+    double lower = 0, upper = 0;  // metres, when limited
+  };
+  std::vector<AgentJoint> AgentJoints() const;
+  // Radius of the agent's sphere geom ("agent_geom") in the loaded model, metres.
+  double AgentRadius() const;
+
  private:
   void RenderPose(double x, double y, uint8_t* rgb) const;
 
