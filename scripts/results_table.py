@@ -1,0 +1,63 @@
+#!/usr/bin/env python3
+"""Markdown table of training runs from their eval.csv files.
+
+usage: scripts/results_table.py RUN_DIR [RUN_DIR ...]
+
+For each run: the last evaluation's step, success per task and mean (OGBench's
+protocol when the run evaluated 50 episodes per task), the mean over its last
+two evaluations, and the wall time (DIR.wall_s when present, else the last
+wall_s in eval.csv). Runs named <variant>-s<seed> are also grouped by variant:
+mean and spread (min-max) of the final mean success over seeds.
+"""
+import collections
+import csv
+import os
+import re
+import sys
+
+
+def read_eval(path):
+    rows = collections.defaultdict(dict)
+    with open(path) as f:
+        for rec in csv.reader(f):
+            if len(rec) != 3 or rec[0] == "step":
+                continue
+            rows[int(rec[0])][rec[1]] = float(rec[2])
+    return {s: r for s, r in rows.items() if "mean_success" in r}
+
+
+def main(dirs):
+    if not dirs:
+        print(__doc__, file=sys.stderr)
+        return 2
+    out = ["| run | step | task 1 | task 2 | task 3 | task 4 | task 5 | mean | mean of last 2 evals | wall (min) |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    groups = collections.defaultdict(list)
+    for d in dirs:
+        ev = read_eval(os.path.join(d, "eval.csv"))
+        if not ev:
+            print(f"{d}: no evaluation rows", file=sys.stderr)
+            continue
+        steps = sorted(ev)
+        last = ev[steps[-1]]
+        prev = [ev[s]["mean_success"] for s in steps[-2:]]
+        wall = last.get("wall_s", float("nan"))
+        if os.path.exists(d.rstrip("/") + ".wall_s"):
+            wall = float(open(d.rstrip("/") + ".wall_s").read())
+        tasks = " | ".join(f"{100 * last.get(f'success_task{t}', float('nan')):.0f}" for t in range(1, 6))
+        name = os.path.basename(d.rstrip("/"))
+        out.append(f"| {name} | {steps[-1]} | {tasks} | **{100 * last['mean_success']:.1f}** | "
+                   f"{100 * sum(prev) / len(prev):.1f} | {wall / 60:.1f} |")
+        m = re.match(r"(.+)-s(\d+)$", name)
+        if m:
+            groups[m.group(1)].append(100 * last["mean_success"])
+    print("\n".join(out))
+    if groups:
+        print("\n| variant | seeds | mean success | min | max |\n|---|---|---|---|---|")
+        for v, xs in groups.items():
+            print(f"| {v} | {len(xs)} | {sum(xs) / len(xs):.1f} | {min(xs):.1f} | {max(xs):.1f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
