@@ -103,6 +103,27 @@ TEST(Cli, ValueMapAndMakeTasksRejectBadFlags) {
                      {"--noise 3", "--noise 3 is out of range"}});
 }
 
+TEST(Cli, EvalInprocessRejectsBadFlagsAndWritesResults) {
+  ExpectUsageErrors(MSSPR_EVAL_INPROCESS_EXE,
+                    {{"--episodes 3", "--policy is required"},
+                     {"--policy p.pt --tasks 1,6", "--tasks 6 is out of range"},
+                     {"--policy p.pt --tasks 1 --tasks-file t.yaml", "not both"},
+                     {"--policy p.pt --tasks-file /nonexistent/t.yaml", "/nonexistent/t.yaml"}});
+  const std::string out = ::testing::TempDir() + "/eval_inprocess.json";
+  std::remove(out.c_str());
+  const Result r = ::Run(MSSPR_EVAL_INPROCESS_EXE, std::string("--policy ") + MSSPR_TEST_CHECKPOINT +
+                                                     " --tasks 1,2 --episodes 2 --max-steps 600 --threads 1 --out " + out);
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("mean success"), std::string::npos) << r.output;
+  FILE* f = std::fopen(out.c_str(), "r");
+  ASSERT_NE(f, nullptr) << out;
+  std::string js(4096, '\0');
+  js.resize(std::fread(js.data(), 1, js.size(), f));
+  std::fclose(f);
+  EXPECT_NE(js.find("\"task_id\": 2"), std::string::npos) << js;
+  EXPECT_NE(js.find("\"episodes_per_task\": 2"), std::string::npos) << js;
+}
+
 TEST(Cli, BenchToolsRejectBadFlags) {
   ExpectUsageErrors(MSSPR_BENCH_CORE_EXE,
                     {{"--out x.json --threads lots", "--threads expects an integer"},

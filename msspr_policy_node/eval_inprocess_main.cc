@@ -1,0 +1,130 @@
+// msspr_eval_inprocess: OGBench's evaluation protocol for a checkpoint, in
+// process (no ROS master, no sim node): the episodes of msspr_eval (same seeds)
+// run side by side, one batched forward pass per control step. The results
+// JSON has msspr_eval's format; msspr_train's evaluations run the same code.
+#include <torch/torch.h>
+
+#include <iostream>
+#include <set>
+#include <string>
+
+#include "maze_evaluator.h"
+#include "msspr_core/cli_args.h"
+#include "msspr_core/policy.h"
+#include "msspr_core/process_env.h"
+#include "msspr_sim/eval_protocol.h"
+#include "msspr_sim/maze_map.h"
+#include "msspr_sim/maze_plot.h"
+
+namespace {
+
+constexpr const char* kUsage = R"(usage: msspr_eval_inprocess --policy POLICY.pt [options]
+Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_eval --seed S).
+  --policy FILE       a policy export (policy.pt) or a training checkpoint (required)
+  --maze NAME         arena, medium, large or giant (default medium)
+  --tasks LIST        task ids (default 1,2,3,4,5)
+  --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format)
+  --episodes N        episodes per task (default 50)
+  --max-steps N       step limit (default 1000)
+  --seed S            evaluation seed (default 0)
+  --threads N         torch threads (default: torch's choice)
+  --agent NAME        label in the results (default: the policy's file name)
+  --out FILE.json     results JSON (default: none)
+  --plot FILE.png     trajectories on the maze (default: none)
+Prints the per-task table.
+)";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  msspr::core::ReexecWithPassiveOpenMpWait(argv);
+  namespace sim = msspr::sim;
+  msspr::agent::MazeEvalOptions eo;
+  std::string policy_path, out, plot, agent;
+  try {
+    msspr::cli::CliArgs args(argc, argv, {"help"},
+                             {"policy", "maze", "tasks", "tasks-file", "episodes", "max-steps", "seed", "threads",
+                              "agent", "out", "plot"});
+    if (args.Has("help")) {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (!args.positional().empty()) throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    policy_path = args.Get("policy", "");
+    if (policy_path.empty()) throw msspr::cli::CliError("--policy is required");
+    const auto names = sim::MazeMap::Names();
+    eo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+    const auto map = sim::MazeMap::FromName(eo.maze);
+    if (args.Has("tasks-file") && args.Has("tasks")) throw msspr::cli::CliError("give --tasks or --tasks-file, not both");
+    if (args.Has("tasks-file")) {
+      try {
+        eo.custom_tasks = sim::LoadCustomTasks(args.Get("tasks-file", ""), &map);
+      } catch (const std::runtime_error& e) {
+        throw msspr::cli::CliError("--tasks-file: " + std::string(e.what()));
+      }
+    } else {
+      eo.tasks.clear();
+      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map.Tasks().size())))
+        eo.tasks.push_back(static_cast<int>(t));
+    }
+    eo.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
+    eo.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
+    eo.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+    const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
+    if (threads > 0) torch::set_num_threads(threads);
+    out = args.Get("out", "");
+    plot = args.Get("plot", "");
+    eo.keep_paths = !plot.empty();
+    agent = args.Get("agent", policy_path.substr(policy_path.find_last_of('/') + 1));
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_eval_inprocess: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  try {
+    auto policy = msspr::core::Policy::Load(policy_path);
+    std::cerr << "msspr_eval_inprocess: " << policy_path << " (" << (policy.pixels() ? "pixels" : "states") << "), "
+              << (eo.custom_tasks.empty() ? eo.tasks.size() : eo.custom_tasks.size()) << " tasks x " << eo.episodes
+              << " episodes on " << eo.maze << " ...\n";
+    const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
+    const auto map = sim::MazeMap::FromName(eo.maze);
+    sim::EvalReport report;
+    report.env = "pointmaze-" + eo.maze;
+    report.agent = agent;
+    report.episodes_per_task = eo.episodes;
+    report.max_steps = eo.max_steps;
+    report.seed = eo.seed;
+    report.wall_time_s = result.seconds;
+    for (size_t i = 0; i < result.tasks.size(); ++i) {
+      sim::TaskResult t;
+      t.task_id = result.tasks[i];
+      t.success = result.success[i];
+      t.episodes = eo.episodes;
+      t.mean_steps_successful = result.mean_steps_success[i];
+      if (i < eo.custom_tasks.size()) {
+        t.start = {eo.custom_tasks[i].start.x(), eo.custom_tasks[i].start.y()};
+        t.goal = {eo.custom_tasks[i].goal.x(), eo.custom_tasks[i].goal.y()};
+      }
+      report.tasks.push_back(t);
+    }
+    sim::FinalizeReport(&report);
+    std::cout << sim::EvalReportTable(map, report);
+    if (!out.empty()) msspr::agent::WriteResultsJson(result, eo, agent, out);
+    if (!plot.empty()) {  // up to 5 episodes per task
+      std::vector<std::vector<Eigen::Vector2d>> paths;
+      std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
+      std::vector<bool> ok;
+      for (size_t t = 0; t < result.paths.size(); ++t)
+        for (size_t e = 0; e < result.paths[t].size() && e < 5; ++e) {
+          paths.push_back(result.paths[t][e]);
+          sg.push_back(result.start_goal[t][e]);
+          ok.push_back(result.episode_success[t][e]);
+        }
+      sim::SaveTrajectoryPlot(map, paths, sg, ok, plot);
+    }
+    std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in " << result.seconds << " s\n";
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_eval_inprocess: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
