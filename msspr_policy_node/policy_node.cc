@@ -7,12 +7,14 @@
 #include <stdexcept>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <visualization_msgs/MarkerArray.h>
 #include <torch/torch.h>
 
 #include "msg_conversion.h"
 #include "ros_params.h"
 #include "msspr/Action.h"
 #include "msspr_core/policy.h"
+#include "msspr_sim/maze_map.h"
 
 namespace msspr::ros_bridge {
 
@@ -68,6 +70,9 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   o.device = Param(pnh, "device", o.device);
   o.diagnostics_period = Param(pnh, "diagnostics_period", o.diagnostics_period);
   o.latency_window = Param(pnh, "latency_window", o.latency_window);
+  o.value_marker_maze = Param(pnh, "value_marker_maze", o.value_marker_maze);
+  o.value_marker_period = Param(pnh, "value_marker_period", o.value_marker_period);
+  o.value_marker_per_cell = Param(pnh, "value_marker_per_cell", o.value_marker_per_cell);
   if (o.checkpoint.empty())
     throw std::invalid_argument("~checkpoint is required (a policy.pt from Trainer::ExportPolicy "
                                 "or a trainer checkpoint)");
@@ -82,6 +87,17 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   positive("rate", o.rate);
   positive("observation_timeout", o.observation_timeout);
   positive("diagnostics_period", o.diagnostics_period);
+  positive("value_marker_period", o.value_marker_period);
+  if (!o.value_marker_maze.empty()) {
+    try {
+      sim::MazeMap::FromName(o.value_marker_maze);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument("~value_marker_maze: " + std::string(e.what()));
+    }
+  }
+  if (o.value_marker_per_cell < 1 || o.value_marker_per_cell > 10)
+    throw std::invalid_argument("~value_marker_per_cell must be in 1..10, got " +
+                                std::to_string(o.value_marker_per_cell));
   if (o.threads < 1 || o.threads > 1024)
     throw std::invalid_argument("~threads must be in 1..1024, got " + std::to_string(o.threads));
   if (o.latency_window < 1 || o.latency_window > 10000000)
@@ -157,6 +173,26 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
   diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period), &PolicyNode::OnDiagnostics,
                                     this);
   last_diag_time_ = ros::WallTime::now();
+  if (!options_.value_marker_maze.empty()) {
+    if (pixels_ || obs_dim_ != 2) {
+      ROS_WARN_STREAM_NAMED(kLog, "~value_marker_maze: value markers need a state policy of the point maze "
+                                  "(obs_dim 2); none will be published");
+    } else {
+      const auto map = sim::MazeMap::FromName(options_.value_marker_maze);
+      const int n = options_.value_marker_per_cell;
+      for (const sim::Cell& c : map.FreeCells())
+        for (int a = 0; a < n; ++a)
+          for (int b = 0; b < n; ++b) {
+            const Eigen::Vector2d p = map.CellCenter(c) + sim::kCellSize * Eigen::Vector2d((b + 0.5) / n - 0.5,
+                                                                                            (a + 0.5) / n - 0.5);
+            value_points_.push_back(static_cast<float>(p.x()));
+            value_points_.push_back(static_cast<float>(p.y()));
+          }
+      value_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("value_markers", 1, /*latch=*/true);
+      value_timer_ = nh_.createWallTimer(ros::WallDuration(options_.value_marker_period),
+                                         &PolicyNode::OnValueMarkers, this);
+    }
+  }
   ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " (" << options_.mode << ", "
                                                            << ckpt_mode << ")");
 }
@@ -411,6 +447,7 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
                                                                       << " values or NaN / Inf: not published");
     return;
   }
+  if (!pixels_) last_goal_ = in.goal;
   out.header = in.header;
   out.episode_id = in.episode_id;
   out.step = in.step;
@@ -428,6 +465,81 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
       ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, "value estimate failed: " << e.what_without_backtrace());
     }
   }
+}
+
+namespace {
+
+// Viridis, 5 stops, linear in between; t in [0, 1].
+std_msgs::ColorRGBA Viridis(double t) {
+  static const double stops[5][3] = {
+      {0.267, 0.005, 0.329}, {0.229, 0.322, 0.546}, {0.128, 0.567, 0.551}, {0.369, 0.789, 0.383}, {0.993, 0.906, 0.144}};
+  t = std::clamp(t, 0.0, 1.0) * 4.0;
+  const int i = std::min(3, static_cast<int>(t));
+  const double f = t - i;
+  std_msgs::ColorRGBA c;
+  c.r = static_cast<float>(stops[i][0] + f * (stops[i + 1][0] - stops[i][0]));
+  c.g = static_cast<float>(stops[i][1] + f * (stops[i + 1][1] - stops[i][1]));
+  c.b = static_cast<float>(stops[i][2] + f * (stops[i + 1][2] - stops[i][2]));
+  c.a = 0.85f;
+  return c;
+}
+
+}  // namespace
+
+void PolicyNode::OnValueMarkers(const ros::WallTimerEvent&) {
+  if (last_goal_.size() != 2 || value_points_.empty()) return;  // no goal served yet
+  const int64_t n = static_cast<int64_t>(value_points_.size() / 2);
+  torch::Tensor v;
+  try {
+    torch::InferenceMode guard;
+    const torch::Tensor obs = torch::from_blob(value_points_.data(), {n, 2}, torch::kFloat32);
+    const torch::Tensor goal = torch::tensor(last_goal_).unsqueeze(0).expand({n, 2}).contiguous();
+    v = std::get<0>(policy_->Q(obs, policy_->Act(obs, goal), goal).min(-1)).to(torch::kCPU).contiguous();
+  } catch (const c10::Error& e) {
+    ++counters_.inference_errors;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(10.0, kLog, "value markers: inference failed: " << e.what_without_backtrace());
+    return;
+  }
+  const float* q = v.data_ptr<float>();
+  const float lo = *std::min_element(q, q + n), hi = *std::max_element(q, q + n);
+  visualization_msgs::MarkerArray arr;
+  visualization_msgs::Marker m;
+  m.header.stamp = ros::Time::now();
+  m.header.frame_id = "world";
+  m.ns = "value";
+  m.id = 0;
+  m.type = visualization_msgs::Marker::CUBE_LIST;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = m.scale.y = sim::kCellSize / options_.value_marker_per_cell;
+  m.scale.z = 0.02;
+  for (int64_t k = 0; k < n; ++k) {
+    geometry_msgs::Point p;
+    p.x = value_points_[2 * k];
+    p.y = value_points_[2 * k + 1];
+    p.z = 0.01;
+    m.points.push_back(p);
+    m.colors.push_back(Viridis(hi > lo ? (q[k] - lo) / (hi - lo) : 1.0));
+  }
+  // The range, as text above the maze's origin.
+  visualization_msgs::Marker label;
+  label.header = m.header;
+  label.ns = "value_range";
+  label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+  label.action = visualization_msgs::Marker::ADD;
+  label.pose.orientation.w = 1.0;
+  label.pose.position.x = -4.0;
+  label.pose.position.y = -4.0;
+  label.pose.position.z = 3.0;
+  label.scale.z = 1.2;
+  label.color.a = 1.0;
+  std::ostringstream txt;
+  txt.precision(3);
+  txt << "V(s, g) from " << lo << " (purple) to " << hi << " (yellow)";
+  label.text = txt.str();
+  arr.markers.push_back(m);
+  arr.markers.push_back(label);
+  value_pub_.publish(arr);
 }
 
 void PolicyNode::OnDiagnostics(const ros::WallTimerEvent&) {

@@ -35,6 +35,11 @@ struct PolicyNodeOptions {
   std::string device = "cpu";              // torch device of the policy
   double diagnostics_period = 1.0;         // s
   int latency_window = 1000;               // actions kept for the latency percentiles
+  // V(s, g) over the free cells of this maze for the current goal, as markers
+  // (state policies; "": off). Refreshed every value_marker_period s.
+  std::string value_marker_maze;
+  double value_marker_period = 2.0;
+  int value_marker_per_cell = 2;           // points per cell per axis
 };
 
 // Reads ~params into PolicyNodeOptions and logs every value; throws
@@ -89,6 +94,7 @@ class PolicyNode {
   bool OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res);
   void OnRateTick(const ros::WallTimerEvent&);
   void OnDiagnostics(const ros::WallTimerEvent&);
+  void OnValueMarkers(const ros::WallTimerEvent&);
 
   // Counts a rejection; the first of each reason is logged at once with what the
   // checkpoint expects, later ones throttled.
@@ -114,7 +120,10 @@ class PolicyNode {
   image_transport::Subscriber image_sub_, goal_image_sub_;
   ros::Publisher action_pub_, diag_pub_;
   ros::ServiceServer set_goal_srv_;
-  ros::WallTimer rate_timer_, diag_timer_;
+  ros::WallTimer rate_timer_, diag_timer_, value_timer_;
+  ros::Publisher value_pub_;
+  std::vector<float> value_points_;  // [N, 2] grid over the free cells (value markers)
+  std::vector<float> last_goal_;     // the goal of the latest action (state mode)
 
   // Goal override (state mode): set by ~set_goal or the goal_state topic; an
   // empty goal clears it and the observation's goal field applies again.

@@ -21,6 +21,8 @@
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
 #include "ros_test_helper.h"
+#include <visualization_msgs/MarkerArray.h>
+#include "msspr_sim/maze_map.h"
 
 namespace msspr::testing {
 namespace {
@@ -316,6 +318,29 @@ TEST(PolicyReachesGoal, EasyGoalInLockstep) {
   // The value estimate is taken once per diagnostics period (1 s).
   EXPECT_TRUE(h.WaitFor([&] { return std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")); }, 5.0));
   EXPECT_EQ(h.DiagNumber(kPolicyStatus, "rejected_no_goal"), 0);
+  // Value markers (~value_marker_maze medium, 2 x 2 points per free cell) for the goal
+  // set above: the point next to the goal is valued above the one farthest from it by
+  // the maze's paths (viridis: the green channel rises with the value).
+  visualization_msgs::MarkerArray::ConstPtr values;
+  auto vsub = h.nh().subscribe<visualization_msgs::MarkerArray>(
+      "value_markers", 1, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { values = m; });
+  ASSERT_TRUE(h.WaitFor([&] { return values != nullptr; }, 10.0)) << "no value_markers";
+  const auto map = sim::MazeMap::FromName("medium");
+  const auto& cubes = values->markers.at(0);
+  ASSERT_EQ(cubes.points.size(), 4 * map.FreeCells().size());
+  ASSERT_EQ(cubes.colors.size(), cubes.points.size());
+  const sim::Cell goal_cell = map.XYToCell({gx, gy});
+  size_t near = 0, far = 0;
+  double best = 1e9;
+  int worst = -1;
+  for (size_t k = 0; k < cubes.points.size(); ++k) {
+    const Eigen::Vector2d p(cubes.points[k].x, cubes.points[k].y);
+    const double d = (p - Eigen::Vector2d(gx, gy)).norm();
+    if (d < best) best = d, near = k;
+    const int moves = map.BfsDistance(map.XYToCell(p), goal_cell);
+    if (moves > worst) worst = moves, far = k;
+  }
+  EXPECT_GT(cubes.colors[near].g, cubes.colors[far].g) << "V near the goal should exceed V " << worst << " cells away";
 }
 
 // The sim (pixels) and the policy node (pixels) in lockstep: camera images and
