@@ -188,6 +188,14 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
             value_points_.push_back(static_cast<float>(p.x()));
             value_points_.push_back(static_cast<float>(p.y()));
           }
+      // The range label: centred below the maze (its lowest row of free cells, minus a cell).
+      double x0 = 1e9, x1 = -1e9, y0 = 1e9;
+      for (size_t k = 0; k + 1 < value_points_.size(); k += 2) {
+        x0 = std::min<double>(x0, value_points_[k]);
+        x1 = std::max<double>(x1, value_points_[k]);
+        y0 = std::min<double>(y0, value_points_[k + 1]);
+      }
+      value_label_xy_ = {0.5 * (x0 + x1), y0 - 0.75 * sim::kCellSize};
       value_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("value_markers", 1, /*latch=*/true);
       value_timer_ = nh_.createWallTimer(ros::WallDuration(options_.value_marker_period),
                                          &PolicyNode::OnValueMarkers, this);
@@ -528,8 +536,8 @@ void PolicyNode::OnValueMarkers(const ros::WallTimerEvent&) {
   label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
   label.action = visualization_msgs::Marker::ADD;
   label.pose.orientation.w = 1.0;
-  label.pose.position.x = -4.0;
-  label.pose.position.y = -4.0;
+  label.pose.position.x = value_label_xy_[0];
+  label.pose.position.y = value_label_xy_[1];
   label.pose.position.z = 3.0;
   label.scale.z = 1.2;
   label.color.a = 1.0;

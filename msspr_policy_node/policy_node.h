@@ -124,6 +124,7 @@ class PolicyNode {
   ros::Publisher value_pub_;
   std::vector<float> value_points_;  // [N, 2] grid over the free cells (value markers)
   std::vector<float> last_goal_;     // the goal of the latest action (state mode)
+  std::vector<double> value_label_xy_ = {0.0, 0.0};
 
   // Goal override (state mode): set by ~set_goal or the goal_state topic; an
   // empty goal clears it and the observation's goal field applies again.

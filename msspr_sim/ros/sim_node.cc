@@ -305,13 +305,13 @@ void SimNode::PublishMarkers(const ros::Time& stamp) {
   visualization_msgs::Marker goal = base("goal", visualization_msgs::Marker::CYLINDER);
   goal.pose.position.x = env_->goal().x();
   goal.pose.position.y = env_->goal().y();
-  goal.pose.position.z = 0.05;
+  goal.pose.position.z = 0.1;
   goal.scale.x = goal.scale.y = 2 * env_->options().success_radius;
   goal.scale.z = 0.1;
-  goal.color.g = 0.8f;
-  goal.color.r = 0.1f;
-  goal.color.b = 0.2f;
-  goal.color.a = 0.6f;
+  goal.color.r = 1.0f;  // magenta: apart from the value colours and the red agent
+  goal.color.g = 0.15f;
+  goal.color.b = 0.85f;
+  goal.color.a = 1.0f;  // opaque: transparent markers (value maps) do not wash it out
   arr.markers.push_back(goal);
   // The agent's recent path (this episode).
   visualization_msgs::Marker path = base("path", visualization_msgs::Marker::LINE_STRIP);
