@@ -5,14 +5,17 @@ usage: scripts/results_table.py RUN_DIR [RUN_DIR ...]
 
 For each run: the last evaluation's step, success per task and mean (OGBench's
 protocol when the run evaluated 50 episodes per task), the mean over its last
-two evaluations, and the wall time (DIR.wall_s when present, else the last
-wall_s in eval.csv). Runs named <variant>-s<seed> are also grouped by variant:
+two evaluations, the wall time (DIR.wall_s when present, else the last
+wall_s in eval.csv) and, when DIR-custom50.json exists (msspr_eval_inprocess
+--tasks-file config/eval_tasks_medium_random50.yaml --episodes 1 --out ...), the
+success on those custom tasks. Runs named <variant>-s<seed> are also grouped by variant:
 mean and spread (min-max) of the final mean success over seeds.
 """
 import collections
 import csv
 import os
 import re
+import json
 import sys
 
 
@@ -30,8 +33,8 @@ def main(dirs):
     if not dirs:
         print(__doc__, file=sys.stderr)
         return 2
-    out = ["| run | step | task 1 | task 2 | task 3 | task 4 | task 5 | mean | mean of last 2 evals | wall (min) |",
-           "|---|---|---|---|---|---|---|---|---|---|"]
+    out = ["| run | step | task 1 | task 2 | task 3 | task 4 | task 5 | mean | mean of last 2 evals | 50 random tasks | wall (min) |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
     groups = collections.defaultdict(list)
     for d in dirs:
         ev = read_eval(os.path.join(d, "eval.csv"))
@@ -46,16 +49,23 @@ def main(dirs):
             wall = float(open(d.rstrip("/") + ".wall_s").read())
         tasks = " | ".join(f"{100 * last.get(f'success_task{t}', float('nan')):.0f}" for t in range(1, 6))
         name = os.path.basename(d.rstrip("/"))
+        custom_path = d.rstrip("/") + "-custom50.json"
+        custom = float("nan")
+        if os.path.exists(custom_path):
+            custom = 100 * json.load(open(custom_path))["mean_success"]
         out.append(f"| {name} | {steps[-1]} | {tasks} | **{100 * last['mean_success']:.1f}** | "
-                   f"{100 * sum(prev) / len(prev):.1f} | {wall / 60:.1f} |")
+                   f"{100 * sum(prev) / len(prev):.1f} | {custom:.0f} | {wall / 60:.1f} |")
         m = re.match(r"(.+)-s(\d+)$", name)
         if m:
-            groups[m.group(1)].append(100 * last["mean_success"])
+            groups[m.group(1)].append((100 * last["mean_success"], custom))
     print("\n".join(out))
     if groups:
-        print("\n| variant | seeds | mean success | min | max |\n|---|---|---|---|---|")
-        for v, xs in groups.items():
-            print(f"| {v} | {len(xs)} | {sum(xs) / len(xs):.1f} | {min(xs):.1f} | {max(xs):.1f} |")
+        print("\n| variant | seeds | mean success | min | max | 50 random tasks (mean) |\n|---|---|---|---|---|---|")
+        for v, rows in groups.items():
+            xs = [r[0] for r in rows]
+            cs = [r[1] for r in rows]
+            print(f"| {v} | {len(xs)} | {sum(xs) / len(xs):.1f} | {min(xs):.1f} | {max(xs):.1f} | "
+                  f"{sum(cs) / len(cs):.0f} |")
     return 0
 
 
