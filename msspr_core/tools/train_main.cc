@@ -1,6 +1,6 @@
 // msspr_train (standalone core build): trains Ms.PR offline from OGBench .npz
 // files. The catkin build's msspr_train adds ROS bags and in-simulator
-// evaluation on top of the same command line (msspr_policy_node/train_main.cc).
+// evaluation on top of the same command line (msspr_policy_node/training/train_main.cc).
 #include "msspr_core/process_env.h"
 #include "msspr_core/train_cli.h"
 
