@@ -87,28 +87,9 @@ int main(int argc, char** argv) {
               << " episodes on " << eo.maze << " ...\n";
     const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
     const auto map = sim::MazeMap::FromName(eo.maze);
-    sim::EvalReport report;
-    report.env = "pointmaze-" + eo.maze;
-    report.agent = agent;
-    report.episodes_per_task = eo.episodes;
-    report.max_steps = eo.max_steps;
-    report.seed = eo.seed;
-    report.wall_time_s = result.seconds;
-    for (size_t i = 0; i < result.tasks.size(); ++i) {
-      sim::TaskResult t;
-      t.task_id = result.tasks[i];
-      t.success = result.success[i];
-      t.episodes = eo.episodes;
-      t.mean_steps_successful = result.mean_steps_success[i];
-      if (i < eo.custom_tasks.size()) {
-        t.start = {eo.custom_tasks[i].start.x(), eo.custom_tasks[i].start.y()};
-        t.goal = {eo.custom_tasks[i].goal.x(), eo.custom_tasks[i].goal.y()};
-      }
-      report.tasks.push_back(t);
-    }
-    sim::FinalizeReport(&report);
+    const sim::EvalReport report = msspr::agent::MakeEvalReport(result, eo, agent);
     std::cout << sim::EvalReportTable(map, report);
-    if (!out.empty()) msspr::agent::WriteResultsJson(result, eo, agent, out);
+    if (!out.empty()) sim::WriteTextFile(out, sim::EvalReportJson(map, report));
     if (!plot.empty()) {  // up to 5 episodes per task
       std::vector<std::vector<Eigen::Vector2d>> paths;
       std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;

@@ -390,8 +390,8 @@ void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
   sim::WriteTextFile(dir + "/value_map.json", js.str());
 }
 
-void WriteResultsJson(const MazeEvalResult& result, const MazeEvalOptions& options, const std::string& agent,
-                      const std::string& path) {
+sim::EvalReport MakeEvalReport(const MazeEvalResult& result, const MazeEvalOptions& options,
+                               const std::string& agent) {
   sim::EvalReport report;
   report.env = "pointmaze-" + options.maze;
   report.agent = agent;
@@ -413,7 +413,13 @@ void WriteResultsJson(const MazeEvalResult& result, const MazeEvalOptions& optio
     report.tasks.push_back(t);
   }
   sim::FinalizeReport(&report);
-  sim::WriteTextFile(path, sim::EvalReportJson(sim::MazeMap::FromName(options.maze), report));
+  return report;
+}
+
+void WriteResultsJson(const MazeEvalResult& result, const MazeEvalOptions& options, const std::string& agent,
+                      const std::string& path) {
+  sim::WriteTextFile(path, sim::EvalReportJson(sim::MazeMap::FromName(options.maze),
+                                               MakeEvalReport(result, options, agent)));
 }
 
 }  // namespace msspr::agent

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "msspr_sim/custom_tasks.h"
+#include "msspr_sim/eval_protocol.h"
 
 namespace msspr::core {
 class Policy;
@@ -92,6 +93,11 @@ ValueMapResult ComputeValueMap(core::Policy& policy, const ValueMapOptions& opti
 // numbers and every point). Throws std::runtime_error naming the path.
 void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options, const std::string& agent,
                    const std::string& dir);
+
+// The results of an evaluation in msspr_eval's report form (custom tasks with
+// their exact start and goal), mean_success filled.
+sim::EvalReport MakeEvalReport(const MazeEvalResult& result, const MazeEvalOptions& options,
+                               const std::string& agent);
 
 // Writes the results JSON shared with msspr_eval ({env, agent, mean_success,
 // tasks: [{task_id, success, ...}]}); throws std::runtime_error naming the path.

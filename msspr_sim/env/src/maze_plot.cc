@@ -10,6 +10,21 @@
 
 namespace msspr::sim {
 
+namespace {
+
+// Writes img as a PNG; throws std::runtime_error naming `who` and the path.
+void WritePng(const cv::Mat& img, const std::string& png_path, const char* who) {
+  bool ok = false;
+  try {
+    ok = cv::imwrite(png_path, img);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(std::string(who) + ": cannot write " + png_path + ": " + e.what());
+  }
+  if (!ok) throw std::runtime_error(std::string(who) + ": cannot write " + png_path);
+}
+
+}  // namespace
+
 void SaveTrajectoryPlot(const MazeMap& map,
                         const std::vector<std::vector<Eigen::Vector2d>>& trajectories,
                         const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& start_goals,
@@ -57,13 +72,7 @@ void SaveTrajectoryPlot(const MazeMap& map,
     cv::line(img, fixed(g + cv::Point2d(-r, r)), fixed(g + cv::Point2d(r, -r)),
              cv::Scalar(0, 140, 255), thickness + 1, cv::LINE_AA, shift);
   }
-  bool ok = false;
-  try {
-    ok = cv::imwrite(png_path, img);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error("SaveTrajectoryPlot: cannot write " + png_path + ": " + e.what());
-  }
-  if (!ok) throw std::runtime_error("SaveTrajectoryPlot: cannot write " + png_path);
+  WritePng(img, png_path, "SaveTrajectoryPlot");
 }
 
 namespace {
@@ -145,13 +154,7 @@ void SaveScalarFieldPlot(const MazeMap& map, const std::vector<Eigen::Vector2d>&
   text(Short(lo), cv::Point(bx + bar_w + 4, top + mh), 0.4);
   if (scale == ColorScale::kDiverging) text("0", cv::Point(bx + bar_w + 4, top + mh / 2 + 4), 0.4);
   text(title, cv::Point(6, 22), 0.55);
-  bool ok = false;
-  try {
-    ok = cv::imwrite(png_path, img);
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error("SaveScalarFieldPlot: cannot write " + png_path + ": " + e.what());
-  }
-  if (!ok) throw std::runtime_error("SaveScalarFieldPlot: cannot write " + png_path);
+  WritePng(img, png_path, "SaveScalarFieldPlot");
 }
 
 }  // namespace msspr::sim
