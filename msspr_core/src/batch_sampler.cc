@@ -101,6 +101,47 @@ TransitionIndices BatchSampler::SampleTransitions(int batch, std::mt19937_64& rn
   return b;
 }
 
+TransitionIndices BatchSampler::SampleOgbenchTransitions(int batch, std::mt19937_64& rng,
+                                                       int subgoal_steps) const {
+  TransitionIndices b;
+  b.idx.resize(batch);
+  b.next_idx.resize(batch);
+  b.value_goal.resize(batch);
+  b.actor_goal.resize(batch);
+  b.ret.resize(batch);
+  b.discount.resize(batch);
+  if (subgoal_steps > 0) {
+    b.low_goal.resize(batch);
+    b.high_goal.resize(batch);
+    b.high_target.resize(batch);
+  }
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < batch; ++k) {
+    const int64_t i = SampleStart(rng);
+    b.idx[k] = i;
+    b.next_idx[k] = i + 1;  // a valid index always has a next state
+    b.value_goal[k] = SampleValueGoal(i, rng);
+    b.actor_goal[k] = SampleActorGoal(i, rng);
+    const bool success = b.value_goal[k] == i;
+    b.ret[k] = success ? 0.0f : -1.0f;
+    b.discount[k] = success ? 0.0f : static_cast<float>(gamma_);
+    if (subgoal_steps > 0) {
+      const int64_t end = data_.trajectory_end(i);
+      b.low_goal[k] = std::min<int64_t>(i + subgoal_steps, end);
+      if (unit(rng) < relabel_.actor_p_randomgoal) {
+        std::uniform_int_distribution<int64_t> any(0, data_.size() - 1);
+        b.high_goal[k] = any(rng);
+        b.high_target[k] = b.low_goal[k];
+      } else {
+        std::uniform_int_distribution<int64_t> future(i + 1, end);
+        b.high_goal[k] = future(rng);
+        b.high_target[k] = std::min<int64_t>(i + subgoal_steps, b.high_goal[k]);
+      }
+    }
+  }
+  return b;
+}
+
 ChunkIndices BatchSampler::SampleChunks(int batch, std::mt19937_64& rng) const {
   ChunkIndices c;
   const int H = horizon_;

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -101,7 +102,60 @@ void Require(bool ok, const std::string& what) {
 
 }  // namespace
 
-std::vector<std::string> PresetNames() { return {"mspr", "D", "DI", "DIR"}; }
+std::vector<std::string> AgentNames() { return {"mspr", "gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"}; }
+
+std::vector<std::string> PresetNames() {
+  std::vector<std::string> names{"mspr", "D", "DI", "DIR"};
+  const std::vector<std::string> agents = AgentNames();
+  names.insert(names.end(), agents.begin() + 1, agents.end());
+  return names;
+}
+
+namespace {
+
+bool IsBaseline(const std::string& name) {
+  const std::vector<std::string> agents = AgentNames();
+  return name != "mspr" && std::find(agents.begin(), agents.end(), name) != agents.end();
+}
+
+// OGBench's settings of a baseline agent for the point mazes
+// (docs/baselines.md sections 2-8: goal sampling, expectile, alpha).
+void ApplyBaselinePreset(const std::string& name, MsprOptions& o) {
+  BaselineOptions& b = o.baseline;
+  RelabelOptions& l = o.relabel;
+  b.agent = name;
+  // Value goals 0.2 / 0.5 geometric / 0.3, actor goals uniform future states.
+  l = RelabelOptions();
+  o.agent.gamma = 0.99;
+  o.agent.n_step = 1;
+  if (name == "gcbc") {
+    b.alpha = 0.0;
+  } else if (name == "gcivl") {
+    b.alpha = 10.0;
+    b.expectile = 0.9;
+  } else if (name == "gciql") {
+    b.alpha = 0.003;
+    b.expectile = 0.9;
+  } else if (name == "qrl") {
+    b.alpha = 0.0003;
+    l.value_p_curgoal = 0.0;
+    l.value_p_trajgoal = 0.0;
+    l.value_p_randomgoal = 1.0;
+  } else if (name == "crl") {
+    b.alpha = 0.03;
+    l.value_p_curgoal = 0.0;
+    l.value_p_trajgoal = 1.0;
+    l.value_p_randomgoal = 0.0;
+    l.value_geom_sample = true;
+  } else if (name == "hiql") {
+    b.expectile = 0.7;
+    b.high_alpha = 3.0;
+    b.low_alpha = 3.0;
+    b.subgoal_steps = 25;
+  }
+}
+
+}  // namespace
 std::vector<std::string> ScaleNames() { return {"paper", "cpu"}; }
 
 MsprOptions MakePreset(const std::string& preset, const std::string& scale) {
@@ -124,6 +178,14 @@ MsprOptions MakePreset(const std::string& preset, const std::string& scale) {
   } else {
     throw OptionsError("unknown scale '" + scale + "' (expected paper or cpu)");
   }
+  if (IsBaseline(preset)) {
+    ApplyBaselinePreset(preset, o);
+    if (scale == "cpu") {
+      o.baseline.hidden = 256;
+      o.baseline.latent_dim = 256;
+    }
+    return o;
+  }
   RepresentationOptions& r = o.representation;
   if (preset == "mspr") {
   } else if (preset == "D") {
@@ -133,7 +195,8 @@ MsprOptions MakePreset(const std::string& preset, const std::string& scale) {
   } else if (preset == "DIR") {
     r.weight_goal_dyn = r.weight_goal_act = 0.0;
   } else {
-    throw OptionsError("unknown preset '" + preset + "' (expected mspr, D, DI or DIR)");
+    throw OptionsError("unknown preset '" + preset +
+                       "' (expected mspr, D, DI, DIR, gcbc, gcivl, gciql, qrl, crl or hiql)");
   }
   return o;
 }
@@ -171,6 +234,7 @@ MsprOptions ApplySections(const YAML::Node& root, MsprOptions o, const std::stri
   ReadSection(root, "agent", o.agent, source, seen);
   ReadSection(root, "relabel", o.relabel, source, seen);
   ReadSection(root, "trainer", o.trainer, source, seen);
+  ReadSection(root, "baseline", o.baseline, source, seen);
   for (const auto& kv : root) {
     const std::string key = kv.first.as<std::string>();
     if (!seen.count(key)) throw OptionsError(source + ": unknown key '" + key + "'");
@@ -255,6 +319,7 @@ std::string OptionsToYaml(const MsprOptions& options) {
   WriteSection(out, "agent", options.agent);
   WriteSection(out, "relabel", options.relabel);
   WriteSection(out, "trainer", options.trainer);
+  WriteSection(out, "baseline", options.baseline);
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
@@ -300,6 +365,27 @@ void ValidateOptions(const MsprOptions& o) {
           "trainer.precision must be 'fp32' or 'bf16', got '" + o.trainer.precision + "'");
   Require(o.trainer.pipeline == "auto" || o.trainer.pipeline == "on" || o.trainer.pipeline == "off",
           "trainer.pipeline must be 'auto', 'on' or 'off', got '" + o.trainer.pipeline + "'");
+  const BaselineOptions& b = o.baseline;
+  const std::vector<std::string> agents = AgentNames();
+  Require(std::find(agents.begin(), agents.end(), b.agent) != agents.end(),
+          "baseline.agent must be one of mspr, gcbc, gcivl, gciql, qrl, crl, hiql; got '" + b.agent + "'");
+  if (b.agent != "mspr") {
+    Require(n.obs_mode == "state", "baseline.agent '" + b.agent +
+                                       "': the baselines take state observations only (network.obs_mode "
+                                       "'state'), got '" + n.obs_mode + "'");
+    Require(o.trainer.precision == "fp32",
+            "baseline.agent '" + b.agent + "': trainer.precision must be 'fp32' for the baselines");
+    Require(b.hidden > 0 && b.layers >= 1, "baseline.hidden must be > 0 and baseline.layers >= 1");
+    Require(b.lr > 0, "baseline.lr must be > 0");
+    Require(b.tau > 0 && b.tau <= 1, "baseline.tau must be in (0, 1]");
+    Require(b.alpha >= 0 && b.high_alpha >= 0 && b.low_alpha >= 0, "baseline.alpha values must be >= 0");
+    Require(b.expectile > 0 && b.expectile < 1, "baseline.expectile must be in (0, 1)");
+    Require(b.latent_dim > 0 && b.iqe_dim > 0 && b.latent_dim % b.iqe_dim == 0,
+            "baseline.latent_dim must be a positive multiple of baseline.iqe_dim");
+    Require(b.qrl_eps > 0, "baseline.qrl_eps must be > 0");
+    Require(b.rep_dim > 0, "baseline.rep_dim must be > 0");
+    Require(b.subgoal_steps >= 1, "baseline.subgoal_steps must be >= 1");
+  }
 }
 
 }  // namespace core

@@ -16,6 +16,10 @@ Policy::Policy(const MsprOptions& options, Representation repr, Actor actor, Cri
       critic_(std::move(critic)),
       device_(device) {}
 
+Policy::Policy(const MsprOptions& options, std::shared_ptr<GcAgentImpl> agent, torch::Device device)
+    : options_(options), repr_(nullptr), actor_(nullptr), critic_(nullptr), agent_(std::move(agent)),
+      device_(device) {}
+
 Policy Policy::Load(const std::string& path, torch::Device device) {
   const CheckpointFile file = ReadCheckpointFile(path);
   if (file.kind != "policy" && file.kind != "trainer") {
@@ -24,6 +28,23 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
   const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
   MsprOptions options = header.options;
   options.trainer.device = device.str();
+  if (options.baseline.agent != "mspr") {
+    std::shared_ptr<GcAgentImpl> agent;
+    try {
+      agent = MakeAgent(options);
+      torch::serialize::InputArchive archive;
+      archive.load_from(file.payload.data(), file.payload.size(), device);
+      ReadModule(archive, "agent", *agent);
+    } catch (const c10::Error& e) {
+      throw CheckpointError(path + ": cannot read the " + options.baseline.agent +
+                            " agent's networks: " + e.what_without_backtrace());
+    } catch (const OptionsError& e) {
+      throw CheckpointError(path + ": " + e.what());
+    }
+    agent->to(device);
+    agent->eval();
+    return Policy(options, agent, device);
+  }
   Representation repr(options.network);
   Actor actor(options.network);
   Critic critic(options.network);
@@ -65,6 +86,10 @@ torch::Tensor Policy::Act(const torch::Tensor& obs_in, const torch::Tensor& goal
     obs = obs.to(torch::kFloat32);
     goal = goal.to(torch::kFloat32);
   }
+  if (agent_) {
+    const torch::Tensor a = agent_->Act(obs, goal);
+    return single ? a.squeeze(0) : a;
+  }
   const torch::Tensor zs = repr_->state_encoder->forward(obs);
   const torch::Tensor zg = repr_->state_encoder->forward(goal);
   torch::Tensor a = actor_->forward(zs, repr_->goal_head->forward(zs, zg));
@@ -93,6 +118,10 @@ torch::Tensor Policy::Q(const torch::Tensor& obs_in, const torch::Tensor& action
   if (!pixels()) {
     obs = obs.to(torch::kFloat32);
     goal = goal.to(torch::kFloat32);
+  }
+  if (agent_) {
+    const torch::Tensor q = agent_->Value(obs, action, goal);
+    return single ? q.squeeze(0) : q;
   }
   const torch::Tensor zs = repr_->state_encoder->forward(obs);
   const torch::Tensor zg = repr_->state_encoder->forward(goal);

@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cstdio>
@@ -27,14 +28,19 @@ namespace {
 const char kUsage[] =
     "usage: %PROGRAM% --data FILE --out DIR [options]\n"
     "\n"
-    "Trains Ms.PR (multi-scale predictive representations) offline.\n"
+    "Trains Ms.PR (multi-scale predictive representations) offline, or one of OGBench's\n"
+    "baseline agents (--agent).\n"
     "\n"
     "  --data FILE        training dataset: %DATA%\n"
     "  --val FILE         validation dataset (.npz); its critic/representation losses are\n"
     "                     logged to eval.csv at every --eval-every\n"
     "  --out DIR          output directory: metrics.csv, eval.csv, checkpoint.ckpt, policy.pt,\n"
     "                     options.yaml\n"
-    "  --preset NAME      mspr (default) | D | DI | DIR (ablations); wins over a config's preset:\n"
+    "  --agent NAME       mspr (default) | gcbc | gcivl | gciql | qrl | crl | hiql: the baselines\n"
+    "                     with OGBench's pointmaze hyperparameters (the preset of that name;\n"
+    "                     config/agents/ has the other environments' settings)\n"
+    "  --preset NAME      mspr (default) | D | DI | DIR (ablations) | a baseline agent's name;\n"
+    "                     wins over a config's preset:\n"
     "  --scale NAME       paper (default) | cpu; wins over a config's scale:\n"
     "  --config YAML      options file applied on top of the preset (may repeat; later files\n"
     "                     override earlier ones key by key)\n"
@@ -141,7 +147,7 @@ void WriteRunRecord(const std::string& path, const RunRecord& r) {
 }  // namespace
 
 int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
-  static const std::set<std::string> kValued = {"data", "val", "out", "preset", "scale", "obs-mode", "steps",
+  static const std::set<std::string> kValued = {"data", "val", "out", "preset", "agent", "scale", "obs-mode", "steps",
                                                 "batch", "device", "seed", "eval-every", "checkpoint-every",
                                                 "log-every", "time-limit", "threads"};
   RunRecord given;
@@ -245,8 +251,21 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       options = ReadCheckpointOptions(ckpt);
     } else {
       std::vector<std::string> notes;
-      options = ResolveOptions(run.flags.count("preset") ? run.flags["preset"] : "",
-                               run.flags.count("scale") ? run.flags["scale"] : "", run.configs, &notes);
+      std::string preset = run.flags.count("preset") ? run.flags["preset"] : "";
+      if (run.flags.count("agent")) {
+        const std::string agent = run.flags["agent"];
+        const std::vector<std::string> agents = AgentNames();
+        if (std::find(agents.begin(), agents.end(), agent) == agents.end())
+          return usage_error("--agent: unknown agent '" + agent +
+                             "' (expected mspr, gcbc, gcivl, gciql, qrl, crl or hiql)");
+        const std::vector<std::string> mspr_presets{"mspr", "D", "DI", "DIR"};
+        const bool preset_is_mspr =
+            std::find(mspr_presets.begin(), mspr_presets.end(), preset) != mspr_presets.end();
+        if (!preset.empty() && (agent == "mspr" ? !preset_is_mspr : preset != agent))
+          return usage_error("--agent " + agent + " conflicts with --preset " + preset);
+        if (agent != "mspr") preset = agent;
+      }
+      options = ResolveOptions(preset, run.flags.count("scale") ? run.flags["scale"] : "", run.configs, &notes);
       for (const std::string& n : notes) std::cerr << "msspr_train: " << n << "\n";
     }
     if (steps >= 0) options.trainer.steps = steps;

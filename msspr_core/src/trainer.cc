@@ -228,6 +228,7 @@ void NotifyEvalWritten(const TrainLoopOptions& loop) {
 }  // namespace
 
 std::vector<std::pair<std::string, double>> LossInfo::Named() const {
+  if (!agent.empty()) return agent;
   return {{"repr", repr},   {"dyn", dyn},           {"rew", rew},       {"inv", inv},
           {"gdyn", goal_dyn}, {"gact", goal_act},   {"critic", critic}, {"q", q_mean},
           {"actor", actor}, {"bc", bc}};
@@ -265,6 +266,14 @@ Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data
                                             options_.agent.n_step, options_.representation.horizon,
                                             n.goal_horizon);
   torch::manual_seed(options_.trainer.seed);
+  if (options_.baseline.agent != "mspr") {
+    agent_ = MakeAgent(options_);
+    agent_->to(device_);
+    // OGBench: one Adam (no weight decay) over all the agent's parameters.
+    agent_opt_ = std::make_unique<torch::optim::Adam>(agent_->TrainableParameters(),
+                                                      torch::optim::AdamOptions(options_.baseline.lr));
+    return;
+  }
   repr_ = Representation(n);
   critic_ = Critic(n);
   actor_ = Actor(n);
@@ -349,6 +358,11 @@ TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool 
   batch.ret = ToDevice(torch::from_blob(const_cast<float*>(idx.ret.data()), {b}, torch::kFloat32).clone());
   batch.discount =
       ToDevice(torch::from_blob(const_cast<float*>(idx.discount.data()), {b}, torch::kFloat32).clone());
+  if (!idx.low_goal.empty()) {
+    batch.low_goal = ToDevice(GatherObs(d, idx.low_goal));
+    batch.high_goal = ToDevice(GatherObs(d, idx.high_goal));
+    batch.high_target = ToDevice(GatherObs(d, idx.high_target));
+  }
   return batch;
 }
 
@@ -374,6 +388,45 @@ ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const 
       torch::from_blob(const_cast<float*>(idx.mc_return.data()), {b, idx.horizon}, torch::kFloat32)
           .clone());
   return batch;
+}
+
+TransitionBatch Trainer::SampleBaselineBatch() {
+  const int subgoal_steps = options_.baseline.agent == "hiql" ? options_.baseline.subgoal_steps : 0;
+  return MakeTransitionBatch(
+      sampler_->SampleOgbenchTransitions(options_.trainer.batch_size, rng_, subgoal_steps), false);
+}
+
+LossInfo Trainer::BaselineStep(bool collect_info) {
+  ++step_;
+  LossInfo info;
+  NamedValues named;
+  const TransitionBatch batch = SampleBaselineBatch();
+  agent_->train();
+  const torch::Tensor loss = agent_->Loss(batch, collect_info ? &named : nullptr);
+  agent_opt_->zero_grad();
+  loss.backward();
+  agent_opt_->step();
+  agent_->UpdateTargets();
+  if (collect_info) info.agent = std::move(named);
+  return info;
+}
+
+LossInfo Trainer::EmptyLossInfo() const {
+  LossInfo info;
+  if (agent_) {
+    for (const std::string& name : agent_->LossNames()) info.agent.emplace_back(name, NAN);
+  }
+  return info;
+}
+
+std::vector<std::pair<std::string, torch::nn::Module*>> Trainer::CheckpointModules() {
+  if (agent_) return {{"agent", agent_.get()}};
+  return {{"repr", repr_.get()},
+          {"critic", critic_.get()},
+          {"actor", actor_.get()},
+          {"target_repr", target_repr_.get()},
+          {"target_critic", target_critic_.get()},
+          {"target_actor", target_actor_.get()}};
 }
 
 TransitionBatch Trainer::SampleTransitions() {
@@ -652,6 +705,10 @@ void Trainer::UpdateActor(const TransitionBatch& batch, const TransitionLatents&
 
 void Trainer::UpdateTargets() {
   Sync();
+  if (agent_) {
+    agent_->UpdateTargets();
+    return;
+  }
   HardUpdate(*target_repr_, *repr_);
   HardUpdate(*target_critic_, *critic_);
   HardUpdate(*target_actor_, *actor_);
@@ -659,7 +716,7 @@ void Trainer::UpdateTargets() {
 
 bool Trainer::pipelined() const {
   const std::string& p = options_.trainer.pipeline;
-  if (p == "off" || !device_.is_cpu() || options_.agent.critic_grad_to_encoder) return false;
+  if (p == "off" || !device_.is_cpu() || options_.agent.critic_grad_to_encoder || agent_) return false;
   return p == "on" || at::get_num_threads() >= 2;
 }
 
@@ -677,6 +734,7 @@ Trainer::~Trainer() {
 }
 
 LossInfo Trainer::Step(bool collect_info) {
+  if (agent_) return BaselineStep(collect_info);
   LossInfo info;
   LossInfo* out = collect_info ? &info : nullptr;
   // Pipelined: this thread keeps ceil(n / 2) of torch's n threads for the
@@ -738,6 +796,14 @@ LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed
   std::mt19937_64 rng(seed);
   torch::NoGradGuard no_grad;
   LossInfo info;
+  if (agent_) {
+    const int subgoal_steps = o.baseline.agent == "hiql" ? o.baseline.subgoal_steps : 0;
+    agent_->eval();
+    agent_->Loss(MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, subgoal_steps), false, &data),
+                 &info.agent);
+    agent_->train();
+    return info;
+  }
   RepresentationLoss(MakeChunkBatch(sampler.SampleChunks(batch, rng), false, &data), &info);
   const TransitionBatch tb = MakeTransitionBatch(sampler.SampleTransitions(batch, rng), false, &data);
   CriticLoss(tb, torch::zeros({tb.action.size(0), tb.action.size(1)}), &info);
@@ -747,6 +813,7 @@ LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed
 
 Policy Trainer::MakePolicy() {
   Sync();
+  if (agent_) return Policy(options_, agent_, device_);
   return Policy(options_, repr_, actor_, critic_, device_);
 }
 
@@ -754,7 +821,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   const TrainerOptions& t = options_.trainer;
   const int64_t total = t.steps;
   std::unique_ptr<CsvWriter> metrics_csv, eval_csv;
-  const LossInfo names;
+  const LossInfo names = EmptyLossInfo();
   if (!loop.out_dir.empty()) {
     MakeDirs(loop.out_dir);
     // Rows logged after the step this run starts from (a killed run's tail) go.
@@ -797,12 +864,12 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     // representation updates just before them.
     const int64_t next = step_ + 1;
     const bool logged = t.log_every > 0 && (next % t.log_every == 0 || next == total);
-    const bool repr_updated = ReprUpdateDue(options_.representation.updates_per_step);
-    const LossInfo info = Step(logged || std::isnan(last.repr));
+    const bool repr_updated = agent_ || ReprUpdateDue(options_.representation.updates_per_step);
+    const LossInfo info = Step(logged || (!agent_ && std::isnan(last.repr)));
     if (logged) CheckFiniteLosses(info, repr_updated, step_);
     // Keep the last representation losses on steps without a representation update.
     LossInfo merged = info;
-    if (std::isnan(info.repr)) {
+    if (!agent_ && std::isnan(info.repr)) {
       merged.repr = last.repr;
       merged.dyn = last.dyn;
       merged.rew = last.rew;
@@ -813,8 +880,15 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     last = merged;
     if (t.log_every > 0 && (step_ % t.log_every == 0 || step_ == total)) {
       if (!loop.quiet) {
-        bar.Update(step_, {{"critic", merged.critic}, {"actor", merged.actor}, {"repr", merged.repr},
-                           {"q", merged.q_mean}});
+        if (agent_) {
+          // The agent's first four values (its main losses).
+          auto named = merged.Named();
+          if (named.size() > 4) named.resize(4);
+          bar.Update(step_, named);
+        } else {
+          bar.Update(step_, {{"critic", merged.critic}, {"actor", merged.actor}, {"repr", merged.repr},
+                             {"q", merged.q_mean}});
+        }
       }
       if (metrics_csv) {
         const double wall =
@@ -841,10 +915,18 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
 
 namespace {
 
-// The network section alone, to check that a checkpoint fits this trainer.
-std::string NetworkYaml(const NetworkOptions& n) {
+// The sections that shape the networks (network, and the baseline agent's),
+// to check that a checkpoint fits this trainer.
+std::string NetworkYaml(const MsprOptions& options) {
   MsprOptions o;
-  o.network = n;
+  o.network = options.network;
+  const BaselineOptions& b = options.baseline;
+  o.baseline.agent = b.agent;
+  o.baseline.hidden = b.hidden;
+  o.baseline.layers = b.layers;
+  o.baseline.latent_dim = b.latent_dim;
+  o.baseline.iqe_dim = b.iqe_dim;
+  o.baseline.rep_dim = b.rep_dim;
   return OptionsToYaml(o);
 }
 
@@ -852,9 +934,9 @@ std::string NetworkYaml(const NetworkOptions& n) {
 
 void Trainer::SaveCheckpoint(const std::string& path) {
   Sync();
-  CheckFiniteWeights({repr_.get(), critic_.get(), actor_.get(), target_repr_.get(), target_critic_.get(),
-                      target_actor_.get()},
-                     step_, "checkpoint " + path);
+  std::vector<torch::nn::Module*> modules;
+  for (const auto& [name, m] : CheckpointModules()) modules.push_back(m);
+  CheckFiniteWeights(modules, step_, "checkpoint " + path);
   CheckpointHeader header;
   header.options = options_;
   header.step = step_;
@@ -867,26 +949,21 @@ void Trainer::SaveCheckpoint(const std::string& path) {
   file.version = kCheckpointFormatVersion;
   file.header = CheckpointHeaderToYaml(header);
   torch::serialize::OutputArchive archive;
-  WriteModule(archive, "repr", *repr_);
-  WriteModule(archive, "critic", *critic_);
-  WriteModule(archive, "actor", *actor_);
-  WriteModule(archive, "target_repr", *target_repr_);
-  WriteModule(archive, "target_critic", *target_critic_);
-  WriteModule(archive, "target_actor", *target_actor_);
-  {
+  for (const auto& [name, m] : CheckpointModules()) WriteModule(archive, name, *m);
+  if (agent_) {
+    torch::serialize::OutputArchive sub;
+    agent_opt_->save(sub);
+    archive.write("agent_opt", sub);
+  } else {
     torch::serialize::OutputArchive sub;
     repr_opt_->save(sub);
     archive.write("repr_opt", sub);
-  }
-  {
-    torch::serialize::OutputArchive sub;
-    critic_opt_->save(sub);
-    archive.write("critic_opt", sub);
-  }
-  {
-    torch::serialize::OutputArchive sub;
-    actor_opt_->save(sub);
-    archive.write("actor_opt", sub);
+    torch::serialize::OutputArchive critic_sub;
+    critic_opt_->save(critic_sub);
+    archive.write("critic_opt", critic_sub);
+    torch::serialize::OutputArchive actor_sub;
+    actor_opt_->save(actor_sub);
+    archive.write("actor_opt", actor_sub);
   }
   archive.write("torch_generator", gen_.get_state());
   std::ostringstream payload;
@@ -900,25 +977,27 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
   std::string path;  // newest, or newest.prev when newest fails its CRC
   const CheckpointFile file = ReadCheckpointFileOrPrevious(newest, "trainer", &path);
   const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
-  if (NetworkYaml(header.options.network) != NetworkYaml(options_.network)) {
-    throw CheckpointError(path + ": network options differ from this trainer's");
+  if (NetworkYaml(header.options) != NetworkYaml(options_)) {
+    throw CheckpointError(path + ": network or baseline options differ from this trainer's (agent '" +
+                          header.options.baseline.agent + "' in the file, '" + options_.baseline.agent +
+                          "' here)");
   }
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(file.payload.data(), file.payload.size(), device_);
-    ReadModule(archive, "repr", *repr_);
-    ReadModule(archive, "critic", *critic_);
-    ReadModule(archive, "actor", *actor_);
-    ReadModule(archive, "target_repr", *target_repr_);
-    ReadModule(archive, "target_critic", *target_critic_);
-    ReadModule(archive, "target_actor", *target_actor_);
+    for (const auto& [name, m] : CheckpointModules()) ReadModule(archive, name, *m);
     torch::serialize::InputArchive sub;
-    archive.read("repr_opt", sub);
-    repr_opt_->load(sub);
-    archive.read("critic_opt", sub);
-    critic_opt_->load(sub);
-    archive.read("actor_opt", sub);
-    actor_opt_->load(sub);
+    if (agent_) {
+      archive.read("agent_opt", sub);
+      agent_opt_->load(sub);
+    } else {
+      archive.read("repr_opt", sub);
+      repr_opt_->load(sub);
+      archive.read("critic_opt", sub);
+      critic_opt_->load(sub);
+      archive.read("actor_opt", sub);
+      actor_opt_->load(sub);
+    }
     torch::Tensor gen_state;
     archive.read("torch_generator", gen_state);
     gen_.set_state(gen_state.to(torch::kCPU));
@@ -934,7 +1013,11 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
 
 void Trainer::ExportPolicy(const std::string& path) {
   Sync();
-  CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export " + path);
+  if (agent_) {
+    CheckFiniteWeights({agent_.get()}, step_, "policy export " + path);
+  } else {
+    CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export " + path);
+  }
   CheckpointHeader header;
   header.options = options_;
   header.step = step_;
@@ -943,9 +1026,13 @@ void Trainer::ExportPolicy(const std::string& path) {
   file.version = kCheckpointFormatVersion;
   file.header = CheckpointHeaderToYaml(header);
   torch::serialize::OutputArchive archive;
-  WriteModule(archive, "repr", *repr_);
-  WriteModule(archive, "actor", *actor_);
-  WriteModule(archive, "critic", *critic_);
+  if (agent_) {
+    WriteModule(archive, "agent", *agent_);
+  } else {
+    WriteModule(archive, "repr", *repr_);
+    WriteModule(archive, "actor", *actor_);
+    WriteModule(archive, "critic", *critic_);
+  }
   std::ostringstream payload;
   archive.save_to(payload);
   file.payload = payload.str();

@@ -22,6 +22,11 @@ struct TransitionIndices {
   std::vector<int64_t> actor_goal;  // [B] goal of the actor
   std::vector<float> ret;           // [B] n-step return R^(n) to value_goal, rewards in {-1, 0}
   std::vector<float> discount;      // [B] gamma^m, or 0 when the goal is reached within the n steps
+  // HIQL's subgoals (SampleOgbenchTransitions with subgoal_steps > 0; else empty):
+  std::vector<int64_t> low_goal;     // [B] s_{min(t+k, end)}, the low actor's goal
+  std::vector<int64_t> high_goal;    // [B] the high actor's goal
+  std::vector<int64_t> high_target;  // [B] s_{min(t+k, high_goal)} (trajectory goals) or
+                                     //     s_{min(t+k, end)} (random goals): the subgoal to reach
 };
 
 // A batch of B chunks for the representation loss. The chunk starting at
@@ -64,6 +69,14 @@ class BatchSampler {
   float MonteCarloReturn(int64_t t, int64_t g) const;
 
   TransitionIndices SampleTransitions(int batch, std::mt19937_64& rng) const;
+  // OGBench's 1-step transitions for the baseline agents (docs/baselines.md
+  // 1.2-1.3): next_idx = t + 1; ret = reward = 0 when the value goal is t
+  // itself, else -1; discount = gamma * mask, mask = 0 when the value goal is
+  // t. With subgoal_steps > 0 also HIQL's low_goal, high_goal (random with
+  // probability actor_p_randomgoal, else a uniform future state) and
+  // high_target.
+  TransitionIndices SampleOgbenchTransitions(int batch, std::mt19937_64& rng,
+                                             int subgoal_steps = 0) const;
   ChunkIndices SampleChunks(int batch, std::mt19937_64& rng) const;
 
  private:

@@ -209,6 +209,48 @@ struct TrainerOptions {
   }
 };
 
+// OGBench's baseline agents (docs/baselines.md; msspr_core/README.md
+// "Baselines"). agent "mspr" trains Ms.PR and ignores the rest of this
+// section. The baselines use agent.gamma, relabel.*, trainer.batch_size /
+// steps / seed / device, network.obs_dim / action_dim (state observations
+// only), 1-step targets and one Adam optimiser over the sum of their losses.
+struct BaselineOptions {
+  std::string agent = "mspr";      // mspr | gcbc | gcivl | gciql | qrl | crl | hiql
+  int hidden = 512;                // width of every MLP hidden layer
+  int layers = 3;                  // hidden layers of every MLP
+  double lr = 3e-4;                // Adam learning rate (no weight decay)
+  double tau = 0.005;              // Polyak rate of the target networks (gcivl, gciql, hiql)
+  double alpha = 0.0;              // AWR temperature (gcivl) or BC coefficient (gciql, qrl, crl)
+  double expectile = 0.9;          // expectile of the value loss (gcivl, gciql; hiql 0.7)
+  int latent_dim = 512;            // qrl: quasimetric latent; crl: contrastive latent
+  int iqe_dim = 8;                 // qrl: dimensions per IQE component (latent_dim / iqe_dim components)
+  double qrl_eps = 0.05;           // qrl: the constraint E[relu(d(s, s') - 1)^2] <= eps
+  int rep_dim = 10;                // hiql: subgoal representation size
+  int subgoal_steps = 25;          // hiql: k, the low-level goal s_{t+k} (10 for manipulation)
+  double high_alpha = 3.0;         // hiql: AWR temperature of the high-level actor
+  double low_alpha = 3.0;          // hiql: AWR temperature of the low-level actor
+  bool low_actor_rep_grad = false; // hiql: the low actor's loss also trains the subgoal representation
+
+  template <class V>
+  void Visit(V& v) {
+    v("agent", agent);
+    v("hidden", hidden);
+    v("layers", layers);
+    v("lr", lr);
+    v("tau", tau);
+    v("alpha", alpha);
+    v("expectile", expectile);
+    v("latent_dim", latent_dim);
+    v("iqe_dim", iqe_dim);
+    v("qrl_eps", qrl_eps);
+    v("rep_dim", rep_dim);
+    v("subgoal_steps", subgoal_steps);
+    v("high_alpha", high_alpha);
+    v("low_alpha", low_alpha);
+    v("low_actor_rep_grad", low_actor_rep_grad);
+  }
+};
+
 // Everything; the YAML file has one section per member.
 struct MsprOptions {
   NetworkOptions network;
@@ -216,16 +258,25 @@ struct MsprOptions {
   AgentOptions agent;
   RelabelOptions relabel;
   TrainerOptions trainer;
+  BaselineOptions baseline;
 };
 
-// Names accepted by MakePreset.
-std::vector<std::string> PresetNames();  // {"mspr", "D", "DI", "DIR"}
+// The agents of BaselineOptions::agent: {"mspr", "gcbc", "gcivl", "gciql",
+// "qrl", "crl", "hiql"}.
+std::vector<std::string> AgentNames();
+
+// Names accepted by MakePreset: the Ms.PR presets {"mspr", "D", "DI",
+// "DIR"} and every baseline agent of AgentNames().
+std::vector<std::string> PresetNames();
 std::vector<std::string> ScaleNames();   // {"paper", "cpu"}
 
 // Returns the options of a preset ("mspr" full; ablations "D", "DI", "DIR"
 // differ only in the representation loss weights) at a scale ("paper": the
 // paper's widths and batch; "cpu": widths 256, latent 256, goal 64, batch
-// 256). Throws OptionsError on an unknown name.
+// 256). A baseline agent's preset ("gcbc", ..., "hiql") sets
+// baseline.agent, its relabelling and OGBench's pointmaze hyperparameters
+// (docs/baselines.md section 8); at the cpu scale its MLPs are 256 wide, its
+// latents 256 and its batch 256. Throws OptionsError on an unknown name.
 MsprOptions MakePreset(const std::string& preset, const std::string& scale);
 
 // Applies the YAML text on top of `base`. Top-level keys are the sections

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "msspr_core/baselines.h"
 #include "msspr_core/networks.h"
 #include "msspr_core/options.h"
 
@@ -24,6 +25,8 @@ class Policy {
   // Shares the given networks (no copy); they must be on `device`.
   Policy(const MsprOptions& options, Representation repr, Actor actor, Critic critic,
          torch::Device device);
+  // A baseline agent's policy (options.baseline.agent names it); shares it.
+  Policy(const MsprOptions& options, std::shared_ptr<GcAgentImpl> agent, torch::Device device);
 
   // Loads an inference export (Trainer::ExportPolicy) or a full trainer
   // checkpoint onto `device`. Throws CheckpointError naming the file.
@@ -39,17 +42,26 @@ class Policy {
   std::vector<float> Act(const std::vector<float>& obs, const std::vector<float>& goal);
   // Twin Q values: obs, goal as in Act; action [B, action_dim] or
   // [action_dim] -> [B, 2] or [2] float32 (returns in [-1/(1-gamma), 0]).
+  // Baseline agents: GcAgentImpl::Value (see there for the units); throws
+  // std::logic_error when has_value() is false (gcbc).
   torch::Tensor Q(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal);
 
   const MsprOptions& options() const { return options_; }
+  // "mspr" or the baseline agent's name (gcbc, gcivl, gciql, qrl, crl, hiql).
+  const std::string& agent_name() const { return options_.baseline.agent; }
+  // Whether Q gives a value estimate (false for gcbc).
+  bool has_value() const { return !agent_ || agent_->has_value(); }
   bool pixels() const { return options_.network.obs_mode == "pixels"; }
   int obs_dim() const { return options_.network.obs_dim; }
   int action_dim() const { return options_.network.action_dim; }
   torch::Device device() const { return device_; }
 
+  // Ms.PR's networks (empty modules for a baseline agent).
   Representation& repr() { return repr_; }
   Actor& actor() { return actor_; }
   Critic& critic() { return critic_; }
+  // The baseline agent, or null for Ms.PR.
+  std::shared_ptr<GcAgentImpl> agent() { return agent_; }
 
  private:
   // Adds the batch dim when missing; returns whether it was added.
@@ -59,6 +71,7 @@ class Policy {
   Representation repr_;
   Actor actor_;
   Critic critic_;
+  std::shared_ptr<GcAgentImpl> agent_;
   torch::Device device_;
 };
 

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "msspr_core/baselines.h"
 #include "msspr_core/batch_sampler.h"
 #include "msspr_core/dataset.h"
 #include "msspr_core/networks.h"
@@ -35,6 +36,9 @@ struct TransitionBatch {
   torch::Tensor actor_goal;  // [B, ...] goal of the actor
   torch::Tensor ret;         // [B] float32 n-step return (rewards -1 / 0)
   torch::Tensor discount;    // [B] float32 gamma^m, 0 after success
+  // HIQL's subgoals (undefined unless sampled): low-level goal, high-level
+  // goal and the subgoal target (see TransitionIndices).
+  torch::Tensor low_goal, high_goal, high_target;
 };
 
 struct ChunkBatch {
@@ -50,6 +54,9 @@ struct ChunkBatch {
 struct LossInfo {
   double repr = NAN, dyn = NAN, rew = NAN, inv = NAN, goal_dyn = NAN, goal_act = NAN;
   double critic = NAN, q_mean = NAN, actor = NAN, bc = NAN;
+  // A baseline agent's values (GcAgentImpl::LossNames order); when not
+  // empty, Named() returns these instead of Ms.PR's.
+  std::vector<std::pair<std::string, double>> agent;
   std::vector<std::pair<std::string, double>> Named() const;
 };
 
@@ -71,6 +78,11 @@ struct TrainLoopOptions {
   std::function<void()> on_eval_written;
 };
 
+// Trains Ms.PR, or the baseline agent named by options.baseline.agent
+// (baselines.h): then Step() is one Adam step on the agent's summed losses
+// over a batch of BatchSampler::SampleOgbenchTransitions followed by its
+// target update, and the Ms.PR accessors (repr(), critic(), ...) return
+// empty modules; the loop, checkpoints, export and Policy are shared.
 class Trainer {
  public:
   // Fills network.obs_dim / action_dim / image sizes from `data` where 0,
@@ -173,6 +185,15 @@ class Trainer {
   // A Policy sharing the online networks (no copy).
   Policy MakePolicy();
 
+  // The baseline agent (null when training Ms.PR).
+  std::shared_ptr<GcAgentImpl> agent() {
+    Sync();
+    return agent_;
+  }
+  bool baseline() const { return agent_ != nullptr; }
+  // A batch of OGBench 1-step transitions for the baseline agent.
+  TransitionBatch SampleBaselineBatch();
+
   // Full training state, written atomically (temp file + rename): header
   // (magic, version, options as YAML, step), networks, targets, optimisers,
   // torch generator and sampler RNG. Throws CheckpointError naming the file.
@@ -208,6 +229,12 @@ class Trainer {
                     const torch::Tensor& noise, LossInfo* info);
   void UpdateActor(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
   torch::Tensor ToDevice(const torch::Tensor& cpu) const;
+  // The baseline agent's step (Step when agent_ is set).
+  LossInfo BaselineStep(bool collect_info);
+  // A LossInfo with this trainer's loss names, all NaN.
+  LossInfo EmptyLossInfo() const;
+  // The modules a checkpoint holds (name, module), targets included.
+  std::vector<std::pair<std::string, torch::nn::Module*>> CheckpointModules();
 
   MsprOptions options_;
   std::shared_ptr<const Dataset> data_;
@@ -223,6 +250,8 @@ class Trainer {
   Critic critic_{nullptr}, target_critic_{nullptr};
   Actor actor_{nullptr}, target_actor_{nullptr};
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
+  std::shared_ptr<GcAgentImpl> agent_;           // baseline agent, or null (Ms.PR)
+  std::unique_ptr<torch::optim::Adam> agent_opt_;
   // The pipelined actor-critic update's thread (trainer.pipeline); created
   // on first use. Last member: destroyed (and joined) first.
   std::unique_ptr<AsyncWorker> worker_;

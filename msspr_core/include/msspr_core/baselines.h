@@ -1,0 +1,235 @@
+// OGBench's goal-conditioned baseline agents in LibTorch: GCBC, GCIVL,
+// GCIQL, QRL, CRL and HIQL (docs/baselines.md, the facts of
+// github.com/seohongpark/ogbench impls/agents/*.py). They share Ms.PR's
+// dataset, relabelling (BatchSampler::SampleOgbenchTransitions), trainer
+// loop, checkpoints, export and Policy; each agent here holds only its
+// networks, its losses and its acting rule. State observations only.
+//
+// Conventions, as OGBench:
+// - MLPs: Linear -> GELU (tanh approximation) -> LayerNorm (eps 1e-6) per
+//   hidden layer; Xavier-uniform weights, zero biases.
+// - Actors: a Gaussian with a constant std of 1 whose mean is an MLP
+//   (no LayerNorm) with a small final layer; log pi(a) = -0.5 ||a - mu||^2
+//   - 0.5 D log(2 pi); acting uses the mean, clipped to [-1, 1].
+// - "Frozen" networks are evaluated with their current weights and pass no
+//   gradient to them; targets are Polyak averages (baseline.tau).
+// - One scalar loss (the sum of the agent's losses) per step.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "msspr_core/options.h"
+
+namespace msspr {
+namespace core {
+
+struct TransitionBatch;
+
+using NamedValues = std::vector<std::pair<std::string, double>>;
+
+// OGBench's MLP. sizes = {in, hidden..., out}; the last layer has GELU (and
+// LayerNorm when layer_norm) only when activate_final.
+class OgMlpImpl : public torch::nn::Module {
+ public:
+  OgMlpImpl(const std::vector<int64_t>& sizes, bool activate_final, bool layer_norm);
+  torch::Tensor forward(const torch::Tensor& x);  // [B, in] -> [B, out]
+
+  torch::nn::Sequential net{nullptr};  // "net"
+};
+TORCH_MODULE(OgMlp);
+
+// OGBench's GCActor with const_std: mean = head(MLP(x)), std 1.
+class GaussianActorImpl : public torch::nn::Module {
+ public:
+  GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers, int64_t out);
+  torch::Tensor Mean(const torch::Tensor& x);  // [B, in] -> [B, out]
+  // log N(a; Mean(x), I) summed over dimensions: [B]
+  torch::Tensor LogProb(const torch::Tensor& x, const torch::Tensor& a);
+
+  OgMlp backbone{nullptr};          // "backbone"
+  torch::nn::Linear head{nullptr};  // "head"
+};
+TORCH_MODULE(GaussianActor);
+
+// log N(a; mean, I) summed over the last dimension.
+torch::Tensor StdNormalLogProb(const torch::Tensor& a, const torch::Tensor& mean);
+// OGBench's expectile weight |tau - 1(adv < 0)|.
+torch::Tensor ExpectileWeight(const torch::Tensor& adv, double expectile);
+// Interval quasimetric embedding distance (QRL): x, y [B, latent] viewed as
+// [B, C, k]; per component the length of the union of the intervals
+// [x_j, y_j] over the j with x_j < y_j; mixed as a * mean_c + (1 - a) *
+// max_c with a = sigmoid(alpha_raw). Returns [B].
+torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_t k,
+                          const torch::Tensor& alpha_raw);
+
+// The interface of every baseline agent.
+class GcAgentImpl : public torch::nn::Module {
+ public:
+  explicit GcAgentImpl(const MsprOptions& options);
+  ~GcAgentImpl() override = default;
+
+  const std::string& agent_name() const { return options_.baseline.agent; }
+  // Names of the values Loss reports, in order (the columns of metrics.csv).
+  virtual std::vector<std::string> LossNames() const = 0;
+  // The sum of the agent's losses on a batch of
+  // BatchSampler::SampleOgbenchTransitions (ret = reward, discount = gamma *
+  // mask). Fills `info` (LossNames order) when not null.
+  virtual torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) = 0;
+  // Polyak update of the target networks (none for gcbc, qrl, crl).
+  virtual void UpdateTargets() {}
+  // Deterministic action: obs, goal [B, obs_dim] -> [B, action_dim] in [-1, 1].
+  virtual torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) = 0;
+  // Whether Value is defined (all but gcbc).
+  virtual bool has_value() const { return true; }
+  // The agent's value estimate of (s, a, g) as [B, 2] (two heads, or one
+  // repeated): Q ensembles for gciql; V(s, g) for gcivl and hiql (the action
+  // is ignored); -d(s', g) with the latent dynamics for qrl; the contrastive
+  // logit for crl. Only gcivl, gciql and hiql are in return units.
+  virtual torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
+                              const torch::Tensor& goal);
+  // Parameters the optimiser updates (targets excluded).
+  std::vector<torch::Tensor> TrainableParameters();
+  // The target networks (empty when none), for checks.
+  virtual std::vector<torch::nn::Module*> Targets() { return {}; }
+
+ protected:
+  // Polyak average target <- tau * online + (1 - tau) * target.
+  void Polyak(torch::nn::Module& target, const torch::nn::Module& online);
+  // concat[a, b] along the last dimension.
+  static torch::Tensor Cat(const torch::Tensor& a, const torch::Tensor& b);
+  // MLP sizes {in, hidden x layers, out}.
+  std::vector<int64_t> Sizes(int64_t in, int64_t out) const;
+  // The DDPG+BC actor loss shared by gciql, qrl and crl:
+  // -E[q] / sg(E|q| + 1e-6) - alpha * E[log pi(a | s, g)].
+  torch::Tensor DdpgBcLoss(const torch::Tensor& q, const torch::Tensor& log_prob, NamedValues* info);
+
+  MsprOptions options_;
+  int64_t obs_dim_, action_dim_;
+};
+
+// Builds the agent named by options.baseline.agent (not "mspr") on the CPU.
+// Throws OptionsError for an unknown name or a pixels configuration.
+std::shared_ptr<GcAgentImpl> MakeAgent(const MsprOptions& options);
+
+// --- The agents (public for tests) --------------------------------------------
+
+class GcbcAgent : public GcAgentImpl {
+ public:
+  explicit GcbcAgent(const MsprOptions& o);
+  std::vector<std::string> LossNames() const override { return {"actor", "mse"}; }
+  torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  bool has_value() const override { return false; }
+
+  GaussianActor actor{nullptr};  // pi(a | [s, g])
+};
+
+class GcivlAgent : public GcAgentImpl {
+ public:
+  explicit GcivlAgent(const MsprOptions& o);
+  std::vector<std::string> LossNames() const override { return {"value", "v", "actor", "adv"}; }
+  torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
+  void UpdateTargets() override;
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
+                      const torch::Tensor& goal) override;
+  std::vector<torch::nn::Module*> Targets() override { return {target_v1.get(), target_v2.get()}; }
+
+  OgMlp v1{nullptr}, v2{nullptr};                // V_e([s, g])
+  OgMlp target_v1{nullptr}, target_v2{nullptr};  // Polyak copies
+  GaussianActor actor{nullptr};
+};
+
+class GciqlAgent : public GcAgentImpl {
+ public:
+  explicit GciqlAgent(const MsprOptions& o);
+  std::vector<std::string> LossNames() const override {
+    return {"value", "critic", "q", "actor", "q_loss", "bc"};
+  }
+  torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
+  void UpdateTargets() override;
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
+                      const torch::Tensor& goal) override;
+  std::vector<torch::nn::Module*> Targets() override { return {target_q1.get(), target_q2.get()}; }
+  // [B, 2]: Q_1, Q_2 of ([s, g, a]).
+  torch::Tensor Q(const torch::Tensor& obs, const torch::Tensor& goal, const torch::Tensor& action);
+
+  OgMlp v{nullptr};                              // V([s, g])
+  OgMlp q1{nullptr}, q2{nullptr};                // Q_e([s, g, a])
+  OgMlp target_q1{nullptr}, target_q2{nullptr};  // Polyak copies
+  GaussianActor actor{nullptr};
+};
+
+class QrlAgent : public GcAgentImpl {
+ public:
+  explicit QrlAgent(const MsprOptions& o);
+  std::vector<std::string> LossNames() const override {
+    return {"value", "d_neg", "d_pos", "constraint", "lambda", "dyn", "actor", "q_loss", "bc"};
+  }
+  torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
+                      const torch::Tensor& goal) override;
+  // The quasimetric between latents: [B, latent] x2 -> [B].
+  torch::Tensor Distance(const torch::Tensor& zx, const torch::Tensor& zy);
+  // phi(s) + f([phi(s), a]).
+  torch::Tensor PredictLatent(const torch::Tensor& z, const torch::Tensor& action);
+
+  OgMlp phi{nullptr};           // the encoder of states and goals
+  OgMlp dynamics{nullptr};      // f([z, a]) -> latent residual
+  torch::Tensor alpha_raw;      // IQE mix sigmoid(alpha_raw), init 0
+  torch::Tensor log_lambda;     // Lagrange multiplier, init 0
+  GaussianActor actor{nullptr};
+};
+
+class CrlAgent : public GcAgentImpl {
+ public:
+  explicit CrlAgent(const MsprOptions& o);
+  std::vector<std::string> LossNames() const override {
+    return {"critic", "logits_pos", "logits_neg", "accuracy", "actor", "q_loss", "bc"};
+  }
+  torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
+                      const torch::Tensor& goal) override;
+  // All pairs' logits of ensemble member e: [B, B], row i = (s_i, a_i), column j = g_j.
+  torch::Tensor PairLogits(int e, const torch::Tensor& obs, const torch::Tensor& action,
+                           const torch::Tensor& goal);
+
+  OgMlp phi1{nullptr}, phi2{nullptr};  // phi_e([s, a])
+  OgMlp psi1{nullptr}, psi2{nullptr};  // psi_e(g)
+  GaussianActor actor{nullptr};
+};
+
+class HiqlAgent : public GcAgentImpl {
+ public:
+  explicit HiqlAgent(const MsprOptions& o);
+  std::vector<std::string> LossNames() const override {
+    return {"value", "v", "low_actor", "high_actor", "low_adv", "high_adv"};
+  }
+  torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
+  void UpdateTargets() override;
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
+                      const torch::Tensor& goal) override;
+  std::vector<torch::nn::Module*> Targets() override { return {target_v1.get(), target_v2.get()}; }
+  // phi([s; g]) length-normalised to sqrt(rep_dim): [B, rep_dim].
+  torch::Tensor GoalRep(const torch::Tensor& obs, const torch::Tensor& goal);
+  // [B, 2] V_e(s, phi([s; g])) of the online (target = false) or target heads.
+  torch::Tensor V(const torch::Tensor& obs, const torch::Tensor& goal, bool target);
+
+  OgMlp goal_rep{nullptr};                       // phi, shared by V, target V and the low actor
+  OgMlp v1{nullptr}, v2{nullptr};                // V_e([s, rep])
+  OgMlp target_v1{nullptr}, target_v2{nullptr};  // Polyak copies of the heads only
+  GaussianActor low_actor{nullptr};              // pi_l(a | [s, rep(s, w)])
+  GaussianActor high_actor{nullptr};             // pi_h(z | [s, g])
+};
+
+}  // namespace core
+}  // namespace msspr

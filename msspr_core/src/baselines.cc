@@ -1,0 +1,569 @@
+#include "msspr_core/baselines.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "msspr_core/networks.h"
+#include "msspr_core/trainer.h"
+
+namespace msspr {
+namespace core {
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093453;  // log(2 pi)
+
+double Item(const torch::Tensor& t) { return t.detach().to(torch::kCPU).item<double>(); }
+
+// Evaluates networks with their current weights but without gradients to
+// them ("frozen", as OGBench's calls without grad params): gradients still
+// flow through their inputs.
+class Frozen {
+ public:
+  explicit Frozen(const std::vector<torch::Tensor>& params) : params_(params) {
+    for (auto& p : params_) p.set_requires_grad(false);
+  }
+  ~Frozen() {
+    for (auto& p : params_) p.set_requires_grad(true);
+  }
+  Frozen(const Frozen&) = delete;
+  Frozen& operator=(const Frozen&) = delete;
+
+ private:
+  std::vector<torch::Tensor> params_;
+};
+
+std::vector<torch::Tensor> ParamsOf(const std::vector<torch::nn::Module*>& modules) {
+  std::vector<torch::Tensor> out;
+  for (torch::nn::Module* m : modules) {
+    for (const auto& p : m->parameters()) out.push_back(p);
+  }
+  return out;
+}
+
+torch::Tensor LengthNormalize(const torch::Tensor& x) {
+  const double scale = std::sqrt(static_cast<double>(x.size(-1)));
+  return x / x.norm(2, -1, /*keepdim=*/true).clamp_min(1e-12) * scale;
+}
+
+// AWR weights min(exp(alpha * adv), 100).
+torch::Tensor AwrWeight(const torch::Tensor& adv, double alpha) {
+  return torch::exp(adv * alpha).clamp_max(100.0);
+}
+
+}  // namespace
+
+// --- Building blocks ----------------------------------------------------------
+
+OgMlpImpl::OgMlpImpl(const std::vector<int64_t>& sizes, bool activate_final, bool layer_norm) {
+  TORCH_CHECK(sizes.size() >= 2, "OgMlp: need at least {in, out}");
+  net = torch::nn::Sequential();
+  for (size_t i = 0; i + 1 < sizes.size(); ++i) {
+    torch::nn::Linear linear(sizes[i], sizes[i + 1]);
+    torch::nn::init::xavier_uniform_(linear->weight);
+    torch::nn::init::zeros_(linear->bias);
+    net->push_back(linear);
+    const bool last = i + 2 == sizes.size();
+    if (!last || activate_final) {
+      net->push_back(torch::nn::GELU(torch::nn::GELUOptions().approximate("tanh")));
+      if (layer_norm) {
+        net->push_back(torch::nn::LayerNorm(
+            torch::nn::LayerNormOptions({sizes[i + 1]}).eps(1e-6)));
+      }
+    }
+  }
+  register_module("net", net);
+}
+
+torch::Tensor OgMlpImpl::forward(const torch::Tensor& x) { return net->forward(x); }
+
+GaussianActorImpl::GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers, int64_t out) {
+  std::vector<int64_t> sizes{in};
+  for (int64_t i = 0; i < layers; ++i) sizes.push_back(hidden);
+  backbone = register_module("backbone", OgMlp(sizes, /*activate_final=*/true, /*layer_norm=*/false));
+  head = register_module("head", torch::nn::Linear(hidden, out));
+  // variance_scaling(0.01, fan_avg, uniform): a tenth of Xavier's bound.
+  const double bound = 0.1 * std::sqrt(6.0 / static_cast<double>(hidden + out));
+  torch::NoGradGuard no_grad;
+  head->weight.uniform_(-bound, bound);
+  head->bias.zero_();
+}
+
+torch::Tensor GaussianActorImpl::Mean(const torch::Tensor& x) { return head->forward(backbone->forward(x)); }
+
+torch::Tensor GaussianActorImpl::LogProb(const torch::Tensor& x, const torch::Tensor& a) {
+  return StdNormalLogProb(a, Mean(x));
+}
+
+torch::Tensor StdNormalLogProb(const torch::Tensor& a, const torch::Tensor& mean) {
+  const double d = static_cast<double>(a.size(-1));
+  return -0.5 * (a - mean).pow(2).sum(-1) - 0.5 * d * kLog2Pi;
+}
+
+torch::Tensor ExpectileWeight(const torch::Tensor& adv, double expectile) {
+  return torch::where(adv >= 0, torch::full_like(adv, expectile), torch::full_like(adv, 1.0 - expectile));
+}
+
+torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_t k,
+                          const torch::Tensor& alpha_raw) {
+  TORCH_CHECK(x.sizes() == y.sizes() && x.dim() == 2 && x.size(1) % k == 0,
+              "IqeDistance: x and y must be [B, C * k], got ", x.sizes(), " and ", y.sizes());
+  const int64_t b = x.size(0), c = x.size(1) / k;
+  const torch::Tensor xs = x.reshape({b, c, k}), ys = y.reshape({b, c, k});
+  // Sweep the 2k end points in order: coverage falls by one at an interval's
+  // start and rises at its end (valid intervals only); the union's length is
+  // the sum of the points where coverage leaves 0 minus where it enters it.
+  const torch::Tensor valid = (xs < ys).to(x.scalar_type());
+  const torch::Tensor points = torch::cat({xs, ys}, -1);
+  auto sorted = points.sort(-1);
+  const torch::Tensor values = std::get<0>(sorted), order = std::get<1>(sorted);
+  const torch::Tensor sign = torch::where(order < k, -1.0, 1.0).to(x.scalar_type());
+  const torch::Tensor change = torch::cat({valid, valid}, -1).gather(-1, order) * sign;
+  const torch::Tensor inside = (change.cumsum(-1) < 0).to(x.scalar_type()) * -1.0;
+  const torch::Tensor edges =
+      torch::cat({inside.narrow(-1, 0, 1), inside.narrow(-1, 1, 2 * k - 1) - inside.narrow(-1, 0, 2 * k - 1)}, -1);
+  const torch::Tensor components = (values * edges).sum(-1);  // [B, C]
+  const torch::Tensor a = torch::sigmoid(alpha_raw).reshape({});
+  return a * components.mean(-1) + (1.0 - a) * std::get<0>(components.max(-1));
+}
+
+// --- GcAgentImpl --------------------------------------------------------------
+
+GcAgentImpl::GcAgentImpl(const MsprOptions& options)
+    : options_(options), obs_dim_(options.network.obs_dim), action_dim_(options.network.action_dim) {
+  if (options.network.obs_mode != "state") {
+    throw OptionsError("baseline agent '" + options.baseline.agent +
+                       "': only state observations (network.obs_mode 'state') are supported");
+  }
+  if (obs_dim_ <= 0 || action_dim_ <= 0) {
+    throw OptionsError("baseline agent '" + options.baseline.agent + "': network.obs_dim and action_dim must be set");
+  }
+}
+
+torch::Tensor GcAgentImpl::Value(const torch::Tensor&, const torch::Tensor&, const torch::Tensor&) {
+  throw std::logic_error("agent '" + agent_name() + "' has no value function");
+}
+
+std::vector<torch::Tensor> GcAgentImpl::TrainableParameters() {
+  std::vector<torch::Tensor> out;
+  for (const auto& p : parameters()) {
+    if (p.requires_grad()) out.push_back(p);
+  }
+  return out;
+}
+
+void GcAgentImpl::Polyak(torch::nn::Module& target, const torch::nn::Module& online) {
+  torch::NoGradGuard no_grad;
+  const auto t = target.parameters();
+  const auto o = online.parameters();
+  TORCH_CHECK(t.size() == o.size(), "Polyak: modules differ");
+  const double tau = options_.baseline.tau;
+  for (size_t i = 0; i < t.size(); ++i) t[i].mul_(1.0 - tau).add_(o[i], tau);
+}
+
+torch::Tensor GcAgentImpl::Cat(const torch::Tensor& a, const torch::Tensor& b) { return torch::cat({a, b}, -1); }
+
+std::vector<int64_t> GcAgentImpl::Sizes(int64_t in, int64_t out) const {
+  std::vector<int64_t> sizes{in};
+  for (int i = 0; i < options_.baseline.layers; ++i) sizes.push_back(options_.baseline.hidden);
+  sizes.push_back(out);
+  return sizes;
+}
+
+torch::Tensor GcAgentImpl::DdpgBcLoss(const torch::Tensor& q, const torch::Tensor& log_prob,
+                                      NamedValues* info) {
+  const torch::Tensor q_loss = -q.mean() / (q.abs().mean().detach() + 1e-6);
+  const torch::Tensor bc = -(options_.baseline.alpha * log_prob).mean();
+  const torch::Tensor loss = q_loss + bc;
+  if (info) {
+    info->emplace_back("actor", Item(loss));
+    info->emplace_back("q_loss", Item(q_loss));
+    info->emplace_back("bc", Item(bc));
+  }
+  return loss;
+}
+
+// --- GCBC ---------------------------------------------------------------------
+
+GcbcAgent::GcbcAgent(const MsprOptions& o) : GcAgentImpl(o) {
+  const BaselineOptions& b = o.baseline;
+  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+}
+
+torch::Tensor GcbcAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
+  const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
+  const torch::Tensor mean = actor->Mean(x);
+  const torch::Tensor loss = -StdNormalLogProb(batch.action, mean).mean();
+  if (info) {
+    info->emplace_back("actor", Item(loss));
+    info->emplace_back("mse", Item((mean - batch.action).pow(2).sum(-1).mean()));
+  }
+  return loss;
+}
+
+torch::Tensor GcbcAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
+  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+}
+
+// --- GCIVL --------------------------------------------------------------------
+
+GcivlAgent::GcivlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+  const BaselineOptions& b = o.baseline;
+  v1 = register_module("v1", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
+  v2 = register_module("v2", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
+  target_v1 = register_module("target_v1", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
+  target_v2 = register_module("target_v2", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
+  HardUpdate(*target_v1, *v1);
+  HardUpdate(*target_v2, *v2);
+  SetRequiresGrad(*target_v1, false);
+  SetRequiresGrad(*target_v2, false);
+  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+}
+
+torch::Tensor GcivlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
+  const double expectile = options_.baseline.expectile;
+  const torch::Tensor s_g = Cat(batch.obs, batch.value_goal);
+  torch::Tensor q1, q2, adv;
+  {
+    torch::NoGradGuard no_grad;
+    const torch::Tensor next_g = Cat(batch.next_obs, batch.value_goal);
+    const torch::Tensor nv1 = target_v1(next_g).squeeze(-1), nv2 = target_v2(next_g).squeeze(-1);
+    const torch::Tensor q = batch.ret + batch.discount * torch::min(nv1, nv2);
+    adv = q - (target_v1(s_g).squeeze(-1) + target_v2(s_g).squeeze(-1)) / 2.0;
+    q1 = batch.ret + batch.discount * nv1;
+    q2 = batch.ret + batch.discount * nv2;
+  }
+  const torch::Tensor v1_s = v1(s_g).squeeze(-1), v2_s = v2(s_g).squeeze(-1);
+  const torch::Tensor w = ExpectileWeight(adv, expectile);
+  const torch::Tensor value_loss = (w * (q1 - v1_s).pow(2)).mean() + (w * (q2 - v2_s).pow(2)).mean();
+
+  const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
+  torch::Tensor a_adv;
+  {
+    torch::NoGradGuard no_grad;
+    const torch::Tensor nx = Cat(batch.next_obs, batch.actor_goal);
+    const torch::Tensor v = (v1(x) + v2(x)).squeeze(-1) / 2.0;
+    const torch::Tensor nv = (v1(nx) + v2(nx)).squeeze(-1) / 2.0;
+    a_adv = nv - v;
+  }
+  const torch::Tensor actor_loss =
+      -(AwrWeight(a_adv, options_.baseline.alpha) * actor->LogProb(x, batch.action)).mean();
+  if (info) {
+    info->emplace_back("value", Item(value_loss));
+    info->emplace_back("v", Item(v1_s.mean()));
+    info->emplace_back("actor", Item(actor_loss));
+    info->emplace_back("adv", Item(a_adv.mean()));
+  }
+  return value_loss + actor_loss;
+}
+
+void GcivlAgent::UpdateTargets() {
+  Polyak(*target_v1, *v1);
+  Polyak(*target_v2, *v2);
+}
+
+torch::Tensor GcivlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
+  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+}
+
+torch::Tensor GcivlAgent::Value(const torch::Tensor& obs, const torch::Tensor&, const torch::Tensor& goal) {
+  const torch::Tensor x = Cat(obs, goal);
+  return torch::cat({v1(x), v2(x)}, -1);
+}
+
+// --- GCIQL --------------------------------------------------------------------
+
+GciqlAgent::GciqlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+  const BaselineOptions& b = o.baseline;
+  const int64_t in_q = 2 * obs_dim_ + action_dim_;
+  v = register_module("v", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
+  q1 = register_module("q1", OgMlp(Sizes(in_q, 1), false, true));
+  q2 = register_module("q2", OgMlp(Sizes(in_q, 1), false, true));
+  target_q1 = register_module("target_q1", OgMlp(Sizes(in_q, 1), false, true));
+  target_q2 = register_module("target_q2", OgMlp(Sizes(in_q, 1), false, true));
+  HardUpdate(*target_q1, *q1);
+  HardUpdate(*target_q2, *q2);
+  SetRequiresGrad(*target_q1, false);
+  SetRequiresGrad(*target_q2, false);
+  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+}
+
+torch::Tensor GciqlAgent::Q(const torch::Tensor& obs, const torch::Tensor& goal, const torch::Tensor& action) {
+  const torch::Tensor x = torch::cat({obs, goal, action}, -1);
+  return torch::cat({q1(x), q2(x)}, -1);
+}
+
+torch::Tensor GciqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
+  const torch::Tensor s_g = Cat(batch.obs, batch.value_goal);
+  torch::Tensor tq, y;
+  {
+    torch::NoGradGuard no_grad;
+    const torch::Tensor x = torch::cat({batch.obs, batch.value_goal, batch.action}, -1);
+    tq = torch::min(target_q1(x), target_q2(x)).squeeze(-1);
+    y = batch.ret + batch.discount * v(Cat(batch.next_obs, batch.value_goal)).squeeze(-1);
+  }
+  const torch::Tensor v_s = v(s_g).squeeze(-1);
+  const torch::Tensor diff = tq - v_s;
+  const torch::Tensor value_loss = (ExpectileWeight(diff.detach(), options_.baseline.expectile) * diff.pow(2)).mean();
+  const torch::Tensor q = Q(batch.obs, batch.value_goal, batch.action);
+  const torch::Tensor critic_loss = ((q.select(-1, 0) - y).pow(2) + (q.select(-1, 1) - y).pow(2)).mean();
+
+  const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
+  const torch::Tensor mean = actor->Mean(x);
+  torch::Tensor q_pi;
+  {
+    const Frozen frozen(ParamsOf({q1.get(), q2.get()}));
+    q_pi = std::get<0>(Q(batch.obs, batch.actor_goal, mean.clamp(-1.0, 1.0)).min(-1));
+  }
+  if (info) {
+    info->emplace_back("value", Item(value_loss));
+    info->emplace_back("critic", Item(critic_loss));
+    info->emplace_back("q", Item(q.mean()));
+  }
+  const torch::Tensor actor_loss = DdpgBcLoss(q_pi, StdNormalLogProb(batch.action, mean), info);
+  return value_loss + critic_loss + actor_loss;
+}
+
+void GciqlAgent::UpdateTargets() {
+  Polyak(*target_q1, *q1);
+  Polyak(*target_q2, *q2);
+}
+
+torch::Tensor GciqlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
+  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+}
+
+torch::Tensor GciqlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action,
+                                const torch::Tensor& goal) {
+  return Q(obs, goal, action);
+}
+
+// --- QRL ----------------------------------------------------------------------
+
+QrlAgent::QrlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+  const BaselineOptions& b = o.baseline;
+  phi = register_module("phi", OgMlp(Sizes(obs_dim_, b.latent_dim), false, true));
+  dynamics = register_module("dynamics", OgMlp(Sizes(b.latent_dim + action_dim_, b.latent_dim), false, true));
+  alpha_raw = register_parameter("alpha_raw", torch::zeros({1}));
+  log_lambda = register_parameter("log_lambda", torch::zeros({1}));
+  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+}
+
+torch::Tensor QrlAgent::Distance(const torch::Tensor& zx, const torch::Tensor& zy) {
+  return IqeDistance(zx, zy, options_.baseline.iqe_dim, alpha_raw);
+}
+
+torch::Tensor QrlAgent::PredictLatent(const torch::Tensor& z, const torch::Tensor& action) {
+  return z + dynamics(Cat(z, action));
+}
+
+torch::Tensor QrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
+  const BaselineOptions& b = options_.baseline;
+  const torch::Tensor z = phi(batch.obs), z_next = phi(batch.next_obs), z_goal = phi(batch.value_goal);
+  const torch::Tensor d_neg = Distance(z, z_goal);
+  const torch::Tensor d_pos = Distance(z, z_next);
+  const torch::Tensor neg_loss = (100.0 * torch::softplus(5.0 - d_neg / 100.0)).mean();
+  const torch::Tensor constraint = torch::relu(d_pos - 1.0).pow(2).mean();
+  const torch::Tensor lambda = log_lambda.exp().reshape({});
+  const torch::Tensor value_loss = neg_loss + lambda.detach() * constraint;
+  const torch::Tensor lambda_loss = lambda * (b.qrl_eps - constraint.detach());
+  const torch::Tensor z_hat = PredictLatent(z, batch.action);
+  const torch::Tensor dyn_loss = ((Distance(z_next, z_hat) + Distance(z_hat, z_next)) / 2.0).mean();
+
+  const torch::Tensor mean = actor->Mean(Cat(batch.obs, batch.actor_goal));
+  torch::Tensor q_pi;
+  {
+    torch::Tensor zs, zg;
+    {
+      torch::NoGradGuard no_grad;
+      zs = phi(batch.obs);
+      zg = phi(batch.actor_goal);
+    }
+    std::vector<torch::Tensor> frozen_params = ParamsOf({dynamics.get()});
+    frozen_params.push_back(alpha_raw);
+    const Frozen frozen(frozen_params);
+    q_pi = -Distance(PredictLatent(zs, mean.clamp(-1.0, 1.0)), zg);
+  }
+  if (info) {
+    info->emplace_back("value", Item(value_loss));
+    info->emplace_back("d_neg", Item(d_neg.mean()));
+    info->emplace_back("d_pos", Item(d_pos.mean()));
+    info->emplace_back("constraint", Item(constraint));
+    info->emplace_back("lambda", Item(lambda));
+    info->emplace_back("dyn", Item(dyn_loss));
+  }
+  const torch::Tensor actor_loss = DdpgBcLoss(q_pi, StdNormalLogProb(batch.action, mean), info);
+  return value_loss + lambda_loss + dyn_loss + actor_loss;
+}
+
+torch::Tensor QrlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
+  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+}
+
+torch::Tensor QrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal) {
+  const torch::Tensor q = -Distance(PredictLatent(phi(obs), action), phi(goal)).unsqueeze(-1);
+  return torch::cat({q, q}, -1);
+}
+
+// --- CRL ----------------------------------------------------------------------
+
+CrlAgent::CrlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+  const BaselineOptions& b = o.baseline;
+  phi1 = register_module("phi1", OgMlp(Sizes(obs_dim_ + action_dim_, b.latent_dim), false, true));
+  phi2 = register_module("phi2", OgMlp(Sizes(obs_dim_ + action_dim_, b.latent_dim), false, true));
+  psi1 = register_module("psi1", OgMlp(Sizes(obs_dim_, b.latent_dim), false, true));
+  psi2 = register_module("psi2", OgMlp(Sizes(obs_dim_, b.latent_dim), false, true));
+  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+}
+
+torch::Tensor CrlAgent::PairLogits(int e, const torch::Tensor& obs, const torch::Tensor& action,
+                                   const torch::Tensor& goal) {
+  OgMlp& phi = e == 0 ? phi1 : phi2;
+  OgMlp& psi = e == 0 ? psi1 : psi2;
+  const double scale = std::sqrt(static_cast<double>(options_.baseline.latent_dim));
+  return phi(Cat(obs, action)).matmul(psi(goal).t()) / scale;
+}
+
+torch::Tensor CrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
+  const int64_t n = batch.obs.size(0);
+  const torch::Tensor eye = torch::eye(n, batch.obs.options());
+  torch::Tensor critic_loss = torch::zeros({}, batch.obs.options());
+  torch::Tensor logits0;
+  for (int e = 0; e < 2; ++e) {
+    const torch::Tensor logits = PairLogits(e, batch.obs, batch.action, batch.value_goal);
+    critic_loss = critic_loss + torch::binary_cross_entropy_with_logits(logits, eye) / 2.0;
+    if (e == 0) logits0 = logits.detach();
+  }
+  const torch::Tensor mean = actor->Mean(Cat(batch.obs, batch.actor_goal));
+  torch::Tensor q_pi;
+  {
+    const Frozen frozen(ParamsOf({phi1.get(), phi2.get(), psi1.get(), psi2.get()}));
+    q_pi = std::get<0>(Value(batch.obs, mean.clamp(-1.0, 1.0), batch.actor_goal).min(-1));
+  }
+  if (info) {
+    const torch::Tensor diag = logits0.diagonal();
+    info->emplace_back("critic", Item(critic_loss));
+    info->emplace_back("logits_pos", Item(diag.mean()));
+    info->emplace_back("logits_neg", n > 1 ? Item((logits0.sum() - diag.sum()) / (n * (n - 1))) : NAN);
+    info->emplace_back("accuracy",
+                       Item((logits0.argmax(1) == torch::arange(n, logits0.options().dtype(torch::kLong)))
+                                .to(torch::kFloat32)
+                                .mean()));
+  }
+  const torch::Tensor actor_loss = DdpgBcLoss(q_pi, StdNormalLogProb(batch.action, mean), info);
+  return critic_loss + actor_loss;
+}
+
+torch::Tensor CrlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
+  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+}
+
+torch::Tensor CrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal) {
+  const double scale = std::sqrt(static_cast<double>(options_.baseline.latent_dim));
+  const torch::Tensor sa = Cat(obs, action);
+  const torch::Tensor l1 = (phi1(sa) * psi1(goal)).sum(-1, true) / scale;
+  const torch::Tensor l2 = (phi2(sa) * psi2(goal)).sum(-1, true) / scale;
+  return torch::cat({l1, l2}, -1);
+}
+
+// --- HIQL ---------------------------------------------------------------------
+
+HiqlAgent::HiqlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+  const BaselineOptions& b = o.baseline;
+  const int64_t in_v = obs_dim_ + b.rep_dim;
+  goal_rep = register_module("goal_rep", OgMlp(Sizes(2 * obs_dim_, b.rep_dim), false, true));
+  v1 = register_module("v1", OgMlp(Sizes(in_v, 1), false, true));
+  v2 = register_module("v2", OgMlp(Sizes(in_v, 1), false, true));
+  target_v1 = register_module("target_v1", OgMlp(Sizes(in_v, 1), false, true));
+  target_v2 = register_module("target_v2", OgMlp(Sizes(in_v, 1), false, true));
+  HardUpdate(*target_v1, *v1);
+  HardUpdate(*target_v2, *v2);
+  SetRequiresGrad(*target_v1, false);
+  SetRequiresGrad(*target_v2, false);
+  low_actor = register_module("low_actor", GaussianActor(in_v, b.hidden, b.layers, action_dim_));
+  high_actor = register_module("high_actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, b.rep_dim));
+}
+
+torch::Tensor HiqlAgent::GoalRep(const torch::Tensor& obs, const torch::Tensor& goal) {
+  return LengthNormalize(goal_rep(Cat(obs, goal)));
+}
+
+torch::Tensor HiqlAgent::V(const torch::Tensor& obs, const torch::Tensor& goal, bool target) {
+  const torch::Tensor x = Cat(obs, GoalRep(obs, goal));
+  return target ? torch::cat({target_v1(x), target_v2(x)}, -1) : torch::cat({v1(x), v2(x)}, -1);
+}
+
+torch::Tensor HiqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
+  const BaselineOptions& b = options_.baseline;
+  TORCH_CHECK(batch.low_goal.defined() && batch.high_goal.defined() && batch.high_target.defined(),
+              "hiql: the batch has no subgoals (sample it with subgoal_steps > 0)");
+  torch::Tensor q1, q2, adv;
+  {
+    // The target heads on the online goal representation (OGBench shares phi).
+    torch::NoGradGuard no_grad;
+    const torch::Tensor nv = V(batch.next_obs, batch.value_goal, true);
+    const torch::Tensor q = batch.ret + batch.discount * std::get<0>(nv.min(-1));
+    adv = q - V(batch.obs, batch.value_goal, true).mean(-1);
+    q1 = batch.ret + batch.discount * nv.select(-1, 0);
+    q2 = batch.ret + batch.discount * nv.select(-1, 1);
+  }
+  const torch::Tensor v = V(batch.obs, batch.value_goal, false);
+  const torch::Tensor w = ExpectileWeight(adv, b.expectile);
+  const torch::Tensor value_loss =
+      (w * (q1 - v.select(-1, 0)).pow(2)).mean() + (w * (q2 - v.select(-1, 1)).pow(2)).mean();
+
+  torch::Tensor low_adv, high_adv, high_target_rep;
+  {
+    torch::NoGradGuard no_grad;
+    low_adv = V(batch.next_obs, batch.low_goal, false).mean(-1) - V(batch.obs, batch.low_goal, false).mean(-1);
+    high_adv =
+        V(batch.high_target, batch.high_goal, false).mean(-1) - V(batch.obs, batch.high_goal, false).mean(-1);
+    high_target_rep = GoalRep(batch.obs, batch.high_target);
+  }
+  torch::Tensor low_rep = GoalRep(batch.obs, batch.low_goal);
+  if (!b.low_actor_rep_grad) low_rep = low_rep.detach();
+  const torch::Tensor low_loss =
+      -(AwrWeight(low_adv, b.low_alpha) * low_actor->LogProb(Cat(batch.obs, low_rep), batch.action)).mean();
+  const torch::Tensor high_loss =
+      -(AwrWeight(high_adv, b.high_alpha) *
+        high_actor->LogProb(Cat(batch.obs, batch.high_goal), high_target_rep))
+           .mean();
+  if (info) {
+    info->emplace_back("value", Item(value_loss));
+    info->emplace_back("v", Item(v.mean()));
+    info->emplace_back("low_actor", Item(low_loss));
+    info->emplace_back("high_actor", Item(high_loss));
+    info->emplace_back("low_adv", Item(low_adv.mean()));
+    info->emplace_back("high_adv", Item(high_adv.mean()));
+  }
+  return value_loss + low_loss + high_loss;
+}
+
+void HiqlAgent::UpdateTargets() {
+  Polyak(*target_v1, *v1);
+  Polyak(*target_v2, *v2);
+}
+
+torch::Tensor HiqlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
+  const torch::Tensor z = LengthNormalize(high_actor->Mean(Cat(obs, goal)));
+  return low_actor->Mean(Cat(obs, z)).clamp(-1.0, 1.0);
+}
+
+torch::Tensor HiqlAgent::Value(const torch::Tensor& obs, const torch::Tensor&, const torch::Tensor& goal) {
+  return V(obs, goal, false);
+}
+
+// --- Factory ------------------------------------------------------------------
+
+std::shared_ptr<GcAgentImpl> MakeAgent(const MsprOptions& options) {
+  const std::string& name = options.baseline.agent;
+  if (name == "gcbc") return std::make_shared<GcbcAgent>(options);
+  if (name == "gcivl") return std::make_shared<GcivlAgent>(options);
+  if (name == "gciql") return std::make_shared<GciqlAgent>(options);
+  if (name == "qrl") return std::make_shared<QrlAgent>(options);
+  if (name == "crl") return std::make_shared<CrlAgent>(options);
+  if (name == "hiql") return std::make_shared<HiqlAgent>(options);
+  throw OptionsError("MakeAgent: '" + name + "' is not a baseline agent (gcbc, gcivl, gciql, qrl, crl, hiql)");
+}
+
+}  // namespace core
+}  // namespace msspr
