@@ -117,7 +117,8 @@ std::shared_ptr<core::Policy> LoadPolicyForNode(const PolicyNodeOptions& options
   }
   auto policy = std::make_shared<core::Policy>(core::Policy::Load(options.checkpoint, device));
   const auto& n = policy->options().network;
-  ROS_INFO_STREAM_NAMED(kLog, "loaded " << options.checkpoint << ": obs_mode " << n.obs_mode
+  ROS_INFO_STREAM_NAMED(kLog, "loaded " << options.checkpoint << ": agent " << policy->agent_name()
+                                        << ", obs_mode " << n.obs_mode
                                         << ", obs_dim " << n.obs_dim << ", action_dim " << n.action_dim
                                         << (policy->pixels() ? ", image " + std::to_string(n.image_height) +
                                                                    "x" + std::to_string(n.image_width) + "x" +
@@ -174,7 +175,10 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
                                     this);
   last_diag_time_ = ros::WallTime::now();
   if (!options_.value_marker_maze.empty()) {
-    if (pixels_ || obs_dim_ != 2) {
+    if (!policy_->has_value()) {
+      ROS_WARN_STREAM_NAMED(kLog, "~value_marker_maze: the " << policy_->agent_name()
+                                  << " agent has no value function; no value markers will be published");
+    } else if (pixels_ || obs_dim_ != 2) {
       ROS_WARN_STREAM_NAMED(kLog, "~value_marker_maze: value markers need a state policy of the point maze "
                                   "(obs_dim 2); none will be published");
     } else {
@@ -465,7 +469,7 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
   while (latencies_ms_.size() > static_cast<size_t>(options_.latency_window)) latencies_ms_.pop_front();
   // The value estimate costs a second forward pass: once per diagnostics
   // period, after the action has gone out.
-  if (value_due_) {
+  if (value_due_ && policy_->has_value()) {
     value_due_ = false;
     try {
       value_ = policy_->Q(obs, a, goal).min().item<double>();
@@ -581,6 +585,7 @@ void PolicyNode::OnDiagnostics(const ros::WallTimerEvent&) {
     st.values.push_back(p);
   };
   const std::vector<double> lat(latencies_ms_.begin(), latencies_ms_.end());
+  kv("agent", policy_->agent_name());
   kv("mode", options_.mode);
   kv("observation_mode", pixels_ ? "pixels" : "state");
   kv("goal_source", goal_source_);

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The paper's Table 5 on our task: full, DIR, DI and D at CPU scale on
 # pointmaze-medium-navigate (states), SEEDS seeds each, equal step budgets,
+# and (VARIANTS gcbc,gcivl,gciql,qrl,crl,hiql) OGBench's baseline agents
+# with config/agents/pointmaze_cpu.yaml (fp32, no EXTRA_CONFIG),
 # two runs at a time at one torch thread each (the 2 cores). Each run ends
 # with OGBench's protocol (5 tasks x 50 episodes) and writes
 # OUT/<variant>-s<seed>/eval.csv; scripts/results_table.py summarises them.
@@ -8,7 +10,7 @@
 # usage: scripts/run_ablations.sh DATA.bag OUT [STEPS] [SEEDS] [VARIANTS]
 #   STEPS     steps per run (default 20000)
 #   SEEDS     comma-separated seeds (default 0,1)
-#   VARIANTS  comma-separated presets (default mspr,DIR,DI,D)
+#   VARIANTS  comma-separated presets (default mspr,DIR,DI,D) or agents
 # Environment: EXTRA_CONFIG (default config/precision_bf16.yaml; "" for fp32),
 #   EVAL_EVERY (default STEPS/4), PARALLEL (default 2).
 set -euo pipefail
@@ -35,14 +37,20 @@ done
 run_one() {
   local v=${1%%:*} s=${1##*:}
   local dir="$OUT/$v-s$s"
-  local extra=()
+  local extra=() flags=(--config config/pointmaze_cpu.yaml)
   [ -n "$EXTRA_CONFIG" ] && extra=(--config "$EXTRA_CONFIG")
+  case "$v" in
+    gcbc | gcivl | gciql | qrl | crl | hiql)
+      flags=(--agent "$v" --config config/agents/pointmaze_cpu.yaml)
+      extra=() ;;
+    *) flags+=(--preset "$v") ;;
+  esac
   if [ -f "$dir/run.yaml" ]; then
     echo "run_ablations: $dir exists: resuming" >&2
     "$TRAIN" --resume --out "$dir" --quiet > "$dir.log" 2>&1 || echo "run_ablations: $dir failed: see $dir.log" >&2
   else
     local t0=$SECONDS
-    "$TRAIN" --data "$DATA" --config config/pointmaze_cpu.yaml "${extra[@]}" --preset "$v" \
+    "$TRAIN" --data "$DATA" "${flags[@]}" "${extra[@]}" \
       --steps "$STEPS" --eval-every "$EVAL_EVERY" --checkpoint-every "$EVAL_EVERY" --eval-episodes 50 \
       --threads 1 --seed "$s" --quiet --out "$dir" > "$dir.log" 2>&1 ||
       echo "run_ablations: $dir failed: see $dir.log" >&2

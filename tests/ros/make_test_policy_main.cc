@@ -5,6 +5,7 @@
 // network sizes, not the values, set the cost.
 //
 //   msspr_make_test_policy --mode state|pixels --scale tiny|cpu --out FILE [--seed N]
+//                          [--agent mspr|gcbc|gcivl|gciql|qrl|crl|hiql]  (baselines: state only)
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -20,14 +21,15 @@ namespace {
 
 int Usage(const std::string& why) {
   std::cerr << "msspr_make_test_policy: " << why
-            << "\nusage: msspr_make_test_policy --mode state|pixels --scale tiny|cpu --out FILE [--seed N]\n";
+            << "\nusage: msspr_make_test_policy --mode state|pixels --scale tiny|cpu --out FILE [--seed N]"
+               " [--agent NAME]\n";
   return 2;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string mode = "state", scale = "tiny", out;
+  std::string mode = "state", scale = "tiny", out, agent = "mspr";
   uint64_t seed = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -36,6 +38,7 @@ int main(int argc, char** argv) {
     if (a == "--mode") mode = v;
     else if (a == "--scale") scale = v;
     else if (a == "--out") out = v;
+    else if (a == "--agent") agent = v;
     else if (a == "--seed") seed = std::strtoull(v.c_str(), nullptr, 10);
     else return Usage("unknown option " + a);
   }
@@ -44,7 +47,7 @@ int main(int argc, char** argv) {
   if (scale != "tiny" && scale != "cpu") return Usage("--scale must be tiny or cpu");
   try {
     namespace core = msspr::core;
-    core::MsprOptions o = core::MakePreset("mspr", "cpu");
+    core::MsprOptions o = core::MakePreset(agent, "cpu");
     o.network.obs_mode = mode;
     o.trainer.seed = seed;
     o.trainer.batch_size = 16;
@@ -53,6 +56,8 @@ int main(int argc, char** argv) {
       n.encoder_hidden = n.zs_dim = n.zsa_hidden = n.zsa_dim = n.goal_hidden = 32;
       n.critic_hidden = n.actor_hidden = 32;
       n.za_dim = n.goal_dim = 16;
+      o.baseline.hidden = o.baseline.latent_dim = 32;
+      o.baseline.subgoal_steps = 5;
     }
     const bool pixels = mode == "pixels";
     const core::ImageShape shape = pixels ? core::ImageShape{64, 64, 3} : core::ImageShape{};
@@ -79,7 +84,7 @@ int main(int argc, char** argv) {
     auto data = std::make_shared<core::Dataset>(builder.Build());
     core::Trainer trainer(o, data);
     trainer.ExportPolicy(out);
-    std::cout << "wrote untrained " << mode << " policy (" << scale << ") to " << out << "\n";
+    std::cout << "wrote untrained " << agent << " " << mode << " policy (" << scale << ") to " << out << "\n";
   } catch (const std::exception& e) {
     std::cerr << "msspr_make_test_policy: " << e.what() << "\n";
     return 1;
