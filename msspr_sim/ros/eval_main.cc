@@ -160,7 +160,7 @@ class SimClient {
   int episodes_run_ = 0;
 };
 
-// Spins until ready(client) holds for every client or `timeout_s` pass; returns the
+// Polls until ready(client) holds for every client or `timeout_s` pass; returns the
 // clients for which it does not (empty: all ready).
 template <typename Pred>
 std::vector<SimClient*> WaitForAll(std::vector<std::unique_ptr<SimClient>>& clients, double timeout_s, Pred ready) {
