@@ -54,7 +54,11 @@ TEST(Cli, EvalRejectsBadFlags) {
                      {"--step-timeout nan", "--step-timeout expects a finite number"},
                      {"--seed -4", "--seed -4 is out of range"},
                      {"--frobnicate 3", "unknown option --frobnicate"},
-                     {"--tasks-file /nonexistent.yaml", "/nonexistent.yaml"}});
+                     {"--tasks-file /nonexistent.yaml", "/nonexistent.yaml"},
+                     {"--sims 0", "--sims 0 is out of range"},
+                     {"--sims two", "--sims expects an integer, got 'two'"},
+                     {"--sims 2 --sim-ns 9sim", "namespace '9sim0', not a valid ROS name"},
+                     {"--wait -1", "--wait -1 is out of range"}});
 }
 
 TEST(Cli, CollectRejectsBadFlags) {

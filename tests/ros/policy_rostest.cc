@@ -6,10 +6,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -289,23 +291,20 @@ TEST(PolicySimPixels, LockstepLoopRuns) {
   EXPECT_TRUE(h.WaitFor([&] { return std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")); }, 5.0));
 }
 
-// Runs the policy node with private params (`_name:=value`) and returns its exit
-// status (-1: did not exit within timeout_s and was stopped); output gets its
-// stdout and stderr.
-int RunPolicyNode(const std::vector<std::string>& params, std::string* output, double timeout_s = 60.0) {
+// Runs `rosrun msspr <args...>` and returns its exit status (-1: did not exit
+// within timeout_s and was stopped); output gets its stdout and stderr.
+int RunRosrun(const std::vector<std::string>& args, std::string* output, double timeout_s) {
   int fds[2];
   if (pipe(fds) != 0) return -2;
-  static int run = 0;  // a fresh node name per run: private params stay on the server
-  const std::string name = "__name:=policy_startup_check_" + std::to_string(run++);
   const pid_t pid = fork();
   if (pid == 0) {
     dup2(fds[1], STDOUT_FILENO);
     dup2(fds[1], STDERR_FILENO);
     close(fds[0]);
-    std::vector<std::string> args = {"rosrun", "msspr", "msspr_policy_node", name};
-    args.insert(args.end(), params.begin(), params.end());
+    std::vector<std::string> all = {"rosrun", "msspr"};
+    all.insert(all.end(), args.begin(), args.end());
     std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
+    for (auto& a : all) argv.push_back(a.data());
     argv.push_back(nullptr);
     execvp("rosrun", argv.data());
     _exit(127);
@@ -332,6 +331,14 @@ int RunPolicyNode(const std::vector<std::string>& params, std::string* output, d
   waitpid(pid, &status, 0);
   if (timed_out) return -1;
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+// Runs the policy node with private params (`_name:=value`); see RunRosrun.
+int RunPolicyNode(const std::vector<std::string>& params, std::string* output, double timeout_s = 60.0) {
+  static int run = 0;  // a fresh node name per run: private params stay on the server
+  std::vector<std::string> args = {"msspr_policy_node", "__name:=policy_startup_check_" + std::to_string(run++)};
+  args.insert(args.end(), params.begin(), params.end());
+  return RunRosrun(args, output, timeout_s);
 }
 
 std::string TempPath(const std::string& name) {
@@ -384,6 +391,80 @@ TEST(PolicyStartup, RefusesBadCheckpointsAndModeMismatch) {
 
   std::remove(corrupt.c_str());
   std::remove(truncated.c_str());
+}
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// The results JSON without its "wall_time_s" line (the one field that differs between runs).
+std::string WithoutWallTime(const std::string& json) {
+  std::istringstream in(json);
+  std::string line, out;
+  while (std::getline(in, line))
+    if (line.find("\"wall_time_s\"") == std::string::npos) out += line + "\n";
+  return out;
+}
+
+// msspr_eval --sims 2 over two sim + policy pairs (eval_parallel.test: msspr_0 and
+// msspr_1) writes the same results JSON as the serial run against msspr_0 alone for
+// the same seed (but wall_time_s), and both sims run episodes. A sim whose reset
+// service never appears is named in the error.
+TEST(EvalParallel, TwoSimsGiveTheSerialResults) {
+  ros::NodeHandle pnh("~");
+  const std::string tasks = pnh.param<std::string>("tasks", "1,2");
+  const int episodes = pnh.param("episodes", 3);
+  const int seed = pnh.param("seed", 0);
+  const double timeout_s = pnh.param("run_timeout", 90.0);
+  const std::vector<std::string> common = {"--maze", "medium", "--tasks", tasks, "--episodes",
+                                           std::to_string(episodes), "--seed", std::to_string(seed),
+                                           "--agent", "eval-parallel-test"};
+  const std::string serial_json = TempPath("eval_serial") + ".json";
+  const std::string parallel_json = TempPath("eval_parallel") + ".json";
+  std::remove(serial_json.c_str());
+  std::remove(parallel_json.c_str());
+
+  // Serial: msspr_eval as today, in the first pair's namespace (its own relative names).
+  std::vector<std::string> serial = {"msspr_eval", "__ns:=/msspr_0", "--out", serial_json};
+  serial.insert(serial.end(), common.begin(), common.end());
+  std::string out;
+  ASSERT_EQ(RunRosrun(serial, &out, timeout_s), 0) << out;
+  std::printf("serial run:\n%s\n", out.c_str());
+
+  std::vector<std::string> parallel = {"msspr_eval", "--sims", "2", "--sim-ns", "/msspr_",
+                                       "--out", parallel_json};
+  parallel.insert(parallel.end(), common.begin(), common.end());
+  out.clear();
+  ASSERT_EQ(RunRosrun(parallel, &out, timeout_s), 0) << out;
+  std::printf("parallel run:\n%s\n", out.c_str());
+  // Both sims ran episodes, all of them between them.
+  int n0 = -1, n1 = -1;
+  const auto at = out.find("episodes per sim:");
+  ASSERT_NE(at, std::string::npos) << out;
+  ASSERT_EQ(std::sscanf(out.c_str() + at, "episodes per sim: /msspr_0 %d /msspr_1 %d", &n0, &n1), 2) << out;
+  const int n_tasks = static_cast<int>(std::count(tasks.begin(), tasks.end(), ',')) + 1;
+  EXPECT_EQ(n0 + n1, n_tasks * episodes) << out;
+  EXPECT_GE(n0, 1) << out;
+  EXPECT_GE(n1, 1) << out;
+
+  const std::string a = ReadFile(serial_json), b = ReadFile(parallel_json);
+  ASSERT_FALSE(a.empty()) << "no results in " << serial_json;
+  ASSERT_FALSE(b.empty()) << "no results in " << parallel_json;
+  EXPECT_NE(a.find("\"wall_time_s\""), std::string::npos) << a;
+  EXPECT_NE(a.find("\"episodes\": " + std::to_string(episodes)), std::string::npos) << a;
+  EXPECT_EQ(WithoutWallTime(a), WithoutWallTime(b)) << "serial:\n" << a << "\nparallel (--sims 2):\n" << b;
+
+  // A third sim that is not running: named in the error, exit 1.
+  std::vector<std::string> missing = {"msspr_eval", "--sims", "3", "--sim-ns", "/msspr_",
+                                      "--wait", "1"};
+  missing.insert(missing.end(), common.begin(), common.end());
+  out.clear();
+  EXPECT_EQ(RunRosrun(missing, &out, 30.0), 1) << out;
+  EXPECT_NE(out.find("no reset service /msspr_2/reset"), std::string::npos) << out;
+  EXPECT_EQ(out.find("/msspr_1/reset after"), std::string::npos) << out;
+  std::remove(serial_json.c_str());
+  std::remove(parallel_json.c_str());
 }
 
 }  // namespace
