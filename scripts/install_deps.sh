@@ -8,7 +8,7 @@ PKGS=(
   libcv-bridge-dev libimage-transport-dev libvisualization-msgs-dev
   python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs
   libmujoco-dev libqhull-dev
-  libtorch-dev libopenblas0-openmp
+  libtorch-dev libopenblas0-openmp libgloo-dev
   libopencv-dev liburdfdom-dev libeigen3-dev
   libosmesa6-dev libegl-dev libegl-mesa0 libgl-dev
   googletest libgtest-dev

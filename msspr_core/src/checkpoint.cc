@@ -115,6 +115,11 @@ std::string CheckpointHeaderToYaml(const CheckpointHeader& h) {
   credit << h.repr_credit;
   out << YAML::Key << "repr_credit" << YAML::Value << credit.str();
   out << YAML::Key << "sampler_rng" << YAML::Value << h.sampler_rng;
+  if (!h.rank_states.empty()) {
+    out << YAML::Key << "rank_states" << YAML::Value << YAML::BeginSeq;
+    for (const std::string& r : h.rank_states) out << r;
+    out << YAML::EndSeq;
+  }
   out << YAML::Key << "options" << YAML::Value << YAML::Literal << OptionsToYaml(h.options);
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
@@ -128,6 +133,7 @@ CheckpointHeader ParseCheckpointHeader(const std::string& yaml, const std::strin
     h.step = root["step"] ? root["step"].as<int64_t>() : 0;
     h.repr_credit = root["repr_credit"] ? root["repr_credit"].as<double>() : 0.0;
     h.sampler_rng = root["sampler_rng"] ? root["sampler_rng"].as<std::string>() : "";
+    if (root["rank_states"]) h.rank_states = root["rank_states"].as<std::vector<std::string>>();
     h.options = ApplyOptionsYaml(root["options"].as<std::string>(), MsprOptions(),
                                  path + " (checkpoint header)");
   } catch (const YAML::Exception& e) {

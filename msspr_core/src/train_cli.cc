@@ -62,6 +62,13 @@ const char kUsage[] =
     "  --threads N        torch CPU threads (default: torch's choice; 1 is often fastest\n"
     "                     on shared cores)\n"
     "  --quiet            no progress output\n"
+    "  --world-size N     data-parallel training over N processes (torch.distributed c10d:\n"
+    "                     Gloo on CPU, NCCL on CUDA where LibTorch has it); default $WORLD_SIZE or 1\n"
+    "  --rank R           this process's rank, 0..N-1 (default $RANK or 0); rank 0 alone writes\n"
+    "                     DIR's files, logs and evaluates; every rank gets the same --out DIR\n"
+    "  --master HOST:PORT rendezvous of the group, rank 0 listens there (default\n"
+    "                     $MASTER_ADDR:$MASTER_PORT or 127.0.0.1:29500)\n"
+    "  --dist-timeout S   seconds before a missing peer or a stuck collective is an error (1800)\n"
     "  --help             this text\n";
 
 bool FileExists(const std::string& p) {
@@ -87,7 +94,7 @@ std::string Usage(const TrainCliExtensions& ext) {
 const std::set<std::string> kResumeMayChange = {
     "steps",     "time-limit", "eval-every",    "checkpoint-every", "log-every",
     "threads",   "quiet",      "eval-episodes", "eval-tasks",       "eval-seed",
-    "eval-maze", "eval-max-steps"};
+    "eval-maze", "eval-max-steps", "rank",          "master",           "dist-timeout"};
 const char kResumeRule[] =
     "; on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, --log-every, "
     "--threads, --quiet and the --eval-* flags may change";
@@ -149,7 +156,8 @@ void WriteRunRecord(const std::string& path, const RunRecord& r) {
 int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   static const std::set<std::string> kValued = {"data", "val", "out", "preset", "agent", "scale", "obs-mode", "steps",
                                                 "batch", "device", "seed", "eval-every", "checkpoint-every",
-                                                "log-every", "time-limit", "threads"};
+                                                "log-every", "time-limit", "threads", "world-size", "rank",
+                                                "master", "dist-timeout"};
   RunRecord given;
   bool resume = false, print_options = false, quiet = false;
   auto usage_error = [&](const std::string& msg) {
@@ -176,6 +184,34 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   } catch (const cli::CliError& e) {
     return usage_error(e.what());
   }
+  // Data-parallel group: flags over torchrun's environment variables.
+  DistributedOptions dist_options;
+  try {
+    dist_options = DistributedOptions::FromEnvironment();
+    dist_options.timeout_s = 1800;
+    if (given.flags.count("world-size"))
+      dist_options.world_size = static_cast<int>(cli::ParseInt("world-size", given.flags["world-size"], 1, 4096));
+    if (given.flags.count("rank"))
+      dist_options.rank = static_cast<int>(cli::ParseInt("rank", given.flags["rank"], 0, 4095));
+    if (given.flags.count("master")) {
+      const std::string m = given.flags["master"];
+      const size_t colon = m.rfind(':');
+      if (colon == std::string::npos || colon == 0)
+        throw cli::CliError("--master: expected HOST:PORT, got '" + m + "'");
+      dist_options.master_addr = m.substr(0, colon);
+      dist_options.master_port = static_cast<int>(cli::ParseInt("master port", m.substr(colon + 1), 1, 65535));
+    }
+    if (given.flags.count("dist-timeout"))
+      dist_options.timeout_s = static_cast<double>(cli::ParseInt("dist-timeout", given.flags["dist-timeout"], 1, 1 << 30));
+    dist_options.Validate();
+  } catch (const cli::CliError& e) {
+    return usage_error(e.what());
+  } catch (const DistributedError& e) {
+    return usage_error(e.what());
+  }
+  // Ranks other than 0 read the run directory but never write to it (no lock either).
+  const bool follower = dist_options.enabled() && dist_options.rank != 0;
+  if (follower) quiet = true;
   const std::string out_dir = given.flags.count("out") ? given.flags["out"] : "";
   const std::string ckpt = out_dir + "/checkpoint.ckpt", run_file = out_dir + "/run.yaml";
   std::unique_ptr<RunDirLock> lock;
@@ -187,8 +223,10 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   try {
     // --resume of a directory that is not there: refused below, without creating it.
     if (!out_dir.empty() && !print_options && (!resume || std::filesystem::is_directory(out_dir))) {
-      std::filesystem::create_directories(out_dir);
-      lock = std::make_unique<RunDirLock>(out_dir);  // held until we return
+      if (!follower) {
+        std::filesystem::create_directories(out_dir);
+        lock = std::make_unique<RunDirLock>(out_dir);  // held until we return
+      }
       have_checkpoint = FileExists(ckpt) || FileExists(ckpt + ".prev");
     }
     if (resume) {
@@ -211,7 +249,7 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
         for (const auto& [k, v] : run.flags) saved.flags[k] = v;
         run = saved;
       }
-    } else if (!out_dir.empty() && !print_options && (have_checkpoint || FileExists(run_file))) {
+    } else if (!follower && !out_dir.empty() && !print_options && (have_checkpoint || FileExists(run_file))) {
       return usage_error(out_dir + " already holds a training run (" + (have_checkpoint ? ckpt : run_file) +
                          "); continue it with --resume --out " + out_dir + ", or choose another --out");
     }
@@ -305,8 +343,15 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       std::cout << OptionsToYaml(trainer.options());
       return 0;
     }
+    if (dist_options.enabled()) {
+      auto dist = std::make_shared<Distributed>(dist_options, torch::Device(trainer.options().trainer.device));
+      trainer.SetDistributed(dist);
+      std::cerr << ext.program << ": rank " << dist->rank() << " of " << dist->world_size() << " ("
+                << dist->backend() << ", master " << dist_options.master_addr << ":" << dist_options.master_port
+                << "): batch " << trainer.local_batch() << " of " << trainer.options().trainer.batch_size << "\n";
+    }
     // Once the data has loaded: from here on --resume --out DIR needs nothing else.
-    WriteRunRecord(run_file, run);
+    if (!follower) WriteRunRecord(run_file, run);
     if (from_checkpoint) {
       trainer.LoadCheckpoint(ckpt);
       std::cerr << ext.program << ": resumed " << ckpt << " at step " << trainer.step() << "\n";
@@ -314,17 +359,20 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       std::cerr << ext.program << ": resumed " << out_dir << " before its first checkpoint: from step 0\n";
     }
     // The resolved options, for the record.
-    WriteTextAtomically(out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
+    if (!follower) WriteTextAtomically(out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
 
+    // Rank 0 alone validates and evaluates.
     std::shared_ptr<const Dataset> val;
-    if (!val_path.empty())
+    if (follower) {
+    } else if (!val_path.empty())
       val = load(val_path, true);
     else if (ext.default_validation)
       val = ext.default_validation(data_path, trainer.options());
     if (val)
       std::cerr << ext.program << ": validation: " << val->size() << " steps, " << val->num_trajectories()
                 << " trajectories\n";
-    Evaluator sim_eval = ext.make_evaluator ? ext.make_evaluator(trainer, extra, out_dir) : Evaluator();
+    Evaluator sim_eval =
+        ext.make_evaluator && !follower ? ext.make_evaluator(trainer, extra, out_dir) : Evaluator();
     Evaluator evaluator;
     if (val || sim_eval) {
       // Validation losses on the same fixed batches each time, then the extra evaluator.
@@ -344,8 +392,11 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     loop.quiet = quiet;
     if (ext.after_eval) loop.on_eval_written = [&ext, out_dir] { ext.after_eval(out_dir); };
     trainer.Train(loop, evaluator);
-    std::cerr << ext.program << ": done at step " << trainer.step() << "; wrote " << out_dir
-              << "/checkpoint.ckpt and " << out_dir << "/policy.pt\n";
+    if (follower)
+      std::cerr << ext.program << ": rank " << dist_options.rank << " done at step " << trainer.step() << "\n";
+    else
+      std::cerr << ext.program << ": done at step " << trainer.step() << "; wrote " << out_dir
+                << "/checkpoint.ckpt and " << out_dir << "/policy.pt\n";
   } catch (const cli::CliError& e) {
     return usage_error(e.what());
   } catch (const std::exception& e) {

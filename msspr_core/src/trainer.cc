@@ -390,10 +390,71 @@ ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const 
   return batch;
 }
 
+int Trainer::local_batch() const {
+  return dist_ ? options_.trainer.batch_size / dist_->world_size() : options_.trainer.batch_size;
+}
+
+void Trainer::SetDistributed(std::shared_ptr<Distributed> dist) {
+  Sync();
+  if (!dist) return;
+  const int world = dist->world_size(), rank = dist->rank();
+  if (options_.trainer.batch_size % world != 0) {
+    throw OptionsError("trainer.batch_size " + std::to_string(options_.trainer.batch_size) +
+                       " is not a multiple of the world size " + std::to_string(world));
+  }
+  dist_ = std::move(dist);
+  // Each rank's own streams: batches and target-policy noise.
+  std::seed_seq seq{static_cast<uint32_t>(options_.trainer.seed), static_cast<uint32_t>(options_.trainer.seed >> 32),
+                    static_cast<uint32_t>(rank), 0x6d737072u};
+  rng_.seed(seq);
+  gen_ = at::make_generator<at::CPUGeneratorImpl>(options_.trainer.seed * 1000003ULL + static_cast<uint64_t>(rank));
+  // Identical starting weights (targets included) on every rank.
+  std::vector<torch::Tensor> tensors;
+  for (const auto& [name, m] : CheckpointModules()) {
+    for (const auto& p : m->parameters()) tensors.push_back(p.detach());
+    for (const auto& b : m->buffers()) tensors.push_back(b);
+  }
+  torch::NoGradGuard no_grad;
+  dist_->Broadcast(tensors, 0);
+}
+
+void Trainer::ReduceGrads(torch::nn::Module& module) {
+  if (dist_) dist_->AverageGradients(module.parameters());
+}
+
+std::string Trainer::RandomStateText() {
+  std::ostringstream out;
+  out << rng_ << "|";
+  const torch::Tensor state = gen_.get_state().contiguous();
+  static const char* kHex = "0123456789abcdef";
+  const uint8_t* p = state.data_ptr<uint8_t>();
+  for (int64_t i = 0; i < state.numel(); ++i) out << kHex[p[i] >> 4] << kHex[p[i] & 15];
+  return out.str();
+}
+
+void Trainer::RestoreRandomState(const std::string& text, const std::string& path) {
+  const size_t bar = text.find('|');
+  if (bar == std::string::npos || (text.size() - bar - 1) % 2 != 0)
+    throw CheckpointError(path + ": bad rank random state in header");
+  std::istringstream rng(text.substr(0, bar));
+  rng >> rng_;
+  if (!rng) throw CheckpointError(path + ": bad sampler RNG state in header");
+  const std::string hex = text.substr(bar + 1);
+  torch::Tensor state = torch::empty({static_cast<int64_t>(hex.size() / 2)}, torch::kUInt8);
+  auto nibble = [&](char c) -> int {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    throw CheckpointError(path + ": bad torch generator state in header");
+  };
+  for (int64_t i = 0; i < state.numel(); ++i)
+    state[i] = static_cast<uint8_t>(nibble(hex[2 * i]) * 16 + nibble(hex[2 * i + 1]));
+  gen_.set_state(state);
+}
+
 TransitionBatch Trainer::SampleBaselineBatch() {
   const int subgoal_steps = options_.baseline.agent == "hiql" ? options_.baseline.subgoal_steps : 0;
   return MakeTransitionBatch(
-      sampler_->SampleOgbenchTransitions(options_.trainer.batch_size, rng_, subgoal_steps), false);
+      sampler_->SampleOgbenchTransitions(local_batch(), rng_, subgoal_steps), false);
 }
 
 LossInfo Trainer::BaselineStep(bool collect_info) {
@@ -405,6 +466,7 @@ LossInfo Trainer::BaselineStep(bool collect_info) {
   const torch::Tensor loss = agent_->Loss(batch, collect_info ? &named : nullptr);
   agent_opt_->zero_grad();
   loss.backward();
+  if (dist_) dist_->AverageGradients(agent_->TrainableParameters());
   agent_opt_->step();
   agent_->UpdateTargets();
   if (collect_info) info.agent = std::move(named);
@@ -431,12 +493,12 @@ std::vector<std::pair<std::string, torch::nn::Module*>> Trainer::CheckpointModul
 
 TransitionBatch Trainer::SampleTransitions() {
   const bool augment = options_.network.obs_mode == "pixels";
-  return MakeTransitionBatch(sampler_->SampleTransitions(options_.trainer.batch_size, rng_), augment);
+  return MakeTransitionBatch(sampler_->SampleTransitions(local_batch(), rng_), augment);
 }
 
 ChunkBatch Trainer::SampleChunks() {
   const bool augment = options_.network.obs_mode == "pixels";
-  return MakeChunkBatch(sampler_->SampleChunks(options_.trainer.batch_size, rng_), augment);
+  return MakeChunkBatch(sampler_->SampleChunks(local_batch(), rng_), augment);
 }
 
 bool Trainer::bf16() const { return options_.trainer.precision == "bf16"; }
@@ -652,6 +714,7 @@ void Trainer::RepresentationBackward(const ChunkBatch& batch, LossInfo* info) {
 void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
   Sync();
   RepresentationBackward(batch, info);
+  ReduceGrads(*repr_);
   repr_opt_->step();
 }
 
@@ -678,8 +741,12 @@ void Trainer::UpdateCritic(const TransitionBatch& batch, const TransitionLatents
     loss = CriticLoss(batch, lat, noise, info);
   }
   loss.backward();
+  ReduceGrads(*critic_);
   critic_opt_->step();
-  if (through) repr_opt_->step();
+  if (through) {
+    ReduceGrads(*repr_);
+    repr_opt_->step();
+  }
 }
 
 void Trainer::UpdateActor(const TransitionBatch& batch, LossInfo* info) {
@@ -700,6 +767,7 @@ void Trainer::UpdateActor(const TransitionBatch& batch, const TransitionLatents&
   std::vector<torch::Tensor> params = actor_->parameters();
   std::vector<torch::Tensor> grads = torch::autograd::grad({loss}, params);
   for (size_t i = 0; i < params.size(); ++i) params[i].mutable_grad() = grads[i];
+  ReduceGrads(*actor_);
   actor_opt_->step();
 }
 
@@ -716,7 +784,7 @@ void Trainer::UpdateTargets() {
 
 bool Trainer::pipelined() const {
   const std::string& p = options_.trainer.pipeline;
-  if (p == "off" || !device_.is_cpu() || options_.agent.critic_grad_to_encoder || agent_) return false;
+  if (p == "off" || !device_.is_cpu() || options_.agent.critic_grad_to_encoder || agent_ || dist_) return false;
   return p == "on" || at::get_num_threads() >= 2;
 }
 
@@ -754,6 +822,7 @@ LossInfo Trainer::Step(bool collect_info) {
     // forward and backward run; the optimiser step waits for it.
     RepresentationBackward(SampleChunks(), out);
     Sync();
+    ReduceGrads(*repr_);
     repr_opt_->step();
     repr_credit_ -= 1.0;
   }
@@ -822,7 +891,10 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   const int64_t total = t.steps;
   std::unique_ptr<CsvWriter> metrics_csv, eval_csv;
   const LossInfo names = EmptyLossInfo();
-  if (!loop.out_dir.empty()) {
+  // Data-parallel: rank 0 alone writes, logs and evaluates.
+  const bool writer = rank() == 0;
+  const bool quiet = loop.quiet || !writer;
+  if (!loop.out_dir.empty() && writer) {
     MakeDirs(loop.out_dir);
     // Rows logged after the step this run starts from (a killed run's tail) go.
     TruncateCsvRows(loop.out_dir + "/metrics.csv", step_);
@@ -837,7 +909,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   const int64_t first_step = step_;
   const auto start = std::chrono::steady_clock::now();
   auto run_eval = [&]() {
-    if (!evaluator) return;
+    if (!evaluator || !writer) return;
     Policy policy = MakePolicy();
     const EvalResult res = evaluator(policy, step_);
     std::string line = "eval step " + std::to_string(step_) + ":";
@@ -845,17 +917,19 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
       line += " " + kv.first + "=" + std::to_string(kv.second);
       if (eval_csv) eval_csv->WriteRow({std::to_string(step_), kv.first, std::to_string(kv.second)});
     }
-    if (!loop.quiet) bar.Message(line);
+    if (!quiet) bar.Message(line);
     NotifyEvalWritten(loop);
   };
   LossInfo last;
   auto out_of_time = [&]() {
-    return t.time_limit_s > 0 &&
-           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= t.time_limit_s;
+    const bool mine = t.time_limit_s > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= t.time_limit_s;
+    // Every rank stops at the same step: as soon as one is out of time.
+    return (dist_ && t.time_limit_s > 0) ? dist_->Any(mine) : mine;
   };
   while (step_ < total) {
     if (out_of_time()) {
-      if (!loop.quiet)
+      if (!quiet)
         bar.Message("time limit of " + std::to_string(static_cast<int>(t.time_limit_s)) +
                     " s reached at step " + std::to_string(step_) + ": stopping");
       break;
@@ -879,7 +953,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     }
     last = merged;
     if (t.log_every > 0 && (step_ % t.log_every == 0 || step_ == total)) {
-      if (!loop.quiet) {
+      if (!quiet) {
         if (agent_) {
           // The agent's first four values (its main losses).
           auto named = merged.Named();
@@ -894,7 +968,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
         const double wall =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::vector<double> row{static_cast<double>(step_), wall, bar.steps_per_second()};
-        if (loop.quiet) row[2] = wall > 0 ? (step_ - first_step) / wall : 0.0;
+        if (quiet) row[2] = wall > 0 ? (step_ - first_step) / wall : 0.0;
         for (const auto& kv : merged.Named()) row.push_back(kv.second);
         metrics_csv->Write(row);
       }
@@ -904,13 +978,13 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
       SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
     }
   }
-  if (!loop.quiet) bar.Finish();
+  if (!quiet) bar.Finish();
   if (evaluator && (t.eval_every <= 0 || step_ % t.eval_every != 0)) run_eval();
   if (!loop.out_dir.empty()) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
-    ExportPolicy(loop.out_dir + "/policy.pt");
+    if (writer) ExportPolicy(loop.out_dir + "/policy.pt");
   }
-  NotifyEvalWritten(loop);
+  if (writer) NotifyEvalWritten(loop);
 }
 
 namespace {
@@ -934,6 +1008,17 @@ std::string NetworkYaml(const MsprOptions& options) {
 
 void Trainer::SaveCheckpoint(const std::string& path) {
   Sync();
+  std::vector<std::string> rank_states;
+  if (dist_) {
+    // Every rank's random state goes into rank 0's file, through the store.
+    const std::string key = "msspr/checkpoint/" + std::to_string(step_) + "/rank";
+    if (dist_->rank() != 0) {
+      dist_->Set(key + std::to_string(dist_->rank()), RandomStateText());
+      return;
+    }
+    rank_states.push_back(RandomStateText());
+    for (int r = 1; r < dist_->world_size(); ++r) rank_states.push_back(dist_->Get(key + std::to_string(r)));
+  }
   std::vector<torch::nn::Module*> modules;
   for (const auto& [name, m] : CheckpointModules()) modules.push_back(m);
   CheckFiniteWeights(modules, step_, "checkpoint " + path);
@@ -944,6 +1029,7 @@ void Trainer::SaveCheckpoint(const std::string& path) {
   std::ostringstream rng;
   rng << rng_;
   header.sampler_rng = rng.str();
+  header.rank_states = std::move(rank_states);
   CheckpointFile file;
   file.kind = "trainer";
   file.version = kCheckpointFormatVersion;
@@ -1007,6 +1093,18 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
   std::istringstream rng(header.sampler_rng);
   rng >> rng_;
   if (!rng) throw CheckpointError(path + ": bad sampler RNG state in header");
+  if (dist_) {
+    const int world = dist_->world_size();
+    if (static_cast<int>(header.rank_states.size()) != world) {
+      throw CheckpointError(path + ": written by a group of " + std::to_string(header.rank_states.size()) +
+                            " rank(s), resumed by " + std::to_string(world) +
+                            " (resume with the same world size)");
+    }
+    RestoreRandomState(header.rank_states[dist_->rank()], path);
+  } else if (!header.rank_states.empty()) {
+    throw CheckpointError(path + ": written by a group of " + std::to_string(header.rank_states.size()) +
+                          " ranks; resume it with --world-size " + std::to_string(header.rank_states.size()));
+  }
   step_ = header.step;
   repr_credit_ = header.repr_credit;
 }

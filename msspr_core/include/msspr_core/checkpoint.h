@@ -38,6 +38,9 @@ struct CheckpointHeader {
   int64_t step = 0;
   double repr_credit = 0.0;   // fractional representation updates carried over
   std::string sampler_rng;    // std::mt19937_64 state as text (trainer checkpoints)
+  // Data-parallel runs: every rank's random state (sampler RNG and torch
+  // generator, as Trainer writes them), index = rank; empty otherwise.
+  std::vector<std::string> rank_states;
 };
 std::string CheckpointHeaderToYaml(const CheckpointHeader& header);
 // Throws CheckpointError naming `path` when the header is not valid.

@@ -17,6 +17,7 @@
 #include "msspr_core/baselines.h"
 #include "msspr_core/batch_sampler.h"
 #include "msspr_core/dataset.h"
+#include "msspr_core/distributed.h"
 #include "msspr_core/networks.h"
 #include "msspr_core/options.h"
 #include "msspr_core/policy.h"
@@ -185,6 +186,21 @@ class Trainer {
   // A Policy sharing the online networks (no copy).
   Policy MakePolicy();
 
+  // Data-parallel training (distributed.h): this trainer becomes one rank of
+  // the group. Each rank samples batch_size / world_size of the global batch
+  // with its own seed stream (seed, rank); gradients are averaged over the
+  // ranks before every optimiser step; rank 0's parameters are broadcast
+  // now. In Train(), only rank 0 writes files, logs and evaluates; every rank
+  // stops at the same step; SaveCheckpoint on every rank puts every rank's
+  // random state into rank 0's file, and LoadCheckpoint restores each
+  // rank's own. Throws OptionsError when batch_size is not a multiple of the
+  // world size. Call before the first Step or LoadCheckpoint.
+  void SetDistributed(std::shared_ptr<Distributed> dist);
+  // 0 without a group.
+  int rank() const { return dist_ ? dist_->rank() : 0; }
+  // The batch this rank samples per step.
+  int local_batch() const;
+
   // The baseline agent (null when training Ms.PR).
   std::shared_ptr<GcAgentImpl> agent() {
     Sync();
@@ -233,6 +249,11 @@ class Trainer {
   LossInfo BaselineStep(bool collect_info);
   // A LossInfo with this trainer's loss names, all NaN.
   LossInfo EmptyLossInfo() const;
+  // Averages the gradients of `module` over the ranks (no-op without a group).
+  void ReduceGrads(torch::nn::Module& module);
+  // This rank's random state as text (sampler RNG, torch generator) and back.
+  std::string RandomStateText();
+  void RestoreRandomState(const std::string& text, const std::string& path);
   // The modules a checkpoint holds (name, module), targets included.
   std::vector<std::pair<std::string, torch::nn::Module*>> CheckpointModules();
 
@@ -252,6 +273,7 @@ class Trainer {
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
   std::shared_ptr<GcAgentImpl> agent_;           // baseline agent, or null (Ms.PR)
   std::unique_ptr<torch::optim::Adam> agent_opt_;
+  std::shared_ptr<Distributed> dist_;            // data-parallel group, or null
   // The pipelined actor-critic update's thread (trainer.pipeline); created
   // on first use. Last member: destroyed (and joined) first.
   std::unique_ptr<AsyncWorker> worker_;
