@@ -4,9 +4,6 @@
 // parameters. The two-process runs of msspr_train (checkpoint, resume,
 // export, a killed rank) are in tests/ros/agent_ros_test.cc.
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <functional>
 #include <mutex>
@@ -15,28 +12,15 @@
 #include "msspr_core/distributed.h"
 #include "msspr_core/trainer.h"
 #include "point_square.h"
+#include "test_util.h"
 
 namespace msspr {
 namespace core {
 namespace {
 
-// A TCP port that was free a moment ago.
-int FreePort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  a.sin_port = 0;
-  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
-  socklen_t len = sizeof(a);
-  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  close(fd);
-  return ntohs(a.sin_port);
-}
-
 // Runs body(rank, group) on two threads, one per rank; rethrows the first failure.
 void RunTwoRanks(const std::function<void(int, std::shared_ptr<Distributed>)>& body) {
-  const int port = FreePort();
+  const int port = testing_util::FreePort();
   std::exception_ptr errors[2];
   std::thread threads[2];
   for (int r = 0; r < 2; ++r) {

@@ -30,6 +30,8 @@
 #include "msspr_core/npz.h"
 #include "msspr_core/options.h"
 #include "msspr_core/policy.h"
+#include "msspr_core/checkpoint.h"
+#include "test_util.h"
 #include "torch_test_util.h"
 
 namespace msspr::agent {
@@ -431,6 +433,103 @@ TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
   EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "50"}, out + ".locked"), 1);
   EXPECT_NE(ReadAll(out + ".locked").find("another training run"), std::string::npos) << ReadAll(out + ".locked");
   close(fd);
+}
+
+// --- Data-parallel msspr_train: two processes, Gloo on loopback ----------------
+
+// TinyRun's arguments for one of two ranks, with `steps` steps.
+std::vector<std::string> RankArgs(const TinyRun& tiny, const std::string& out, int rank, int port,
+                                  const std::string& steps) {
+  std::vector<std::string> a = tiny.Args(out);
+  a[std::find(a.begin(), a.end(), "--steps") - a.begin() + 1] = steps;
+  for (const std::string& extra : {std::string("--world-size"), std::string("2"), std::string("--rank"),
+                                   std::to_string(rank), std::string("--master"),
+                                   "127.0.0.1:" + std::to_string(port), std::string("--dist-timeout"),
+                                   std::string("30")})
+    a.push_back(extra);
+  return a;
+}
+
+std::vector<std::string> ResumeArgs(const std::string& out, int rank, int port, const std::string& steps) {
+  return {"--resume", "--out", out, "--quiet", "--steps", steps, "--world-size", "2", "--rank",
+          std::to_string(rank), "--master", "127.0.0.1:" + std::to_string(port), "--dist-timeout", "30"};
+}
+
+// Starts both ranks, waits for both; returns their exit statuses.
+std::pair<int, int> RunRanks(const std::vector<std::string>& a0, const std::vector<std::string>& a1,
+                             const std::string& log) {
+  const pid_t p0 = StartTrain(a0, log + ".rank0"), p1 = StartTrain(a1, log + ".rank1");
+  const int s0 = Wait(p0), s1 = Wait(p1);
+  return {s0, s1};
+}
+
+bool ExitedOk(int status) { return WIFEXITED(status) && WEXITSTATUS(status) == 0; }
+
+TEST(TrainCli, TwoRanksTrainCheckpointResumeAndExportAsOne) {
+  TinyRun tiny("two_ranks");
+  const std::string run = tiny.dir + "/run", ref = tiny.dir + "/ref";
+  // 20 steps, then resumed to 30, against 30 straight.
+  int port = core::testing_util::FreePort();
+  auto st = RunRanks(RankArgs(tiny, run, 0, port, "20"), RankArgs(tiny, run, 1, port, "20"), run);
+  ASSERT_TRUE(ExitedOk(st.first) && ExitedOk(st.second)) << ReadAll(run + ".rank0") << ReadAll(run + ".rank1");
+  EXPECT_NE(ReadAll(run + ".rank1").find("rank 1 of 2 (gloo"), std::string::npos) << ReadAll(run + ".rank1");
+  EXPECT_NE(ReadAll(run + ".rank0").find("batch 8 of 16"), std::string::npos) << ReadAll(run + ".rank0");
+  const core::CheckpointFile file = core::ReadCheckpointFile(run + "/checkpoint.ckpt");
+  const core::CheckpointHeader h = core::ParseCheckpointHeader(file.header, run);
+  EXPECT_EQ(h.step, 20);
+  EXPECT_EQ(h.rank_states.size(), 2u);
+  EXPECT_NE(h.rank_states[0], h.rank_states[1]);
+  // One writer: metrics.csv has each step once.
+  EXPECT_EQ(LossRows(run + "/metrics.csv").size(), 21u);
+  port = core::testing_util::FreePort();
+  st = RunRanks(ResumeArgs(run, 0, port, "30"), ResumeArgs(run, 1, port, "30"), run + ".resumed");
+  ASSERT_TRUE(ExitedOk(st.first) && ExitedOk(st.second))
+      << ReadAll(run + ".resumed.rank0") << ReadAll(run + ".resumed.rank1");
+  port = core::testing_util::FreePort();
+  st = RunRanks(RankArgs(tiny, ref, 0, port, "30"), RankArgs(tiny, ref, 1, port, "30"), ref);
+  ASSERT_TRUE(ExitedOk(st.first) && ExitedOk(st.second)) << ReadAll(ref + ".rank0") << ReadAll(ref + ".rank1");
+  auto a = core::Policy::Load(ref + "/policy.pt"), b = core::Policy::Load(run + "/policy.pt");
+  for (const auto& pair : std::vector<std::pair<torch::nn::Module*, torch::nn::Module*>>{
+           {a.repr().get(), b.repr().get()}, {a.actor().get(), b.actor().get()}, {a.critic().get(), b.critic().get()}}) {
+    const auto pa = pair.first->parameters(), pb = pair.second->parameters();
+    ASSERT_EQ(pa.size(), pb.size());
+    for (size_t i = 0; i < pa.size(); ++i) EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "parameter " << i;
+  }
+  EXPECT_EQ(LossRows(run + "/metrics.csv"), LossRows(ref + "/metrics.csv"));
+  // The export serves actions like any other.
+  EXPECT_EQ(b.Act(std::vector<float>{0.1f, 0.2f}, std::vector<float>{1.f, -1.f}).size(), 2u);
+  // Resuming with another world size is refused, naming the group's.
+  const int s = Wait(StartTrain({"--resume", "--out", run, "--steps", "35"}, run + ".single"));
+  EXPECT_TRUE(WIFEXITED(s) && WEXITSTATUS(s) != 0);
+  EXPECT_NE(ReadAll(run + ".single").find("world-size"), std::string::npos) << ReadAll(run + ".single");
+}
+
+TEST(TrainCli, AKilledRankIsAClearErrorOnTheOtherAndTheCheckpointStaysGood) {
+  TinyRun tiny("killed_rank");
+  const std::string run = tiny.dir + "/run";
+  const int port = core::testing_util::FreePort();
+  const pid_t p0 = StartTrain(RankArgs(tiny, run, 0, port, "1000000"), run + ".rank0");
+  const pid_t p1 = StartTrain(RankArgs(tiny, run, 1, port, "1000000"), run + ".rank1");
+  // Wait for a checkpoint (every 3 steps), then kill rank 1.
+  bool have = false;
+  for (int i = 0; i < 600 && !have; ++i) {
+    have = Exists(run + "/checkpoint.ckpt");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_TRUE(have) << ReadAll(run + ".rank0");
+  kill(p1, SIGKILL);
+  Wait(p1);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int s0 = Wait(p0);
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(WIFEXITED(s0) && WEXITSTATUS(s0) == 1) << "status " << s0;
+  const std::string log = ReadAll(run + ".rank0");
+  EXPECT_NE(log.find("rank 0/2"), std::string::npos) << log;
+  EXPECT_NE(log.find("a peer exited or timed out"), std::string::npos) << log;
+  EXPECT_LT(waited, 60.0) << "rank 0 hung";
+  // The last checkpoint is whole, and it resumes (single-rank refusal aside, it reads).
+  EXPECT_NO_THROW(core::ReadCheckpointFile(run + "/checkpoint.ckpt", "trainer"));
+  EXPECT_NO_THROW(core::Policy::Load(run + "/checkpoint.ckpt"));
 }
 
 }  // namespace
