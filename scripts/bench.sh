@@ -46,6 +46,10 @@ if [ -x "$BIN/msspr_bench_core" ]; then
   echo "[bench] trainer against the eager PyTorch reference"
   scripts/bench_train_vs_reference.sh "$OUT" "$BIN/msspr_bench_core"
 fi
+if [ -x "$BIN/msspr_train" ]; then
+  echo "[bench] data-parallel msspr_train: 1 and 2 ranks (Gloo, loopback)"
+  scripts/bench_distributed.sh "$OUT" "$BIN" || echo "[bench] data-parallel benchmark failed" >&2
+fi
 if [ "${MSSPR_SOAK_S:-0}" -gt 0 ]; then
   echo "[bench] soak: sim + msspr_policy_node at 100 Hz for $MSSPR_SOAK_S s (resident memory)"
   scripts/soak.sh "$BUILD" "$MSSPR_SOAK_S"

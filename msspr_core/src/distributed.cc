@@ -124,7 +124,11 @@ void Distributed::AllReduceSum(std::vector<torch::Tensor>& tensors) {
   for (torch::Tensor& t : tensors) {
     torch::Tensor x = impl_->host_copies ? t.to(torch::kCPU) : t;
     std::vector<torch::Tensor> one{x};
+    const auto start = std::chrono::steady_clock::now();
     Guard(options_, "all-reduce", [&] { impl_->group->allreduce(one)->wait(); });
+    stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats_.bytes += x.numel() * x.element_size();
+    ++stats_.allreduces;
     if (impl_->host_copies) t.copy_(x);
   }
 }

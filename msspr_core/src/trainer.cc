@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
@@ -985,6 +986,13 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     if (writer) ExportPolicy(loop.out_dir + "/policy.pt");
   }
   if (writer) NotifyEvalWritten(loop);
+  if (dist_ && step_ > first_step) {
+    const Distributed::Stats& st = dist_->stats();
+    const double steps = static_cast<double>(step_ - first_step);
+    std::fprintf(stderr, "rank %d: all-reduce %.3f ms and %.2f MB per step (%s, %lld collectives)\n", dist_->rank(),
+                 1e3 * st.seconds / steps, st.bytes / steps / 1e6, dist_->backend().c_str(),
+                 static_cast<long long>(st.allreduces));
+  }
 }
 
 namespace {

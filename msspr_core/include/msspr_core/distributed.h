@@ -69,6 +69,13 @@ class Distributed {
   // True on every rank when `flag` is true on any.
   bool Any(bool flag);
   void Barrier();
+  // Time and volume of the all-reduces so far (gradients and flags).
+  struct Stats {
+    int64_t allreduces = 0;
+    int64_t bytes = 0;
+    double seconds = 0;
+  };
+  const Stats& stats() const { return stats_; }
   // Key-value exchange through the rendezvous store (Get waits for the key).
   void Set(const std::string& key, const std::string& value);
   std::string Get(const std::string& key);
@@ -80,6 +87,7 @@ class Distributed {
   DistributedOptions options_;
   torch::Device device_;
   std::string backend_;
+  Stats stats_;
   std::unique_ptr<Impl> impl_;
 };
 
