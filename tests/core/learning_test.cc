@@ -14,6 +14,9 @@ namespace msspr {
 namespace core {
 namespace {
 
+using point_square::ExpertDataset;
+using point_square::SuccessRate;
+
 // The same agent learns with fp32 and with bf16 matrix products.
 class LearningTest : public testing::TestWithParam<std::string> {};
 
