@@ -60,7 +60,7 @@ std::string WithoutLossWeights(MsprOptions o) {
 TEST(OptionsTest, AblationPresetsDifferOnlyInLossWeights) {
   for (const std::string& scale : ScaleNames()) {
     const MsprOptions full = MakePreset("mspr", scale);
-    for (const std::string& name : PresetNames()) {
+    for (const std::string& name : {"mspr", "D", "DI", "DIR"}) {
       const MsprOptions p = MakePreset(name, scale);
       EXPECT_EQ(WithoutLossWeights(p), WithoutLossWeights(full)) << name << " " << scale;
     }
@@ -77,6 +77,11 @@ TEST(OptionsTest, AblationPresetsDifferOnlyInLossWeights) {
     EXPECT_GT(m.weight_goal_dyn, 0);
     EXPECT_GT(m.weight_goal_act, 0);
   }
+  // PresetNames lists them, and the baseline agents after them.
+  const std::vector<std::string> names = PresetNames();
+  EXPECT_EQ(std::vector<std::string>(names.begin(), names.begin() + 4),
+            (std::vector<std::string>{"mspr", "D", "DI", "DIR"}));
+  EXPECT_EQ(names.size(), 10u);
   EXPECT_THROW(MakePreset("DIRX", "cpu"), OptionsError);
   EXPECT_THROW(MakePreset("mspr", "tiny"), OptionsError);
 }
