@@ -50,6 +50,23 @@ torch::Tensor AwrWeight(const torch::Tensor& adv, double alpha) {
   return torch::exp(adv * alpha).clamp_max(100.0);
 }
 
+// The two heads of an ensemble on one input: [B, 2].
+torch::Tensor Twin(OgMlp& a, OgMlp& b, const torch::Tensor& x) { return torch::cat({a(x), b(x)}, -1); }
+
+// OGBench's value loss of a twin V ensemble with target heads (GCIVL, HIQL):
+// q = r + gamma m min(Vbar(s')), adv = q - mean(Vbar(s)), and each online
+// head regresses on its own target q_i = r + gamma m Vbar_i(s') with the
+// expectile weight of adv. next_target, target: [B, 2] without gradient;
+// online: [B, 2].
+torch::Tensor TwinExpectileValueLoss(const TransitionBatch& batch, const torch::Tensor& next_target,
+                                     const torch::Tensor& target, const torch::Tensor& online, double expectile) {
+  const torch::Tensor q = batch.ret + batch.discount * std::get<0>(next_target.min(-1));
+  const torch::Tensor w = ExpectileWeight(q - target.mean(-1), expectile);
+  const torch::Tensor q1 = batch.ret + batch.discount * next_target.select(-1, 0);
+  const torch::Tensor q2 = batch.ret + batch.discount * next_target.select(-1, 1);
+  return (w * (q1 - online.select(-1, 0)).pow(2)).mean() + (w * (q2 - online.select(-1, 1)).pow(2)).mean();
+}
+
 }  // namespace
 
 // --- Building blocks ----------------------------------------------------------
@@ -151,6 +168,11 @@ std::vector<torch::Tensor> GcAgentImpl::TrainableParameters() {
   return out;
 }
 
+void GcAgentImpl::InitTarget(torch::nn::Module& target, const torch::nn::Module& online) {
+  HardUpdate(target, online);
+  SetRequiresGrad(target, false);
+}
+
 void GcAgentImpl::Polyak(torch::nn::Module& target, const torch::nn::Module& online) {
   torch::NoGradGuard no_grad;
   const auto t = target.parameters();
@@ -182,12 +204,20 @@ torch::Tensor GcAgentImpl::DdpgBcLoss(const torch::Tensor& q, const torch::Tenso
   return loss;
 }
 
-// --- GCBC ---------------------------------------------------------------------
+// --- The one-actor agents -----------------------------------------------------
 
-GcbcAgent::GcbcAgent(const MsprOptions& o) : GcAgentImpl(o) {
-  const BaselineOptions& b = o.baseline;
+void GcActorAgent::RegisterActor() {
+  const BaselineOptions& b = options_.baseline;
   actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
 }
+
+torch::Tensor GcActorAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
+  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+}
+
+// --- GCBC ---------------------------------------------------------------------
+
+GcbcAgent::GcbcAgent(const MsprOptions& o) : GcActorAgent(o) { RegisterActor(); }
 
 torch::Tensor GcbcAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
@@ -200,56 +230,41 @@ torch::Tensor GcbcAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   return loss;
 }
 
-torch::Tensor GcbcAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
-}
-
 // --- GCIVL --------------------------------------------------------------------
 
-GcivlAgent::GcivlAgent(const MsprOptions& o) : GcAgentImpl(o) {
-  const BaselineOptions& b = o.baseline;
+GcivlAgent::GcivlAgent(const MsprOptions& o) : GcActorAgent(o) {
   v1 = register_module("v1", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
   v2 = register_module("v2", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
   target_v1 = register_module("target_v1", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
   target_v2 = register_module("target_v2", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
-  HardUpdate(*target_v1, *v1);
-  HardUpdate(*target_v2, *v2);
-  SetRequiresGrad(*target_v1, false);
-  SetRequiresGrad(*target_v2, false);
-  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+  InitTarget(*target_v1, *v1);
+  InitTarget(*target_v2, *v2);
+  RegisterActor();
 }
 
 torch::Tensor GcivlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
-  const double expectile = options_.baseline.expectile;
   const torch::Tensor s_g = Cat(batch.obs, batch.value_goal);
-  torch::Tensor q1, q2, adv;
+  torch::Tensor next_target, target;
   {
     torch::NoGradGuard no_grad;
-    const torch::Tensor next_g = Cat(batch.next_obs, batch.value_goal);
-    const torch::Tensor nv1 = target_v1(next_g).squeeze(-1), nv2 = target_v2(next_g).squeeze(-1);
-    const torch::Tensor q = batch.ret + batch.discount * torch::min(nv1, nv2);
-    adv = q - (target_v1(s_g).squeeze(-1) + target_v2(s_g).squeeze(-1)) / 2.0;
-    q1 = batch.ret + batch.discount * nv1;
-    q2 = batch.ret + batch.discount * nv2;
+    next_target = Twin(target_v1, target_v2, Cat(batch.next_obs, batch.value_goal));
+    target = Twin(target_v1, target_v2, s_g);
   }
-  const torch::Tensor v1_s = v1(s_g).squeeze(-1), v2_s = v2(s_g).squeeze(-1);
-  const torch::Tensor w = ExpectileWeight(adv, expectile);
-  const torch::Tensor value_loss = (w * (q1 - v1_s).pow(2)).mean() + (w * (q2 - v2_s).pow(2)).mean();
+  const torch::Tensor v = Twin(v1, v2, s_g);
+  const torch::Tensor value_loss =
+      TwinExpectileValueLoss(batch, next_target, target, v, options_.baseline.expectile);
 
   const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
   torch::Tensor a_adv;
   {
     torch::NoGradGuard no_grad;
-    const torch::Tensor nx = Cat(batch.next_obs, batch.actor_goal);
-    const torch::Tensor v = (v1(x) + v2(x)).squeeze(-1) / 2.0;
-    const torch::Tensor nv = (v1(nx) + v2(nx)).squeeze(-1) / 2.0;
-    a_adv = nv - v;
+    a_adv = Twin(v1, v2, Cat(batch.next_obs, batch.actor_goal)).mean(-1) - Twin(v1, v2, x).mean(-1);
   }
   const torch::Tensor actor_loss =
       -(AwrWeight(a_adv, options_.baseline.alpha) * actor->LogProb(x, batch.action)).mean();
   if (info) {
     info->emplace_back("value", Item(value_loss));
-    info->emplace_back("v", Item(v1_s.mean()));
+    info->emplace_back("v", Item(v.select(-1, 0).mean()));
     info->emplace_back("actor", Item(actor_loss));
     info->emplace_back("adv", Item(a_adv.mean()));
   }
@@ -261,35 +276,26 @@ void GcivlAgent::UpdateTargets() {
   Polyak(*target_v2, *v2);
 }
 
-torch::Tensor GcivlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
-}
-
 torch::Tensor GcivlAgent::Value(const torch::Tensor& obs, const torch::Tensor&, const torch::Tensor& goal) {
-  const torch::Tensor x = Cat(obs, goal);
-  return torch::cat({v1(x), v2(x)}, -1);
+  return Twin(v1, v2, Cat(obs, goal));
 }
 
 // --- GCIQL --------------------------------------------------------------------
 
-GciqlAgent::GciqlAgent(const MsprOptions& o) : GcAgentImpl(o) {
-  const BaselineOptions& b = o.baseline;
+GciqlAgent::GciqlAgent(const MsprOptions& o) : GcActorAgent(o) {
   const int64_t in_q = 2 * obs_dim_ + action_dim_;
   v = register_module("v", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
   q1 = register_module("q1", OgMlp(Sizes(in_q, 1), false, true));
   q2 = register_module("q2", OgMlp(Sizes(in_q, 1), false, true));
   target_q1 = register_module("target_q1", OgMlp(Sizes(in_q, 1), false, true));
   target_q2 = register_module("target_q2", OgMlp(Sizes(in_q, 1), false, true));
-  HardUpdate(*target_q1, *q1);
-  HardUpdate(*target_q2, *q2);
-  SetRequiresGrad(*target_q1, false);
-  SetRequiresGrad(*target_q2, false);
-  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+  InitTarget(*target_q1, *q1);
+  InitTarget(*target_q2, *q2);
+  RegisterActor();
 }
 
 torch::Tensor GciqlAgent::Q(const torch::Tensor& obs, const torch::Tensor& goal, const torch::Tensor& action) {
-  const torch::Tensor x = torch::cat({obs, goal, action}, -1);
-  return torch::cat({q1(x), q2(x)}, -1);
+  return Twin(q1, q2, torch::cat({obs, goal, action}, -1));
 }
 
 torch::Tensor GciqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
@@ -328,10 +334,6 @@ void GciqlAgent::UpdateTargets() {
   Polyak(*target_q2, *q2);
 }
 
-torch::Tensor GciqlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
-}
-
 torch::Tensor GciqlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action,
                                 const torch::Tensor& goal) {
   return Q(obs, goal, action);
@@ -339,13 +341,13 @@ torch::Tensor GciqlAgent::Value(const torch::Tensor& obs, const torch::Tensor& a
 
 // --- QRL ----------------------------------------------------------------------
 
-QrlAgent::QrlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+QrlAgent::QrlAgent(const MsprOptions& o) : GcActorAgent(o) {
   const BaselineOptions& b = o.baseline;
   phi = register_module("phi", OgMlp(Sizes(obs_dim_, b.latent_dim), false, true));
   dynamics = register_module("dynamics", OgMlp(Sizes(b.latent_dim + action_dim_, b.latent_dim), false, true));
   alpha_raw = register_parameter("alpha_raw", torch::zeros({1}));
   log_lambda = register_parameter("log_lambda", torch::zeros({1}));
-  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+  RegisterActor();
 }
 
 torch::Tensor QrlAgent::Distance(const torch::Tensor& zx, const torch::Tensor& zy) {
@@ -395,10 +397,6 @@ torch::Tensor QrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   return value_loss + lambda_loss + dyn_loss + actor_loss;
 }
 
-torch::Tensor QrlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
-}
-
 torch::Tensor QrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal) {
   const torch::Tensor q = -Distance(PredictLatent(phi(obs), action), phi(goal)).unsqueeze(-1);
   return torch::cat({q, q}, -1);
@@ -406,13 +404,13 @@ torch::Tensor QrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& act
 
 // --- CRL ----------------------------------------------------------------------
 
-CrlAgent::CrlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+CrlAgent::CrlAgent(const MsprOptions& o) : GcActorAgent(o) {
   const BaselineOptions& b = o.baseline;
   phi1 = register_module("phi1", OgMlp(Sizes(obs_dim_ + action_dim_, b.latent_dim), false, true));
   phi2 = register_module("phi2", OgMlp(Sizes(obs_dim_ + action_dim_, b.latent_dim), false, true));
   psi1 = register_module("psi1", OgMlp(Sizes(obs_dim_, b.latent_dim), false, true));
   psi2 = register_module("psi2", OgMlp(Sizes(obs_dim_, b.latent_dim), false, true));
-  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+  RegisterActor();
 }
 
 torch::Tensor CrlAgent::PairLogits(int e, const torch::Tensor& obs, const torch::Tensor& action,
@@ -453,10 +451,6 @@ torch::Tensor CrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   return critic_loss + actor_loss;
 }
 
-torch::Tensor CrlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
-}
-
 torch::Tensor CrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal) {
   const double scale = std::sqrt(static_cast<double>(options_.baseline.latent_dim));
   const torch::Tensor sa = Cat(obs, action);
@@ -475,10 +469,8 @@ HiqlAgent::HiqlAgent(const MsprOptions& o) : GcAgentImpl(o) {
   v2 = register_module("v2", OgMlp(Sizes(in_v, 1), false, true));
   target_v1 = register_module("target_v1", OgMlp(Sizes(in_v, 1), false, true));
   target_v2 = register_module("target_v2", OgMlp(Sizes(in_v, 1), false, true));
-  HardUpdate(*target_v1, *v1);
-  HardUpdate(*target_v2, *v2);
-  SetRequiresGrad(*target_v1, false);
-  SetRequiresGrad(*target_v2, false);
+  InitTarget(*target_v1, *v1);
+  InitTarget(*target_v2, *v2);
   low_actor = register_module("low_actor", GaussianActor(in_v, b.hidden, b.layers, action_dim_));
   high_actor = register_module("high_actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, b.rep_dim));
 }
@@ -489,27 +481,22 @@ torch::Tensor HiqlAgent::GoalRep(const torch::Tensor& obs, const torch::Tensor& 
 
 torch::Tensor HiqlAgent::V(const torch::Tensor& obs, const torch::Tensor& goal, bool target) {
   const torch::Tensor x = Cat(obs, GoalRep(obs, goal));
-  return target ? torch::cat({target_v1(x), target_v2(x)}, -1) : torch::cat({v1(x), v2(x)}, -1);
+  return target ? Twin(target_v1, target_v2, x) : Twin(v1, v2, x);
 }
 
 torch::Tensor HiqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   const BaselineOptions& b = options_.baseline;
   TORCH_CHECK(batch.low_goal.defined() && batch.high_goal.defined() && batch.high_target.defined(),
               "hiql: the batch has no subgoals (sample it with subgoal_steps > 0)");
-  torch::Tensor q1, q2, adv;
+  torch::Tensor next_target, target;
   {
     // The target heads on the online goal representation (OGBench shares phi).
     torch::NoGradGuard no_grad;
-    const torch::Tensor nv = V(batch.next_obs, batch.value_goal, true);
-    const torch::Tensor q = batch.ret + batch.discount * std::get<0>(nv.min(-1));
-    adv = q - V(batch.obs, batch.value_goal, true).mean(-1);
-    q1 = batch.ret + batch.discount * nv.select(-1, 0);
-    q2 = batch.ret + batch.discount * nv.select(-1, 1);
+    next_target = V(batch.next_obs, batch.value_goal, true);
+    target = V(batch.obs, batch.value_goal, true);
   }
   const torch::Tensor v = V(batch.obs, batch.value_goal, false);
-  const torch::Tensor w = ExpectileWeight(adv, b.expectile);
-  const torch::Tensor value_loss =
-      (w * (q1 - v.select(-1, 0)).pow(2)).mean() + (w * (q2 - v.select(-1, 1)).pow(2)).mean();
+  const torch::Tensor value_loss = TwinExpectileValueLoss(batch, next_target, target, v, b.expectile);
 
   torch::Tensor low_adv, high_adv, high_target_rep;
   {

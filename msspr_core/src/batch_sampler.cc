@@ -83,14 +83,15 @@ float BatchSampler::MonteCarloReturn(int64_t t, int64_t g) const {
   return static_cast<float>(-1.0 / (1.0 - gamma_));
 }
 
+void TransitionIndices::Resize(int batch) {
+  for (auto* v : {&idx, &next_idx, &value_goal, &actor_goal}) v->resize(batch);
+  ret.resize(batch);
+  discount.resize(batch);
+}
+
 TransitionIndices BatchSampler::SampleTransitions(int batch, std::mt19937_64& rng) const {
   TransitionIndices b;
-  b.idx.resize(batch);
-  b.next_idx.resize(batch);
-  b.value_goal.resize(batch);
-  b.actor_goal.resize(batch);
-  b.ret.resize(batch);
-  b.discount.resize(batch);
+  b.Resize(batch);
   for (int k = 0; k < batch; ++k) {
     const int64_t i = SampleStart(rng);
     b.idx[k] = i;
@@ -104,12 +105,7 @@ TransitionIndices BatchSampler::SampleTransitions(int batch, std::mt19937_64& rn
 TransitionIndices BatchSampler::SampleOgbenchTransitions(int batch, std::mt19937_64& rng,
                                                        int subgoal_steps) const {
   TransitionIndices b;
-  b.idx.resize(batch);
-  b.next_idx.resize(batch);
-  b.value_goal.resize(batch);
-  b.actor_goal.resize(batch);
-  b.ret.resize(batch);
-  b.discount.resize(batch);
+  b.Resize(batch);
   if (subgoal_steps > 0) {
     b.low_goal.resize(batch);
     b.high_goal.resize(batch);

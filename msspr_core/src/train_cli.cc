@@ -363,10 +363,9 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
 
     // Rank 0 alone validates and evaluates.
     std::shared_ptr<const Dataset> val;
-    if (follower) {
-    } else if (!val_path.empty())
+    if (!follower && !val_path.empty())
       val = load(val_path, true);
-    else if (ext.default_validation)
+    else if (!follower && ext.default_validation)
       val = ext.default_validation(data_path, trainer.options());
     if (val)
       std::cerr << ext.program << ": validation: " << val->size() << " steps, " << val->num_trajectories()

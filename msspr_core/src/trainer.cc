@@ -453,9 +453,8 @@ void Trainer::RestoreRandomState(const std::string& text, const std::string& pat
 }
 
 TransitionBatch Trainer::SampleBaselineBatch() {
-  const int subgoal_steps = options_.baseline.agent == "hiql" ? options_.baseline.subgoal_steps : 0;
   return MakeTransitionBatch(
-      sampler_->SampleOgbenchTransitions(local_batch(), rng_, subgoal_steps), false);
+      sampler_->SampleOgbenchTransitions(local_batch(), rng_, agent_->SubgoalSteps()), false);
 }
 
 LossInfo Trainer::BaselineStep(bool collect_info) {
@@ -463,11 +462,10 @@ LossInfo Trainer::BaselineStep(bool collect_info) {
   LossInfo info;
   NamedValues named;
   const TransitionBatch batch = SampleBaselineBatch();
-  agent_->train();
   const torch::Tensor loss = agent_->Loss(batch, collect_info ? &named : nullptr);
   agent_opt_->zero_grad();
   loss.backward();
-  if (dist_) dist_->AverageGradients(agent_->TrainableParameters());
+  if (dist_) dist_->AverageGradients(agent_opt_->parameters());
   agent_opt_->step();
   agent_->UpdateTargets();
   if (collect_info) info.agent = std::move(named);
@@ -867,11 +865,9 @@ LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed
   torch::NoGradGuard no_grad;
   LossInfo info;
   if (agent_) {
-    const int subgoal_steps = o.baseline.agent == "hiql" ? o.baseline.subgoal_steps : 0;
-    agent_->eval();
-    agent_->Loss(MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, subgoal_steps), false, &data),
-                 &info.agent);
-    agent_->train();
+    agent_->Loss(
+        MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, agent_->SubgoalSteps()), false, &data),
+        &info.agent);
     return info;
   }
   RepresentationLoss(MakeChunkBatch(sampler.SampleChunks(batch, rng), false, &data), &info);

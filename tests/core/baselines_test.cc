@@ -66,6 +66,28 @@ void MakeConstant(OgMlp& mlp, double c) {
   last->bias.fill_(c);
 }
 
+// Twin value heads (online and target) made constant: head 1 is c1, head 2 is c2.
+void MakeTwinConstant(OgMlp& v1, OgMlp& v2, OgMlp& target_v1, OgMlp& target_v2, double c1, double c2) {
+  MakeConstant(v1, c1);
+  MakeConstant(v2, c2);
+  MakeConstant(target_v1, c1);
+  MakeConstant(target_v2, c2);
+}
+
+// OGBench's twin expectile value loss with constant heads c1, c2, by hand:
+// q_i = r + d c_i; adv = r + d min(c) - (c1 + c2) / 2; weight tau when adv >= 0.
+double TwinExpectileByHand(const TransitionBatch& b, double c1, double c2, double expectile) {
+  const int64_t n = b.ret.size(0);
+  double value = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    const double r = b.ret[i].item<double>(), d = b.discount[i].item<double>();
+    const double adv = r + d * std::min(c1, c2) - (c1 + c2) / 2;
+    const double w = adv >= 0 ? expectile : 1 - expectile;
+    value += w * (std::pow(r + d * c1 - c1, 2) + std::pow(r + d * c2 - c2, 2)) / n;
+  }
+  return value;
+}
+
 double Value(NamedValues& info, const std::string& name) {
   for (const auto& [k, v] : info)
     if (k == name) return v;
@@ -160,21 +182,11 @@ TEST(BaselineLoss, GcivlWithConstantHeads) {
   MsprOptions o = SmallOptions("gcivl");
   auto agent = std::make_shared<GcivlAgent>(o);
   const double c1 = -3.0, c2 = -5.0;
-  MakeConstant(agent->v1, c1);
-  MakeConstant(agent->v2, c2);
-  MakeConstant(agent->target_v1, c1);
-  MakeConstant(agent->target_v2, c2);
+  MakeTwinConstant(agent->v1, agent->v2, agent->target_v1, agent->target_v2, c1, c2);
   const TransitionBatch b = HandBatch(8);
   NamedValues info;
   const double loss = agent->Loss(b, &info).item<double>();
-  // By hand: q_i = r + d c_i; adv = r + d min(c) - (c1 + c2) / 2; weight 0.9 when adv >= 0.
-  double value = 0;
-  for (int i = 0; i < 8; ++i) {
-    const double r = b.ret[i].item<double>(), d = b.discount[i].item<double>();
-    const double adv = r + d * std::min(c1, c2) - (c1 + c2) / 2;
-    const double w = adv >= 0 ? 0.9 : 0.1;
-    value += w * (std::pow(r + d * c1 - c1, 2) + std::pow(r + d * c2 - c2, 2)) / 8;
-  }
+  const double value = TwinExpectileByHand(b, c1, c2, 0.9);
   EXPECT_NEAR(Value(info, "value"), value, 1e-5);
   // Constant V: every advantage is 0, every AWR weight exp(0) = 1: the actor loss is the NLL.
   const torch::Tensor mu = agent->actor->Mean(torch::cat({b.obs, b.actor_goal}, -1));
@@ -268,21 +280,11 @@ TEST(BaselineLoss, HiqlWithConstantHeads) {
   MsprOptions o = SmallOptions("hiql");
   auto agent = std::make_shared<HiqlAgent>(o);
   const double c1 = -3.0, c2 = -7.0;
-  MakeConstant(agent->v1, c1);
-  MakeConstant(agent->v2, c2);
-  MakeConstant(agent->target_v1, c1);
-  MakeConstant(agent->target_v2, c2);
+  MakeTwinConstant(agent->v1, agent->v2, agent->target_v1, agent->target_v2, c1, c2);
   const TransitionBatch b = HandBatch(8);
   NamedValues info;
   agent->Loss(b, &info);
-  double value = 0;
-  for (int i = 0; i < 8; ++i) {
-    const double r = b.ret[i].item<double>(), d = b.discount[i].item<double>();
-    const double adv = r + d * std::min(c1, c2) - (c1 + c2) / 2;
-    const double w = adv >= 0 ? 0.7 : 0.3;  // expectile 0.7
-    value += w * (std::pow(r + d * c1 - c1, 2) + std::pow(r + d * c2 - c2, 2)) / 8;
-  }
-  EXPECT_NEAR(Value(info, "value"), value, 1e-5);
+  EXPECT_NEAR(Value(info, "value"), TwinExpectileByHand(b, c1, c2, 0.7), 1e-5);  // expectile 0.7
   // Constant V: both advantages 0, weights 1: the actors' losses are their NLLs.
   const torch::Tensor low_in = torch::cat({b.obs, agent->GoalRep(b.obs, b.low_goal)}, -1);
   EXPECT_NEAR(Value(info, "low_actor"), Nll(b.action, agent->low_actor->Mean(low_in)).mean().item<double>(), 1e-4);
@@ -359,10 +361,7 @@ TEST(BaselineGradients, HiqlLowActorTrainsTheRepresentationOnlyWhenAsked) {
     o.baseline.low_actor_rep_grad = rep_grad;
     auto agent = std::make_shared<HiqlAgent>(o);
     // Constant value heads: the value loss gives the representation no gradient.
-    MakeConstant(agent->v1, -1.0);
-    MakeConstant(agent->v2, -1.0);
-    MakeConstant(agent->target_v1, -1.0);
-    MakeConstant(agent->target_v2, -1.0);
+    MakeTwinConstant(agent->v1, agent->v2, agent->target_v1, agent->target_v2, -1.0, -1.0);
     const auto g = Grads(*agent, HandBatch(8, 2));
     double rep = 0;
     for (const auto& [key, t] : g)

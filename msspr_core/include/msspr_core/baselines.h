@@ -92,6 +92,9 @@ class GcAgentImpl : public torch::nn::Module {
   // logit for crl. Only gcivl, gciql and hiql are in return units.
   virtual torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                               const torch::Tensor& goal);
+  // How many steps ahead the batch's subgoals lie (HIQL's k; 0: the agent
+  // needs none, and the trainer samples no subgoals).
+  virtual int SubgoalSteps() const { return 0; }
   // Parameters the optimiser updates (targets excluded).
   std::vector<torch::Tensor> TrainableParameters();
   // The target networks (empty when none), for checks.
@@ -100,6 +103,8 @@ class GcAgentImpl : public torch::nn::Module {
  protected:
   // Polyak average target <- tau * online + (1 - tau) * target.
   void Polyak(torch::nn::Module& target, const torch::nn::Module& online);
+  // A target network starts as a copy of its online network and takes no gradient.
+  static void InitTarget(torch::nn::Module& target, const torch::nn::Module& online);
   // concat[a, b] along the last dimension.
   static torch::Tensor Cat(const torch::Tensor& a, const torch::Tensor& b);
   // MLP sizes {in, hidden x layers, out}.
@@ -118,34 +123,44 @@ std::shared_ptr<GcAgentImpl> MakeAgent(const MsprOptions& options);
 
 // --- The agents (public for tests) --------------------------------------------
 
-class GcbcAgent : public GcAgentImpl {
+// The agents with one actor pi(a | [s, g]) (all but HIQL): they act with its
+// mean, clipped to [-1, 1].
+class GcActorAgent : public GcAgentImpl {
+ public:
+  using GcAgentImpl::GcAgentImpl;
+  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+
+  GaussianActor actor{nullptr};  // "actor": pi(a | [s, g])
+
+ protected:
+  // Builds and registers `actor`; each constructor calls it last, after the
+  // value networks (their initialisation draws come first).
+  void RegisterActor();
+};
+
+class GcbcAgent : public GcActorAgent {
  public:
   explicit GcbcAgent(const MsprOptions& o);
   std::vector<std::string> LossNames() const override { return {"actor", "mse"}; }
   torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
-  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
   bool has_value() const override { return false; }
-
-  GaussianActor actor{nullptr};  // pi(a | [s, g])
 };
 
-class GcivlAgent : public GcAgentImpl {
+class GcivlAgent : public GcActorAgent {
  public:
   explicit GcivlAgent(const MsprOptions& o);
   std::vector<std::string> LossNames() const override { return {"value", "v", "actor", "adv"}; }
   torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
   void UpdateTargets() override;
-  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
   std::vector<torch::nn::Module*> Targets() override { return {target_v1.get(), target_v2.get()}; }
 
   OgMlp v1{nullptr}, v2{nullptr};                // V_e([s, g])
   OgMlp target_v1{nullptr}, target_v2{nullptr};  // Polyak copies
-  GaussianActor actor{nullptr};
 };
 
-class GciqlAgent : public GcAgentImpl {
+class GciqlAgent : public GcActorAgent {
  public:
   explicit GciqlAgent(const MsprOptions& o);
   std::vector<std::string> LossNames() const override {
@@ -153,7 +168,6 @@ class GciqlAgent : public GcAgentImpl {
   }
   torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
   void UpdateTargets() override;
-  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
   std::vector<torch::nn::Module*> Targets() override { return {target_q1.get(), target_q2.get()}; }
@@ -163,17 +177,15 @@ class GciqlAgent : public GcAgentImpl {
   OgMlp v{nullptr};                              // V([s, g])
   OgMlp q1{nullptr}, q2{nullptr};                // Q_e([s, g, a])
   OgMlp target_q1{nullptr}, target_q2{nullptr};  // Polyak copies
-  GaussianActor actor{nullptr};
 };
 
-class QrlAgent : public GcAgentImpl {
+class QrlAgent : public GcActorAgent {
  public:
   explicit QrlAgent(const MsprOptions& o);
   std::vector<std::string> LossNames() const override {
     return {"value", "d_neg", "d_pos", "constraint", "lambda", "dyn", "actor", "q_loss", "bc"};
   }
   torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
-  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
   // The quasimetric between latents: [B, latent] x2 -> [B].
@@ -185,17 +197,15 @@ class QrlAgent : public GcAgentImpl {
   OgMlp dynamics{nullptr};      // f([z, a]) -> latent residual
   torch::Tensor alpha_raw;      // IQE mix sigmoid(alpha_raw), init 0
   torch::Tensor log_lambda;     // Lagrange multiplier, init 0
-  GaussianActor actor{nullptr};
 };
 
-class CrlAgent : public GcAgentImpl {
+class CrlAgent : public GcActorAgent {
  public:
   explicit CrlAgent(const MsprOptions& o);
   std::vector<std::string> LossNames() const override {
     return {"critic", "logits_pos", "logits_neg", "accuracy", "actor", "q_loss", "bc"};
   }
   torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
-  torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
   // All pairs' logits of ensemble member e: [B, B], row i = (s_i, a_i), column j = g_j.
@@ -204,7 +214,6 @@ class CrlAgent : public GcAgentImpl {
 
   OgMlp phi1{nullptr}, phi2{nullptr};  // phi_e([s, a])
   OgMlp psi1{nullptr}, psi2{nullptr};  // psi_e(g)
-  GaussianActor actor{nullptr};
 };
 
 class HiqlAgent : public GcAgentImpl {
@@ -219,6 +228,7 @@ class HiqlAgent : public GcAgentImpl {
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
   std::vector<torch::nn::Module*> Targets() override { return {target_v1.get(), target_v2.get()}; }
+  int SubgoalSteps() const override { return options_.baseline.subgoal_steps; }
   // phi([s; g]) length-normalised to sqrt(rep_dim): [B, rep_dim].
   torch::Tensor GoalRep(const torch::Tensor& obs, const torch::Tensor& goal);
   // [B, 2] V_e(s, phi([s; g])) of the online (target = false) or target heads.

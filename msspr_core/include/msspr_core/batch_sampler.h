@@ -22,6 +22,8 @@ struct TransitionIndices {
   std::vector<int64_t> actor_goal;  // [B] goal of the actor
   std::vector<float> ret;           // [B] n-step return R^(n) to value_goal, rewards in {-1, 0}
   std::vector<float> discount;      // [B] gamma^m, or 0 when the goal is reached within the n steps
+  // Sizes the per-row arrays above to `batch` (the subgoals stay as they are).
+  void Resize(int batch);
   // HIQL's subgoals (SampleOgbenchTransitions with subgoal_steps > 0; else empty):
   std::vector<int64_t> low_goal;     // [B] s_{min(t+k, end)}, the low actor's goal
   std::vector<int64_t> high_goal;    // [B] the high actor's goal
