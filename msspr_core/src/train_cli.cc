@@ -51,6 +51,7 @@ const char kUsage[] =
     "  --seed S           random seed (default 0)\n"
     "  --eval-every N     validation period in steps (0: never)\n"
     "  --checkpoint-every N  checkpoint period in steps (0: only at the end)\n"
+    "  --export-every N   also export DIR/policy_step<N>.pt every N steps (learning curves)\n"
     "  --log-every N      progress / metrics period in steps\n"
     "  --time-limit S     stop after S seconds of wall time (then the final evaluation,\n"
     "                     checkpoint and export); 0: none\n"
@@ -92,7 +93,7 @@ std::string Usage(const TrainCliExtensions& ext) {
 // Neither changes what is learned: the run's length and schedule of side
 // work, threads, output, and the in-simulator evaluation (ROS msspr_train).
 const std::set<std::string> kResumeMayChange = {
-    "steps",     "time-limit", "eval-every",    "checkpoint-every", "log-every",
+    "steps",     "time-limit", "eval-every",    "checkpoint-every", "export-every", "log-every",
     "threads",   "quiet",      "eval-episodes", "eval-tasks",       "eval-seed",
     "eval-maze", "eval-max-steps", "rank",          "master",           "dist-timeout"};
 const char kResumeRule[] =
@@ -155,7 +156,7 @@ void WriteRunRecord(const std::string& path, const RunRecord& r) {
 
 int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   static const std::set<std::string> kValued = {"data", "val", "out", "preset", "agent", "scale", "obs-mode", "steps",
-                                                "batch", "device", "seed", "eval-every", "checkpoint-every",
+                                                "batch", "device", "seed", "eval-every", "checkpoint-every", "export-every",
                                                 "log-every", "time-limit", "threads", "world-size", "rank",
                                                 "master", "dist-timeout"};
   RunRecord given;
@@ -258,7 +259,7 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     return 1;
   }
   auto flag = [&run](const std::string& k) { return run.flags.count(k) ? run.flags.at(k) : std::string(); };
-  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1, log_every = -1,
+  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1, export_every = -1, log_every = -1,
             time_limit = -1;
   try {
     auto number = [&](const std::string& k, long long lo, long long hi, long long* v) {
@@ -269,6 +270,7 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     number("seed", 0, LLONG_MAX, &seed);
     number("eval-every", 0, INT_MAX, &eval_every);
     number("checkpoint-every", 0, INT_MAX, &ckpt_every);
+    number("export-every", 0, INT_MAX, &export_every);
     number("log-every", 1, INT_MAX, &log_every);
     number("time-limit", 0, 1LL << 40, &time_limit);
     number("threads", 0, 4096, &threads);
@@ -312,6 +314,7 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     if (seed >= 0 && !from_checkpoint) options.trainer.seed = static_cast<uint64_t>(seed);
     if (eval_every >= 0) options.trainer.eval_every = static_cast<int>(eval_every);
     if (ckpt_every >= 0) options.trainer.checkpoint_every = static_cast<int>(ckpt_every);
+    if (export_every >= 0) options.trainer.export_every = static_cast<int>(export_every);
     if (log_every > 0) options.trainer.log_every = static_cast<int>(log_every);
     if (time_limit >= 0) options.trainer.time_limit_s = static_cast<double>(time_limit);
     if (!obs_mode.empty()) options.network.obs_mode = obs_mode;

@@ -974,6 +974,9 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     if (!loop.out_dir.empty() && t.checkpoint_every > 0 && step_ % t.checkpoint_every == 0) {
       SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
     }
+    if (writer && !loop.out_dir.empty() && t.export_every > 0 && step_ % t.export_every == 0) {
+      ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + ".pt");
+    }
   }
   if (!quiet) bar.Finish();
   if (evaluator && (t.eval_every <= 0 || step_ % t.eval_every != 0)) run_eval();

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <random>
 
+#include "msspr_core/policy.h"
 #include "msspr_core/trainer.h"
 #include "test_util.h"
 #include "torch_test_util.h"
@@ -218,6 +219,31 @@ TEST(CheckpointTest, NonFiniteWeightsNeverOverwriteTheLastGoodCheckpoint) {
   }
   EXPECT_FALSE(std::filesystem::exists(out.File("checkpoint.ckpt")));
   EXPECT_FALSE(std::filesystem::exists(out.File("policy.pt")));
+}
+
+// trainer.export_every writes policy_step<N>.pt beside the final export; the
+// last one is the final policy, and the others load and differ from it.
+TEST(CheckpointTest, ExportEveryWritesLoadableStepExports) {
+  TempDir out;
+  auto data = RandomStateDataset();
+  MsprOptions o = ResumeOptions();
+  o.trainer.steps = 6;
+  o.trainer.export_every = 3;
+  Trainer t(o, data);
+  TrainLoopOptions loop;
+  loop.out_dir = out.path();
+  loop.quiet = true;
+  t.Train(loop, nullptr);
+  ASSERT_TRUE(std::filesystem::exists(out.File("policy_step3.pt")));
+  ASSERT_TRUE(std::filesystem::exists(out.File("policy_step6.pt")));
+  EXPECT_FALSE(std::filesystem::exists(out.File("policy_step0.pt")));
+  Policy last = Policy::Load(out.File("policy_step6.pt"));
+  const torch::Tensor obs = torch::randn({5, last.obs_dim()});
+  const torch::Tensor goal = torch::randn({5, last.obs_dim()});
+  Policy final_export = Policy::Load(out.File("policy.pt"));
+  Policy early = Policy::Load(out.File("policy_step3.pt"));
+  EXPECT_TRUE(torch::equal(last.Act(obs, goal), final_export.Act(obs, goal)));
+  EXPECT_FALSE(torch::equal(early.Act(obs, goal), final_export.Act(obs, goal)));
 }
 
 TEST(CheckpointTest, RunDirLockAdmitsOneRun) {

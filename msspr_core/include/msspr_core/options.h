@@ -183,6 +183,8 @@ struct TrainerOptions {
   int log_every = 100;             // progress / CSV row period (steps)
   int eval_every = 0;              // evaluator period (steps); 0 = never
   int checkpoint_every = 0;        // checkpoint period (steps); 0 = only at the end
+  int export_every = 0;            // period (steps) of extra inference exports
+                                   // out_dir/policy_step<N>.pt (learning curves); 0 = none
   double time_limit_s = 0;         // stop Train() after this wall time (s) of the run; 0 = none
   std::string precision = "fp32";  // "fp32", or "bf16": matrix products and convolutions in
                                    // bfloat16 (autocast: LayerNorm, losses, optimiser in fp32)
@@ -203,6 +205,7 @@ struct TrainerOptions {
     v("log_every", log_every);
     v("eval_every", eval_every);
     v("checkpoint_every", checkpoint_every);
+    v("export_every", export_every);
     v("time_limit_s", time_limit_s);
     v("precision", precision);
     v("pipeline", pipeline);

@@ -1,6 +1,7 @@
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 
+#include <cstdio>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -16,9 +17,11 @@ std::string EglError(const char* what) {
   return std::string("EGL: ") + what + " failed (error " + buf + ")";
 }
 
-// The surfaceless display is shared by every context of the process; it is
-// initialised once and never terminated (eglTerminate would destroy the
-// contexts of the other PointMaze instances).
+// The display is shared by every context of the process; it is initialised
+// once and never terminated (eglTerminate would destroy the contexts of the
+// other PointMaze instances). Mesa's surfaceless platform first (llvmpipe or
+// a Mesa GPU driver); where that is missing or fails (NVIDIA's EGL), the
+// first EGL device that initialises (EGL_EXT_platform_device).
 EGLDisplay SharedDisplay() {
   static std::once_flag once;
   static EGLDisplay display = EGL_NO_DISPLAY;
@@ -30,17 +33,28 @@ EGLDisplay SharedDisplay() {
       error = "EGL: eglGetPlatformDisplayEXT is not available";
       return;
     }
-    EGLDisplay d = get_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
-    if (d == EGL_NO_DISPLAY) {
-      error = EglError("eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA)");
-      return;
-    }
     EGLint major = 0, minor = 0;
-    if (eglInitialize(d, &major, &minor) != EGL_TRUE) {
-      error = EglError("eglInitialize");
+    EGLDisplay d = get_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    if (d != EGL_NO_DISPLAY && eglInitialize(d, &major, &minor) == EGL_TRUE) {
+      display = d;
       return;
     }
-    display = d;
+    error = EglError(d == EGL_NO_DISPLAY ? "eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA)"
+                                         : "eglInitialize (surfaceless)");
+    auto query_devices =
+        reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+    if (query_devices == nullptr) return;
+    EGLDeviceEXT devices[16];
+    EGLint n = 0;
+    if (query_devices(16, devices, &n) != EGL_TRUE) return;
+    for (EGLint i = 0; i < n; ++i) {
+      d = get_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
+      if (d != EGL_NO_DISPLAY && eglInitialize(d, &major, &minor) == EGL_TRUE) {
+        display = d;
+        return;
+      }
+    }
+    error += "; and none of " + std::to_string(n) + " EGL devices initialised";
   });
   if (display == EGL_NO_DISPLAY) throw std::runtime_error(error);
   return display;
