@@ -1,0 +1,102 @@
+// OGBench's cube-single environment on the URDF arm: the 5-D action, the
+// IK-driven servo targets, 25 x 2 ms physics steps per action, the 28-D
+// state observation and the success rule (../shared/docs/manipulation.md,
+// sections 3 to 5). Task resets, goal observations and rendering are not
+// here yet (issue 11).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <array>
+#include <memory>
+#include <string>
+
+#include "msspr_sim/arm_ik.h"
+#include "msspr_sim/arm_model.h"
+#include "msspr_sim/cube_scene.h"
+
+namespace msspr::sim {
+
+struct CubeEnvOptions {
+  std::string urdf_path;  // the arm (msspr_sim/urdf/ur5e_2f85.urdf); required
+  CubeSceneOptions scene;
+  ArmIkOptions ik;
+  int substeps = 25;  // physics steps per action (0.05 s at 2 ms)
+  // Action scale: pinch dx, dy, dz (m), dyaw (rad), dopening per unit action.
+  std::array<double, 5> action_scale{0.05, 0.05, 0.05, 0.3, 1.0};
+  // The pinch target is clipped to this box each step (m).
+  Eigen::Vector3d pinch_low{0.25, -0.35, 0.02};
+  Eigen::Vector3d pinch_high{0.60, 0.35, 0.35};
+  double success_distance = 0.04;  // m, cube centre to goal centre
+};
+
+class CubeEnv {
+ public:
+  static constexpr int kObservationSize = 28;
+  static constexpr int kActionSize = 5;
+  using Observation = std::array<float, kObservationSize>;
+  using Action = std::array<double, kActionSize>;
+
+  // Parses the URDF, generates and compiles the scene. Throws UrdfError for
+  // a bad URDF and std::runtime_error when MuJoCo rejects the scene. The arm
+  // starts at OGBench's home joints, gripper open, the cube at (0.3, 0, 0.02).
+  explicit CubeEnv(const CubeEnvOptions& options);
+  ~CubeEnv();
+  CubeEnv(const CubeEnv&) = delete;
+  CubeEnv& operator=(const CubeEnv&) = delete;
+
+  // One control step: the action (not clipped; callers clip to [-1, 1], as
+  // OGBench's) moves the target pinch pose from the measured one, the IK
+  // turns it into arm servo targets, then `substeps` physics steps run.
+  // Returns whether the cube is within success_distance of the goal after it.
+  bool Step(const Action& action);
+
+  // The 28-D state: arm q (6), arm qdot (6), 10 (pinch - c) (3), cos / sin of
+  // the pinch yaw (2), 3 x opening (1), pad contact in [0, 1] (1),
+  // 10 (cube - c) (3), cube quaternion wxyz (4), cos / sin of the cube yaw
+  // (2); c = (0.425, 0, 0). float32, as OGBench's.
+  Observation GetObservation() const;
+
+  // State setters, each followed by mj_forward. Arm joints [6] (rad), with
+  // zero velocity and servo targets equal to them; the gripper opening in
+  // [0, 1]; the cube centre (m) and yaw (rad) at rest; the goal centre (m).
+  void SetArmJoints(const Eigen::Matrix<double, 6, 1>& q);
+  // Solves the IK from the home joints for the pinch at `position` pointing
+  // down with `yaw` (OGBench's initial placement); returns whether it converged.
+  bool PlacePinch(const Eigen::Vector3d& position, double yaw);
+  void SetOpening(double opening);
+  void SetCube(const Eigen::Vector3d& position, double yaw);
+  void SetGoal(const Eigen::Vector3d& position);
+
+  Eigen::Vector3d PinchPosition() const;
+  // ZYX yaw of the pinch frame, atan2(2 (wz + xy), 1 - 2 (y^2 + z^2)).
+  double PinchYaw() const;
+  // clip(finger travel / gripper travel, 0, 1): 0 open, 1 closed.
+  double Opening() const;
+  Eigen::Vector3d CubePosition() const;
+  Eigen::Vector3d GoalPosition() const;
+  bool Success() const;
+  Eigen::Matrix<double, 6, 1> ArmJoints() const;
+  // Whether the last Step's IK met its tolerances.
+  bool last_ik_converged() const { return last_ik_converged_; }
+
+  const ArmModel& arm() const { return *arm_; }
+  const std::string& mjcf() const { return mjcf_; }
+
+ private:
+  struct Impl;
+  CubeEnvOptions options_;
+  std::unique_ptr<ArmModel> arm_;
+  std::unique_ptr<ArmIk> ik_;
+  std::string mjcf_;
+  std::unique_ptr<Impl> impl_;
+  Eigen::Isometry3d pinch_to_flange_;
+  bool last_ik_converged_ = true;
+};
+
+// The target orientation of OGBench's cube tasks: Rz(yaw) Rx(pi), the tool
+// pointing straight down.
+Eigen::Matrix3d PinchDownRotation(double yaw);
+
+}  // namespace msspr::sim

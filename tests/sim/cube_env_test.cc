@@ -1,0 +1,158 @@
+#include "msspr_sim/cube_env.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+namespace msspr::sim {
+namespace {
+
+CubeEnvOptions Options() {
+  CubeEnvOptions o;
+  o.urdf_path = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
+  return o;
+}
+
+// A proportional controller to a pinch position, as OGBench's oracles write
+// actions: (target - current) / scale, clipped to [-1, 1].
+CubeEnv::Action Toward(const CubeEnv& env, const Eigen::Vector3d& target, double grip) {
+  CubeEnv::Action a{};
+  const Eigen::Vector3d d = (target - env.PinchPosition()) / 0.05;
+  for (int i = 0; i < 3; ++i) a[i] = std::clamp(d[i], -1.0, 1.0);
+  a[3] = std::clamp(-env.PinchYaw() / 0.3, -1.0, 1.0);  // hold yaw 0
+  a[4] = grip;
+  return a;
+}
+
+TEST(CubeEnvTest, ObservationLayout) {
+  CubeEnv env(Options());
+  env.SetCube(Eigen::Vector3d(0.40, -0.1, 0.02), 0.7);
+  env.SetOpening(0.5);
+  const CubeEnv::Observation o = env.GetObservation();
+  const double home[] = {-M_PI / 2, -M_PI / 2, M_PI / 2, -M_PI / 2, -M_PI / 2, 0};
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_FLOAT_EQ(o[i], static_cast<float>(home[i]));
+    EXPECT_EQ(o[6 + i], 0.0f);
+  }
+  // Home pinch (0.492, 0.134, 0.332) pointing down with yaw 0; c = (0.425, 0, 0).
+  EXPECT_NEAR(o[12], 10 * (0.492 - 0.425), 5e-3);
+  EXPECT_NEAR(o[13], 10 * 0.134, 5e-3);
+  EXPECT_NEAR(o[14], 10 * 0.332, 5e-3);
+  EXPECT_NEAR(o[15], 1.0, 1e-6);
+  EXPECT_NEAR(o[16], 0.0, 1e-6);
+  EXPECT_FLOAT_EQ(o[17], 1.5f);
+  EXPECT_EQ(o[18], 0.0f);
+  EXPECT_NEAR(o[19], 10 * (0.40 - 0.425), 1e-6);
+  EXPECT_NEAR(o[20], -1.0, 1e-6);
+  EXPECT_NEAR(o[21], 0.2, 1e-6);
+  EXPECT_NEAR(o[22], std::cos(0.35), 1e-6);
+  EXPECT_EQ(o[23], 0.0f);
+  EXPECT_EQ(o[24], 0.0f);
+  EXPECT_NEAR(o[25], std::sin(0.35), 1e-6);
+  EXPECT_NEAR(o[26], std::cos(0.7), 1e-6);
+  EXPECT_NEAR(o[27], std::sin(0.7), 1e-6);
+}
+
+TEST(CubeEnvTest, PlacePinchPointsDownAtTheTarget) {
+  CubeEnv env(Options());
+  for (double yaw : {-2.5, -0.4, 0.0, 1.0, 3.0}) {
+    const Eigen::Vector3d p(0.3 + 0.05 * yaw, 0.1 * std::sin(yaw), 0.25);
+    ASSERT_TRUE(env.PlacePinch(p, yaw)) << yaw;
+    // IK tolerances are on the flange: 1e-4 m plus 1e-4 rad x 0.156 m.
+    EXPECT_LT((env.PinchPosition() - p).norm(), 2e-4) << yaw;
+    EXPECT_NEAR(std::remainder(env.PinchYaw() - yaw, 2 * M_PI), 0.0, 2e-4) << yaw;
+  }
+}
+
+TEST(CubeEnvTest, SuccessIsWithinFourCentimetres) {
+  CubeEnv env(Options());
+  env.SetCube(Eigen::Vector3d(0.45, 0.1, 0.02), 0.0);
+  env.SetGoal(Eigen::Vector3d(0.45, 0.139, 0.02));
+  EXPECT_TRUE(env.Success());
+  env.SetGoal(Eigen::Vector3d(0.45, 0.141, 0.02));
+  EXPECT_FALSE(env.Success());
+  EXPECT_EQ(env.GoalPosition().y(), 0.141);
+  EXPECT_FALSE(env.Step(CubeEnv::Action{}));
+  env.SetGoal(env.CubePosition());
+  EXPECT_TRUE(env.Step(CubeEnv::Action{}));
+}
+
+// The action moves the measured pinch pose (manipulation.md section 3; the
+// [M] figures of a 2.2.2 re-creation: ~2.1 cm per full +x step, ~0.066 rad
+// per full yaw step, ~1.3 mm sag per zero step).
+TEST(CubeEnvTest, ActionsMoveThePinch) {
+  CubeEnv env(Options());
+  ASSERT_TRUE(env.PlacePinch(Eigen::Vector3d(0.30, 0.0, 0.25), 0.0));
+  Eigen::Vector3d start = env.PinchPosition();
+  for (int t = 0; t < 10; ++t) env.Step({0, 0, 0, 0, 0});
+  const double sag = (start.z() - env.PinchPosition().z()) / 10;
+  start = env.PinchPosition();
+  for (int t = 0; t < 5; ++t) {
+    env.Step({1, 0, 0, 0, 0});
+    EXPECT_TRUE(env.last_ik_converged());
+  }
+  const Eigen::Vector3d moved = env.PinchPosition() - start;
+  double yaw_start = env.PinchYaw();
+  for (int t = 0; t < 5; ++t) env.Step({0, 0, 0, 1, 0});
+  const double yaw_rate = (env.PinchYaw() - yaw_start) / 5;
+  std::printf("zero action: %.2f mm sag per step; +x: %.2f cm per step (y %.2f, z %.2f cm in 5 "
+              "steps); +yaw: %.3f rad per step\n",
+              1000 * sag, 100 * moved.x() / 5, 100 * moved.y(), 100 * moved.z(), yaw_rate);
+  EXPECT_GE(sag, 0.0);
+  EXPECT_LT(sag, 0.005);
+  EXPECT_GT(moved.x() / 5, 0.01);
+  EXPECT_LT(moved.x() / 5, 0.05);
+  EXPECT_LT(std::abs(moved.y()), 0.01);
+  EXPECT_LT(std::abs(moved.z()), 0.02);
+  EXPECT_GT(yaw_rate, 0.02);
+  EXPECT_LT(yaw_rate, 0.3);
+  // The target is clipped to the workspace (x <= 0.60).
+  for (int t = 0; t < 40; ++t) env.Step({1, 0, 0, 0, 0});
+  EXPECT_LT(env.PinchPosition().x(), 0.605);
+  EXPECT_GT(env.PinchPosition().x(), 0.55);
+}
+
+TEST(CubeEnvTest, GripperClosesAndOpens) {
+  CubeEnv env(Options());
+  ASSERT_TRUE(env.PlacePinch(Eigen::Vector3d(0.40, 0.0, 0.25), 0.0));
+  std::string closing, opening;
+  for (int t = 0; t < 8; ++t) {
+    env.Step({0, 0, 0, 0, 1});
+    closing += " " + std::to_string(env.Opening()).substr(0, 4);
+  }
+  EXPECT_GT(env.Opening(), 0.9);
+  EXPECT_NEAR(env.GetObservation()[17], 3 * env.Opening(), 1e-6);
+  for (int t = 0; t < 8; ++t) {
+    env.Step({0, 0, 0, 0, -1});
+    opening += " " + std::to_string(env.Opening()).substr(0, 4);
+  }
+  EXPECT_LT(env.Opening(), 0.1);
+  std::printf("opening per step, closing:%s; opening:%s\n", closing.c_str(), opening.c_str());
+}
+
+// A scripted pick: above the cube, down to its centre, close, lift.
+TEST(CubeEnvTest, GraspsAndLiftsTheCube) {
+  CubeEnv env(Options());
+  const Eigen::Vector3d cube(0.45, 0.05, 0.02);
+  env.SetCube(cube, 0.0);
+  ASSERT_TRUE(env.PlacePinch(cube + Eigen::Vector3d(0, 0, 0.12), 0.0));
+  for (int t = 0; t < 20; ++t) env.Step(Toward(env, cube, -1));
+  EXPECT_LT((env.PinchPosition() - cube).norm(), 0.01) << env.PinchPosition().transpose();
+  for (int t = 0; t < 8; ++t) env.Step(Toward(env, cube, 1));
+  const double held_opening = env.Opening();
+  for (int t = 0; t < 25; ++t) env.Step(Toward(env, cube + Eigen::Vector3d(0, 0, 0.2), 1));
+  const CubeEnv::Observation o = env.GetObservation();
+  std::printf("grasp: opening %.3f on the cube, cube lifted to z %.3f, contact %.2f\n",
+              held_opening, env.CubePosition().z(), o[18]);
+  EXPECT_GT(env.CubePosition().z(), 0.15);
+  EXPECT_LT((env.CubePosition() - env.PinchPosition()).norm(), 0.02);
+  // A 4 cm cube between the pads: travel (85 - 40) / 2 mm of 42.5 mm.
+  EXPECT_NEAR(held_opening, 22.5 / 42.5, 0.05);
+  EXPECT_GT(o[18], 0.5f);
+}
+
+}  // namespace
+}  // namespace msspr::sim
