@@ -154,5 +154,90 @@ TEST(CubeEnvTest, GraspsAndLiftsTheCube) {
   EXPECT_GT(o[18], 0.5f);
 }
 
+TEST(CubeEnvTest, TaskResetsAreSeededAndFollowTheTasks) {
+  CubeEnv env(Options());
+  CubeEnv other(Options());
+  for (int task = 1; task <= 5; ++task) {
+    const CubeTask& t = CubeSingleTasks()[task - 1];
+    const CubeEnv::Observation o = env.ResetToTask(task, 100 + task);
+    EXPECT_EQ(env.episode_steps(), 0);
+    // Same seed, same episode, bit for bit (also on another env instance).
+    EXPECT_EQ(other.ResetToTask(task, 100 + task), o);
+    EXPECT_EQ(other.goal_observation(), env.goal_observation());
+    EXPECT_NE(other.ResetToTask(task, 200 + task), o);
+    // The cube at the start +- 1 cm, on the floor; the goal marker at the goal.
+    EXPECT_LE(std::abs(env.CubePosition().x() - t.start.x()), 0.01);
+    EXPECT_LE(std::abs(env.CubePosition().y() - t.start.y()), 0.01);
+    EXPECT_NEAR(env.CubePosition().z(), 0.02, 1e-9);
+    EXPECT_EQ(env.GoalPosition(), Eigen::Vector3d(t.goal.x(), t.goal.y(), 0.02));
+    EXPECT_FALSE(env.Success());
+    // The pinch in the initial-pose box (IK tolerance aside), pointing down.
+    const Eigen::Vector3d p = env.PinchPosition();
+    EXPECT_TRUE(p.x() > 0.249 && p.x() < 0.601 && std::abs(p.y()) < 0.351 && p.z() > 0.199 &&
+                p.z() < 0.351)
+        << p.transpose();
+    EXPECT_NEAR(o[17], 0.0, 1e-6);  // open
+    // The goal observation shows the cube at the goal, upright (index 19-22).
+    const auto& g = env.goal_observation();
+    EXPECT_NEAR(g[19], 10 * (t.goal.x() - 0.425), 1e-3);
+    EXPECT_NEAR(g[20], 10 * t.goal.y(), 1e-3);
+    EXPECT_NEAR(g[21], 0.2, 1e-3);
+    EXPECT_NEAR(g[22], 1.0, 1e-3);
+  }
+  EXPECT_THROW(env.ResetToTask(0, 1), std::out_of_range);
+  EXPECT_THROW(env.ResetToTask(6, 1), std::out_of_range);
+}
+
+// A closed-loop scripted pick and place (in the spirit of OGBench's markov
+// oracle) solves every evaluation task within the 200-step episode.
+TEST(CubeEnvTest, ScriptedPickAndPlaceSolvesEveryTask) {
+  CubeEnv env(Options());
+  for (int task = 1; task <= 5; ++task) {
+    env.ResetToTask(task, task);
+    const Eigen::Vector3d goal = env.GoalPosition();
+    int phase = 0, phase_steps = 0;
+    double grasp_yaw = 0;
+    while (!env.EpisodeOver()) {
+      const CubeEnv::Observation o = env.GetObservation();
+      const Eigen::Vector3d cube = env.CubePosition(), pinch = env.PinchPosition();
+      if (phase == 0) {
+        // The cube's yaw + k pi/2 nearest the pinch's.
+        const double cube_yaw = std::atan2(o[27], o[26]);
+        grasp_yaw = cube_yaw + std::round(std::remainder(env.PinchYaw() - cube_yaw, 2 * M_PI) /
+                                          (M_PI / 2)) * (M_PI / 2);
+      }
+      Eigen::Vector3d target;
+      double grip = -1;
+      switch (phase) {
+        case 0: target = cube + Eigen::Vector3d(0, 0, 0.1); break;
+        case 1: target = cube; break;
+        case 2: target = pinch; grip = 1; break;
+        case 3: target = Eigen::Vector3d(pinch.x(), pinch.y(), 0.15); grip = 1; break;
+        case 4: target = goal + Eigen::Vector3d(0, 0, 0.13); grip = 1; break;
+        case 5: target = goal; grip = 1; break;
+        default: target = pinch; grip = -1; break;
+      }
+      CubeEnv::Action a = Toward(env, target, grip);
+      a[3] = std::clamp(std::remainder(grasp_yaw - env.PinchYaw(), 2 * M_PI) / 0.3, -1.0, 1.0);
+      env.Step(a);
+      ++phase_steps;
+      const double err = (target - env.PinchPosition()).norm();
+      const bool next = (phase == 0 && err < 0.01 &&
+                         std::abs(std::remainder(grasp_yaw - env.PinchYaw(), 2 * M_PI)) < 0.05) ||
+                        (phase == 1 && err < 0.008) || (phase == 2 && phase_steps >= 6) ||
+                        (phase == 3 && env.PinchPosition().z() > 0.13) ||
+                        (phase == 4 && err < 0.01) || (phase == 5 && err < 0.01);
+      if (next) {
+        ++phase;
+        phase_steps = 0;
+      }
+    }
+    std::printf("task %d: %s after %d steps (phase %d), cube %.3f from the goal\n", task,
+                env.Success() ? "success" : "failure", env.episode_steps(), phase,
+                (env.CubePosition() - goal).norm());
+    EXPECT_TRUE(env.Success()) << "task " << task;
+  }
+}
+
 }  // namespace
 }  // namespace msspr::sim

@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "mujoco_util.h"
+#include "random_util.h"
 
 namespace msspr::sim {
 namespace {
@@ -28,6 +31,17 @@ int RequireId(const mjModel* m, mjtObj type, const std::string& name, const char
 }
 
 }  // namespace
+
+const std::array<CubeTask, 5>& CubeSingleTasks() {
+  static const std::array<CubeTask, 5> tasks = {{
+      {"horizontal", {0.425, 0.10}, {0.425, -0.10}},
+      {"vertical1", {0.35, 0.00}, {0.50, 0.00}},
+      {"vertical2", {0.50, 0.00}, {0.35, 0.00}},
+      {"diagonal1", {0.35, -0.20}, {0.50, 0.20}},
+      {"diagonal2", {0.35, 0.20}, {0.50, -0.20}},
+  }};
+  return tasks;
+}
 
 Eigen::Matrix3d PinchDownRotation(double yaw) {
   return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
@@ -209,7 +223,59 @@ bool CubeEnv::Step(const Action& action) {
   for (int k = 0; k < options_.substeps; ++k) mj_step(m, d);
   // cfrc_ext (the contact feature) is filled only by this call.
   mj_rnePostConstraint(m, d);
+  ++episode_steps_;
   return Success();
+}
+
+void CubeEnv::RandomizeArm(std::mt19937_64& rng) {
+  Eigen::Vector3d p;
+  for (int i = 0; i < 3; ++i)
+    p[i] = internal::Uniform(rng, options_.init_low[i], options_.init_high[i]);
+  const double yaw = internal::Uniform(rng, -M_PI, M_PI);
+  // Failing to converge in 20 iterations from home leaves a pose close to the
+  // target; OGBench goes on with it too.
+  PlacePinch(p, yaw);
+  SetOpening(0.0);
+}
+
+CubeEnv::Observation CubeEnv::ResetToTask(int task, uint64_t seed) {
+  if (task < 1 || task > static_cast<int>(CubeSingleTasks().size()))
+    throw std::out_of_range("CubeEnv::ResetToTask: task must be 1 to 5, got " +
+                            std::to_string(task));
+  const CubeTask& t = CubeSingleTasks()[task - 1];
+  const mjModel* m = impl_->model.get();
+  mjData* d = impl_->data.get();
+  std::mt19937_64 rng(internal::Mix64(seed));
+  mj_resetData(m, d);
+  const Eigen::Vector3d goal(t.goal.x(), t.goal.y(), 0.02);
+  SetGoal(goal);
+
+  // The goal observation: a random arm, the cube at rest at the goal, two
+  // random actions. Only the cube decides success; the rest is "a state
+  // with the cube there", as OGBench's goals are full observations.
+  RandomizeArm(rng);
+  SetCube(goal, 0.0);
+  const std::vector<mjtNum> qpos(d->qpos, d->qpos + m->nq), qvel(d->qvel, d->qvel + m->nv),
+      ctrl(d->ctrl, d->ctrl + m->nu), act(d->act, d->act + m->na);
+  const mjtNum time = d->time;
+  for (int k = 0; k < 2; ++k) {
+    Action a;
+    for (double& x : a) x = internal::Uniform(rng, -1.0, 1.0);
+    Step(a);
+  }
+  goal_observation_ = GetObservation();
+  std::copy(qpos.begin(), qpos.end(), d->qpos);
+  std::copy(qvel.begin(), qvel.end(), d->qvel);
+  std::copy(ctrl.begin(), ctrl.end(), d->ctrl);
+  std::copy(act.begin(), act.end(), d->act);
+  d->time = time;
+
+  RandomizeArm(rng);
+  const double dx = internal::Uniform(rng, -0.01, 0.01), dy = internal::Uniform(rng, -0.01, 0.01);
+  SetCube(Eigen::Vector3d(t.start.x() + dx, t.start.y() + dy, 0.02),
+          internal::Uniform(rng, 0.0, 2 * M_PI));
+  episode_steps_ = 0;
+  return GetObservation();
 }
 
 CubeEnv::Observation CubeEnv::GetObservation() const {

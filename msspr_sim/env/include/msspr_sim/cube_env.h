@@ -1,15 +1,17 @@
 // OGBench's cube-single environment on the URDF arm: the 5-D action, the
 // IK-driven servo targets, 25 x 2 ms physics steps per action, the 28-D
 // state observation and the success rule (../shared/docs/manipulation.md,
-// sections 3 to 5). Task resets, goal observations and rendering are not
-// here yet (issue 11).
+// sections 3 to 5), the five evaluation tasks and their seeded resets.
+// Rendering, collection resets and the play oracle are not here yet (issue 11).
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include <array>
+#include <cstdint>
 #include <memory>
+#include <random>
 #include <string>
 
 #include "msspr_sim/arm_ik.h"
@@ -29,7 +31,20 @@ struct CubeEnvOptions {
   Eigen::Vector3d pinch_low{0.25, -0.35, 0.02};
   Eigen::Vector3d pinch_high{0.60, 0.35, 0.35};
   double success_distance = 0.04;  // m, cube centre to goal centre
+  // Random initial pinch pose: position in this box (m), yaw U(-pi, pi).
+  Eigen::Vector3d init_low{0.25, -0.35, 0.20};
+  Eigen::Vector3d init_high{0.60, 0.35, 0.35};
+  int max_episode_steps = 200;
 };
+
+// One of OGBench's cube-single evaluation tasks: the cube centre's start and
+// goal xy (m); z is 0.02 for both.
+struct CubeTask {
+  const char* name;
+  Eigen::Vector2d start, goal;
+};
+// The 5 tasks of manipulation.md section 5 (task ids 1 to 5 are [0] to [4]).
+const std::array<CubeTask, 5>& CubeSingleTasks();
 
 class CubeEnv {
  public:
@@ -51,6 +66,22 @@ class CubeEnv {
   // turns it into arm servo targets, then `substeps` physics steps run.
   // Returns whether the cube is within success_distance of the goal after it.
   bool Step(const Action& action);
+
+  // Starts an evaluation episode of task `task` (1 to 5) as OGBench does,
+  // deterministically from `seed`: a random arm pose (PlacePinch at a random
+  // pinch pose, gripper open); the goal observation made by putting the cube
+  // at the goal (identity orientation) and taking two uniformly random
+  // actions; then the state restored, the arm re-randomised, and the cube at
+  // the task's start + U(-0.01, 0.01) in x and y, yaw U(0, 2 pi). The goal
+  // marker sits at the goal. Returns the first observation; throws
+  // std::out_of_range for a bad task id.
+  Observation ResetToTask(int task, uint64_t seed);
+  // The goal observation of the current episode (zeros before a reset).
+  const Observation& goal_observation() const { return goal_observation_; }
+  // Steps since the last reset; an episode ends on success or at
+  // max_episode_steps.
+  int episode_steps() const { return episode_steps_; }
+  bool EpisodeOver() const { return Success() || episode_steps_ >= options_.max_episode_steps; }
 
   // The 28-D state: arm q (6), arm qdot (6), 10 (pinch - c) (3), cos / sin of
   // the pinch yaw (2), 3 x opening (1), pad contact in [0, 1] (1),
@@ -91,8 +122,13 @@ class CubeEnv {
   std::unique_ptr<ArmIk> ik_;
   std::string mjcf_;
   std::unique_ptr<Impl> impl_;
+  // Random arm pose as at an episode start; gripper open.
+  void RandomizeArm(std::mt19937_64& rng);
+
   Eigen::Isometry3d pinch_to_flange_;
   bool last_ik_converged_ = true;
+  Observation goal_observation_{};
+  int episode_steps_ = 0;
 };
 
 // The target orientation of OGBench's cube tasks: Rz(yaw) Rx(pi), the tool
