@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 namespace msspr::sim {
 namespace {
@@ -237,6 +238,66 @@ TEST(CubeEnvTest, ScriptedPickAndPlaceSolvesEveryTask) {
                 (env.CubePosition() - goal).norm());
     EXPECT_TRUE(env.Success()) << "task " << task;
   }
+}
+
+// Red cube pixels (0.96, 0.26, 0.33): their count and centroid (row, col).
+struct RedBlob {
+  int count = 0;
+  double row = 0, col = 0;
+};
+RedBlob FindRed(const std::vector<uint8_t>& rgb, int size) {
+  RedBlob b;
+  for (int r = 0; r < size; ++r)
+    for (int c = 0; c < size; ++c) {
+      const uint8_t* p = &rgb[(static_cast<size_t>(r) * size + c) * 3];
+      if (p[0] > 120 && p[1] < 100 && p[2] < 110 && p[0] > 2 * p[1]) {
+        ++b.count;
+        b.row += r;
+        b.col += c;
+      }
+    }
+  if (b.count > 0) b.row /= b.count, b.col /= b.count;
+  return b;
+}
+
+// OGBench's pixel camera: image right is world +y, farther (smaller x) is
+// higher up (row 0 = top); the goal image is rendered with the goal state.
+TEST(CubeEnvTest, RendersFromTheFrontPixelsCamera) {
+  CubeEnvOptions options = Options();
+  options.enable_rendering = true;
+  options.scene.pixel_style = true;
+  CubeEnv env(options);
+  env.ResetToTask(2, 5);
+  const int s = 64;
+  const std::vector<uint8_t> image = env.Render();
+  ASSERT_EQ(image.size(), static_cast<size_t>(s * s * 3));
+  EXPECT_EQ(env.Render(), image) << "rendering must not change the state";
+  ASSERT_EQ(env.goal_image().size(), image.size());
+  EXPECT_NE(env.goal_image(), image);
+  EXPECT_GT(FindRed(env.goal_image(), s).count, 0);
+
+  env.SetArmJoints(Eigen::Matrix<double, 6, 1>::Zero());  // arm straight up, out of the way
+  env.SetCube(Eigen::Vector3d(0.40, -0.15, 0.02), 0.0);
+  const RedBlob left = FindRed(env.Render(), s);
+  env.SetCube(Eigen::Vector3d(0.40, 0.15, 0.02), 0.0);
+  const RedBlob right = FindRed(env.Render(), s);
+  env.SetCube(Eigen::Vector3d(0.30, 0.0, 0.02), 0.0);
+  const RedBlob far = FindRed(env.Render(), s);
+  env.SetCube(Eigen::Vector3d(0.55, 0.0, 0.02), 0.0);
+  const RedBlob near = FindRed(env.Render(), s);
+  env.SetCube(Eigen::Vector3d(3.0, 0.0, 0.02), 0.0);  // behind the camera
+  const RedBlob gone = FindRed(env.Render(), s);
+  std::printf("red cube pixels: y -0.15 at col %.1f, y +0.15 at col %.1f; x 0.30 at row %.1f, "
+              "x 0.55 at row %.1f; %d pixels at x 0.55\n",
+              left.col, right.col, far.row, near.row, near.count);
+  ASSERT_GT(left.count, 0);
+  ASSERT_GT(right.count, 0);
+  ASSERT_GT(far.count, 0);
+  ASSERT_GT(near.count, 0);
+  EXPECT_LT(left.col + 10, right.col);
+  EXPECT_LT(far.row + 3, near.row);
+  EXPECT_EQ(gone.count, 0);
+  EXPECT_THROW(CubeEnv(Options()).Render(), std::logic_error);
 }
 
 }  // namespace

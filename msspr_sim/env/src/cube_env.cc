@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "gl_context.h"
 #include "mujoco_util.h"
 #include "random_util.h"
 
@@ -61,6 +63,24 @@ struct CubeEnv::Impl {
   int pinch_site = -1;
   int contact_body = -1;  // the body of the right pad (OGBench's right_pad)
   int goal_mocap = -1;
+
+  // Rendering (only with enable_rendering); it reads the physics data.
+  std::unique_ptr<internal::GlContext> gl;
+  bool render_ready = false;
+  mjvScene scene;
+  mjvCamera camera;
+  mjvOption vopt;
+  mjrContext context;
+  std::vector<uint8_t> flip;  // [S, S, 3] scratch for the bottom-up read
+
+  ~Impl() {
+    if (render_ready) {
+      gl->MakeCurrent();
+      mjr_freeContext(&context);
+      mjv_freeScene(&scene);
+      gl->Release();
+    }
+  }
 };
 
 CubeEnv::CubeEnv(const CubeEnvOptions& options)
@@ -107,6 +127,34 @@ CubeEnv::CubeEnv(const CubeEnvOptions& options)
 
   SetArmJoints(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(kHome));
   SetOpening(0.0);
+
+  if (options.enable_rendering) {
+    const int size = options.image_size;
+    if (size < 1 || size > 4096)
+      throw std::invalid_argument("CubeEnvOptions: image_size must be in [1, 4096], got " +
+                                  std::to_string(size));
+    impl_->gl = std::make_unique<internal::GlContext>(size, size);
+    mjv_defaultScene(&impl_->scene);
+    mjv_defaultCamera(&impl_->camera);
+    // Default visibility: geom groups 0-2 (floor, cube, robot visuals);
+    // collision geoms and walls (3), sites (4) and a pixel-mode goal (5) hidden.
+    mjv_defaultOption(&impl_->vopt);
+    mjr_defaultContext(&impl_->context);
+    mjv_makeScene(m, &impl_->scene, 2000);
+    mjr_makeContext(m, &impl_->context, mjFONTSCALE_100);
+    mjr_setBuffer(mjFB_OFFSCREEN, &impl_->context);
+    if (impl_->context.currentBuffer != mjFB_OFFSCREEN) {
+      mjr_freeContext(&impl_->context);
+      mjv_freeScene(&impl_->scene);
+      throw std::runtime_error("MuJoCo: offscreen framebuffer is not available");
+    }
+    impl_->camera.type = mjCAMERA_FIXED;
+    impl_->camera.fixedcamid = RequireId(m, mjOBJ_CAMERA, options.camera, "camera");
+    impl_->flip.resize(static_cast<size_t>(size) * size * 3);
+    impl_->render_ready = true;
+    // Not left current: another thread may render with this env later.
+    impl_->gl->Release();
+  }
 }
 
 CubeEnv::~CubeEnv() = default;
@@ -264,6 +312,7 @@ CubeEnv::Observation CubeEnv::ResetToTask(int task, uint64_t seed) {
     Step(a);
   }
   goal_observation_ = GetObservation();
+  if (options_.enable_rendering) goal_image_ = Render();
   std::copy(qpos.begin(), qpos.end(), d->qpos);
   std::copy(qvel.begin(), qvel.end(), d->qvel);
   std::copy(ctrl.begin(), ctrl.end(), d->ctrl);
@@ -305,6 +354,34 @@ CubeEnv::Observation CubeEnv::GetObservation() const {
   o[26] = static_cast<float>(std::cos(cube_yaw));
   o[27] = static_cast<float>(std::sin(cube_yaw));
   return o;
+}
+
+}  // namespace msspr::sim
+
+namespace msspr::sim {
+
+void CubeEnv::Render(uint8_t* rgb) const {
+  if (!impl_->render_ready)
+    throw std::logic_error("CubeEnv::Render: construct with enable_rendering = true");
+  const mjModel* m = impl_->model.get();
+  mjData* d = impl_->data.get();
+  impl_->gl->MakeCurrent();
+  const int s = options_.image_size;
+  const mjrRect viewport = {0, 0, s, s};
+  mjv_updateScene(m, d, &impl_->vopt, nullptr, &impl_->camera, mjCAT_ALL, &impl_->scene);
+  mjr_render(viewport, &impl_->scene, &impl_->context);
+  mjr_readPixels(impl_->flip.data(), nullptr, viewport, &impl_->context);
+  impl_->gl->Release();
+  // mjr_readPixels gives the bottom row first; images are top row first.
+  const size_t row = static_cast<size_t>(s) * 3;
+  for (int r = 0; r < s; ++r)
+    std::memcpy(rgb + r * row, impl_->flip.data() + (s - 1 - r) * row, row);
+}
+
+std::vector<uint8_t> CubeEnv::Render() const {
+  std::vector<uint8_t> rgb(static_cast<size_t>(options_.image_size) * options_.image_size * 3);
+  Render(rgb.data());
+  return rgb;
 }
 
 }  // namespace msspr::sim

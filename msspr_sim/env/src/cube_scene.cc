@@ -166,11 +166,18 @@ class Generator {
       }
     } else {
       out << " group=\"2\" contype=\"0\" conaffinity=\"0\"";
-      if (material != nullptr) {
-        const auto& c = material->color;
-        out << " rgba=\"" << Num(c.r) << ' ' << Num(c.g) << ' ' << Num(c.b) << ' ' << Num(c.a)
-            << '"';
+      double rgba[4] = {0.5, 0.5, 0.5, 1.0};
+      if (material != nullptr)
+        rgba[0] = material->color.r, rgba[1] = material->color.g, rgba[2] = material->color.b,
+        rgba[3] = material->color.a;
+      if (options_.pixel_style) {
+        const std::string mat = material != nullptr ? material->name : "";
+        if (mat == options_.purple_materials[0] || mat == options_.purple_materials[1])
+          rgba[0] = 0.61, rgba[1] = 0.28, rgba[2] = 0.82;
+        rgba[3] = mat == options_.pad_material ? 0.5 : 0.1;
       }
+      out << " rgba=\"" << Num(rgba[0]) << ' ' << Num(rgba[1]) << ' ' << Num(rgba[2]) << ' '
+          << Num(rgba[3]) << '"';
     }
     out << "/>\n";
   }
@@ -242,7 +249,8 @@ class Generator {
       << "    </body>\n"
       << "    <body name=\"object_target_0\" mocap=\"true\" pos=\"0.425 0 0.02\">\n"
       << "      <geom name=\"goal\" type=\"box\" size=\"0.02 0.02 0.02\" contype=\"0\""
-         " conaffinity=\"0\" group=\"1\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
+         " conaffinity=\"0\" group=\"" << (options_.pixel_style ? 5 : 1)
+      << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
       << "    </body>\n"
       << "  </worldbody>\n";
 

@@ -1,8 +1,9 @@
 // OGBench's cube-single environment on the URDF arm: the 5-D action, the
 // IK-driven servo targets, 25 x 2 ms physics steps per action, the 28-D
 // state observation and the success rule (../shared/docs/manipulation.md,
-// sections 3 to 5), the five evaluation tasks and their seeded resets.
-// Rendering, collection resets and the play oracle are not here yet (issue 11).
+// sections 3 to 5), the five evaluation tasks and their seeded resets, and
+// headless camera images. Collection resets and the play oracle are not
+// here yet (issue 11).
 #pragma once
 
 #include <Eigen/Core>
@@ -13,6 +14,7 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "msspr_sim/arm_ik.h"
 #include "msspr_sim/arm_model.h"
@@ -35,6 +37,12 @@ struct CubeEnvOptions {
   Eigen::Vector3d init_low{0.25, -0.35, 0.20};
   Eigen::Vector3d init_high{0.60, 0.35, 0.35};
   int max_episode_steps = 200;
+  // Images: create a headless GL context; frames are [S, S, 3] uint8 from
+  // `camera` (front_pixels: OGBench's visual variant; set
+  // scene.pixel_style for its look, "front" for state-mode videos).
+  bool enable_rendering = false;
+  int image_size = 64;
+  std::string camera = "front_pixels";
 };
 
 // One of OGBench's cube-single evaluation tasks: the cube centre's start and
@@ -78,6 +86,14 @@ class CubeEnv {
   Observation ResetToTask(int task, uint64_t seed);
   // The goal observation of the current episode (zeros before a reset).
   const Observation& goal_observation() const { return goal_observation_; }
+  // With enable_rendering, the goal image of the current episode, rendered
+  // with the goal observation; empty otherwise or before a reset.
+  const std::vector<uint8_t>& goal_image() const { return goal_image_; }
+
+  // Renders the current state: [S, S, 3] uint8 HWC, row 0 = top,
+  // S = image_size. Throws std::logic_error unless enable_rendering.
+  void Render(uint8_t* rgb) const;
+  std::vector<uint8_t> Render() const;
   // Steps since the last reset; an episode ends on success or at
   // max_episode_steps.
   int episode_steps() const { return episode_steps_; }
@@ -128,6 +144,7 @@ class CubeEnv {
   Eigen::Isometry3d pinch_to_flange_;
   bool last_ik_converged_ = true;
   Observation goal_observation_{};
+  std::vector<uint8_t> goal_image_;
   int episode_steps_ = 0;
 };
 

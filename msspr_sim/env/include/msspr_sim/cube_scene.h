@@ -40,6 +40,13 @@ struct CubeSceneOptions {
   std::array<std::string, 2> pad_geoms{"left_pad", "right_pad"};
 
   double timestep = 0.002;  // s
+
+  // OGBench's pixel-mode look (visual-cube-single): robot visuals at alpha
+  // 0.1, the gripper's black and pad materials purple, the pads at alpha 0.5,
+  // and the goal marker hidden (geom group 5).
+  bool pixel_style = false;
+  std::array<std::string, 2> purple_materials{"gripper_black", "pad_grey"};
+  std::string pad_material = "pad_grey";
 };
 
 // Returns the scene's MJCF text. Throws UrdfError naming the URDF source and
