@@ -32,18 +32,20 @@ Eigen::VectorXd Uniform(std::mt19937_64& rng, int n, double half) {
 
 TEST(ArmIkTest, PoseErrorIsTheRotationVector) {
   Eigen::Isometry3d current = Eigen::Isometry3d::Identity();
-  current.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  current.linear() =
+      Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   current.translation() << 0.1, 0.2, 0.3;
   const Eigen::Vector3d w = Eigen::Vector3d(-0.3, 0.5, 0.2);
   Eigen::Isometry3d target = current;
-  target.linear() = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * current.linear();
+  target.linear() =
+      Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * current.linear();
   target.translation() += Eigen::Vector3d(0.01, -0.02, 0.03);
   const Eigen::Matrix<double, 6, 1> e = PoseError(target, current);
   EXPECT_LT((e.head<3>() - Eigen::Vector3d(0.01, -0.02, 0.03)).norm(), 1e-15);
   EXPECT_LT((e.tail<3>() - w).norm(), 1e-12);
   // Angles past pi wrap: a 1.5 pi turn is a -0.5 pi turn.
-  target.linear() = Eigen::AngleAxisd(1.5 * M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-                    current.linear();
+  target.linear() =
+      Eigen::AngleAxisd(1.5 * M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix() * current.linear();
   EXPECT_LT((PoseError(target, current).tail<3>() - Eigen::Vector3d(0, 0, -0.5 * M_PI)).norm(),
             1e-12);
 }

@@ -99,9 +99,10 @@ TEST(CubeEnvTest, ActionsMoveThePinch) {
   double yaw_start = env.PinchYaw();
   for (int t = 0; t < 5; ++t) env.Step({0, 0, 0, 1, 0});
   const double yaw_rate = (env.PinchYaw() - yaw_start) / 5;
-  std::printf("zero action: %.2f mm sag per step; +x: %.2f cm per step (y %.2f, z %.2f cm in 5 "
-              "steps); +yaw: %.3f rad per step\n",
-              1000 * sag, 100 * moved.x() / 5, 100 * moved.y(), 100 * moved.z(), yaw_rate);
+  std::printf(
+      "zero action: %.2f mm sag per step; +x: %.2f cm per step (y %.2f, z %.2f cm in 5 "
+      "steps); +yaw: %.3f rad per step\n",
+      1000 * sag, 100 * moved.x() / 5, 100 * moved.y(), 100 * moved.z(), yaw_rate);
   EXPECT_GE(sag, 0.0);
   EXPECT_LT(sag, 0.005);
   EXPECT_GT(moved.x() / 5, 0.01);
@@ -204,19 +205,39 @@ TEST(CubeEnvTest, ScriptedPickAndPlaceSolvesEveryTask) {
       if (phase == 0) {
         // The cube's yaw + k pi/2 nearest the pinch's.
         const double cube_yaw = std::atan2(o[27], o[26]);
-        grasp_yaw = cube_yaw + std::round(std::remainder(env.PinchYaw() - cube_yaw, 2 * M_PI) /
-                                          (M_PI / 2)) * (M_PI / 2);
+        grasp_yaw = cube_yaw +
+                    std::round(std::remainder(env.PinchYaw() - cube_yaw, 2 * M_PI) / (M_PI / 2)) *
+                        (M_PI / 2);
       }
       Eigen::Vector3d target;
       double grip = -1;
       switch (phase) {
-        case 0: target = cube + Eigen::Vector3d(0, 0, 0.1); break;
-        case 1: target = cube; break;
-        case 2: target = pinch; grip = 1; break;
-        case 3: target = Eigen::Vector3d(pinch.x(), pinch.y(), 0.15); grip = 1; break;
-        case 4: target = goal + Eigen::Vector3d(0, 0, 0.13); grip = 1; break;
-        case 5: target = goal; grip = 1; break;
-        default: target = pinch; grip = -1; break;
+        case 0:
+          target = cube + Eigen::Vector3d(0, 0, 0.1);
+          break;
+        case 1:
+          target = cube;
+          break;
+        case 2:
+          target = pinch;
+          grip = 1;
+          break;
+        case 3:
+          target = Eigen::Vector3d(pinch.x(), pinch.y(), 0.15);
+          grip = 1;
+          break;
+        case 4:
+          target = goal + Eigen::Vector3d(0, 0, 0.13);
+          grip = 1;
+          break;
+        case 5:
+          target = goal;
+          grip = 1;
+          break;
+        default:
+          target = pinch;
+          grip = -1;
+          break;
       }
       CubeEnv::Action a = Toward(env, target, grip);
       a[3] = std::clamp(std::remainder(grasp_yaw - env.PinchYaw(), 2 * M_PI) / 0.3, -1.0, 1.0);
@@ -287,9 +308,10 @@ TEST(CubeEnvTest, RendersFromTheFrontPixelsCamera) {
   const RedBlob near = FindRed(env.Render(), s);
   env.SetCube(Eigen::Vector3d(3.0, 0.0, 0.02), 0.0);  // behind the camera
   const RedBlob gone = FindRed(env.Render(), s);
-  std::printf("red cube pixels: y -0.15 at col %.1f, y +0.15 at col %.1f; x 0.30 at row %.1f, "
-              "x 0.55 at row %.1f; %d pixels at x 0.55\n",
-              left.col, right.col, far.row, near.row, near.count);
+  std::printf(
+      "red cube pixels: y -0.15 at col %.1f, y +0.15 at col %.1f; x 0.30 at row %.1f, "
+      "x 0.55 at row %.1f; %d pixels at x 0.55\n",
+      left.col, right.col, far.row, near.row, near.count);
   ASSERT_GT(left.count, 0);
   ASSERT_GT(right.count, 0);
   ASSERT_GT(far.count, 0);

@@ -160,8 +160,9 @@ TEST_F(CubeSceneTest, UrdfKinematicsMatchMujoco) {
       ++compared;
     }
   }
-  std::printf("FK vs MuJoCo over %d link poses: max position error %.3g m, max rotation error %.3g rad\n",
-              compared, max_pos, max_rot);
+  std::printf(
+      "FK vs MuJoCo over %d link poses: max position error %.3g m, max rotation error %.3g rad\n",
+      compared, max_pos, max_rot);
   EXPECT_EQ(compared, 20 * static_cast<int>(arm_.links().size() - 1));
   EXPECT_LT(max_pos, 1e-6);
   EXPECT_LT(max_rot, 1e-6);

@@ -1,7 +1,6 @@
 #include "msspr_sim/arm_ik.h"
 
 #include <Eigen/Cholesky>
-
 #include <cmath>
 #include <stdexcept>
 
@@ -26,11 +25,11 @@ Eigen::Matrix<double, 6, 1> PoseError(const Eigen::Isometry3d& target,
 
 ArmIk::ArmIk(const ArmModel& arm, const ArmIkOptions& options) : arm_(arm), options_(options) {
   if (options.max_iterations < 0 || !(options.max_step > 0) || !(options.damping >= 0))
-    throw std::invalid_argument("ArmIkOptions: need max_iterations >= 0, max_step > 0, damping >= 0");
+    throw std::invalid_argument(
+        "ArmIkOptions: need max_iterations >= 0, max_step > 0, damping >= 0");
 }
 
-Eigen::Matrix<double, 6, Eigen::Dynamic> ArmIk::Jacobian(int link,
-                                                         const Eigen::VectorXd& q) const {
+Eigen::Matrix<double, 6, Eigen::Dynamic> ArmIk::Jacobian(int link, const Eigen::VectorXd& q) const {
   const auto& joints = arm_.arm_joint_links();
   const std::vector<Eigen::Isometry3d> poses = arm_.LinkPoses(q);
   const Eigen::Vector3d p = poses[link].translation();

@@ -57,21 +57,28 @@ urdf::ModelInterfaceSharedPtr ParseCollectingErrors(const std::string& xml,
 Eigen::Isometry3d ToEigen(const urdf::Pose& p) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  t.linear() =
-      Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized()
-          .toRotationMatrix();
+  t.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                   .normalized()
+                   .toRotationMatrix();
   return t;
 }
 
 const char* TypeName(int type) {
   switch (type) {
-    case urdf::Joint::REVOLUTE: return "revolute";
-    case urdf::Joint::CONTINUOUS: return "continuous";
-    case urdf::Joint::PRISMATIC: return "prismatic";
-    case urdf::Joint::FLOATING: return "floating";
-    case urdf::Joint::PLANAR: return "planar";
-    case urdf::Joint::FIXED: return "fixed";
-    default: return "unknown";
+    case urdf::Joint::REVOLUTE:
+      return "revolute";
+    case urdf::Joint::CONTINUOUS:
+      return "continuous";
+    case urdf::Joint::PRISMATIC:
+      return "prismatic";
+    case urdf::Joint::FLOATING:
+      return "floating";
+    case urdf::Joint::PLANAR:
+      return "planar";
+    case urdf::Joint::FIXED:
+      return "fixed";
+    default:
+      return "unknown";
   }
 }
 
@@ -116,9 +123,15 @@ ArmModel ArmModel::FromString(const std::string& urdf_xml, const std::string& so
       l.joint = joint->name;
       l.origin = ToEigen(joint->parent_to_joint_origin_transform);
       switch (joint->type) {
-        case urdf::Joint::FIXED: l.type = JointType::kFixed; break;
-        case urdf::Joint::REVOLUTE: l.type = JointType::kRevolute; break;
-        case urdf::Joint::PRISMATIC: l.type = JointType::kPrismatic; break;
+        case urdf::Joint::FIXED:
+          l.type = JointType::kFixed;
+          break;
+        case urdf::Joint::REVOLUTE:
+          l.type = JointType::kRevolute;
+          break;
+        case urdf::Joint::PRISMATIC:
+          l.type = JointType::kPrismatic;
+          break;
         default:
           fail(where + ": type " + TypeName(joint->type) +
                " is not supported (use revolute, prismatic or fixed)");

@@ -342,9 +342,8 @@ CubeEnv::Observation CubeEnv::GetObservation() const {
   o[17] = static_cast<float>(3 * Opening());
   // OGBench: the norm of the pad body's 6-D external (contact) wrench / 50.
   // Our pad is a geom of the finger body, so the whole finger's contacts count.
-  const double force = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(
-                           d->cfrc_ext + 6 * impl_->contact_body)
-                           .norm();
+  const double force =
+      Eigen::Map<const Eigen::Matrix<double, 6, 1>>(d->cfrc_ext + 6 * impl_->contact_body).norm();
   o[18] = static_cast<float>(std::clamp(force / 50, 0.0, 1.0));
   const Eigen::Vector3d cube = 10 * (CubePosition() - kCentre);
   for (int i = 0; i < 3; ++i) o[19 + i] = static_cast<float>(cube[i]);

@@ -39,9 +39,9 @@ std::string Num(double x) {
 Eigen::Isometry3d ToEigen(const urdf::Pose& p) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  t.linear() =
-      Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized()
-          .toRotationMatrix();
+  t.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                   .normalized()
+                   .toRotationMatrix();
   return t;
 }
 
@@ -101,10 +101,11 @@ class Generator {
     } else if (link.type != JointType::kFixed) {
       Fail("link '" + link.name + "': a link on a moving joint needs an <inertial>");
     }
-    for (const auto& c : ul->collision_array) EmitGeom(link.name, *c->geometry, c->origin,
-                                                       c->name, true, nullptr, out, depth + 1);
-    for (const auto& v : ul->visual_array) EmitGeom(link.name, *v->geometry, v->origin, v->name,
-                                                    false, v->material.get(), out, depth + 1);
+    for (const auto& c : ul->collision_array)
+      EmitGeom(link.name, *c->geometry, c->origin, c->name, true, nullptr, out, depth + 1);
+    for (const auto& v : ul->visual_array)
+      EmitGeom(link.name, *v->geometry, v->origin, v->name, false, v->material.get(), out,
+               depth + 1);
     EmitChildren(l, Eigen::Isometry3d::Identity(), out, depth + 1);
     out << pad << "</body>\n";
   }
@@ -115,8 +116,8 @@ class Generator {
     const std::string pad(2 * depth, ' ');
     const bool arm_joint = link.dof >= 0 && link.dof < 6 && !link.mimic;
     out << pad << "<joint name=\"" << link.joint << "\" type=\""
-        << (link.type == JointType::kRevolute ? "hinge" : "slide") << "\" axis=\""
-        << Vec(link.axis) << "\" range=\"" << Num(link.lower) << ' ' << Num(link.upper) << '"';
+        << (link.type == JointType::kRevolute ? "hinge" : "slide") << "\" axis=\"" << Vec(link.axis)
+        << "\" range=\"" << Num(link.lower) << ' ' << Num(link.upper) << '"';
     if (arm_joint) {
       out << " armature=\"" << Num(options_.arm_armature) << '"';
     } else {
@@ -143,8 +144,7 @@ class Generator {
         break;
       }
       case urdf::Geometry::SPHERE:
-        type << "type=\"sphere\" size=\"" << Num(static_cast<const urdf::Sphere&>(g).radius)
-             << '"';
+        type << "type=\"sphere\" size=\"" << Num(static_cast<const urdf::Sphere&>(g).radius) << '"';
         break;
       default:
         Fail("link '" + link + "': " + (collision ? "<collision>" : "<visual>") +
@@ -190,18 +190,19 @@ class Generator {
            std::to_string(arm_.arm_joint_links().size()));
     const Link& grip = arm_.links()[arm_.gripper_link()];
     if (std::abs(grip.lower) > 1e-12 || std::abs(grip.upper - options_.gripper_travel) > 1e-9)
-      Fail("joint '" + grip.joint + "': its <limit> must be 0 to " +
-           Num(options_.gripper_travel) + " m (the gripper travel)");
+      Fail("joint '" + grip.joint + "': its <limit> must be 0 to " + Num(options_.gripper_travel) +
+           " m (the gripper travel)");
 
     std::ostringstream arm_xml;
     EmitChildren(0, Eigen::Isometry3d::Identity(), arm_xml, 2);
     if (pads_found_ != static_cast<int>(options_.pad_geoms.size()))
-      Fail("the pad collision geoms '" + options_.pad_geoms[0] + "' and '" +
-           options_.pad_geoms[1] + "' must each appear once");
+      Fail("the pad collision geoms '" + options_.pad_geoms[0] + "' and '" + options_.pad_geoms[1] +
+           "' must each appear once");
 
     std::ostringstream x;
     x << "<mujoco model=\"cube_single_" << arm_.name() << "\">\n"
-      << "  <!-- Generated from " << arm_.source() << " by msspr_env (cube_scene.cc). -->\n"
+      << "  <!-- Generated from " << arm_.source()
+      << " by msspr_env (cube_scene.cc). -->\n"
       // implicitfast (OGBench's) does not exist in MuJoCo 2.2; implicit is the nearest.
       << "  <compiler angle=\"radian\" autolimits=\"true\"/>\n"
       << "  <option timestep=\"" << Num(options_.timestep)
@@ -240,8 +241,7 @@ class Generator {
       << "    <camera name=\"front\" pos=\"1.287 0 0.509\" xyaxes=\"0 1 0 -0.342 0 0.940\"/>\n"
       << "    <camera name=\"front_pixels\" pos=\"1.053 -0.014 0.639\""
          " xyaxes=\"0 1 0 -0.628 0.001 0.778\"/>\n"
-      << arm_xml.str()
-      << "    <body name=\"object_0\" pos=\"0.3 0 0.02\">\n"
+      << arm_xml.str() << "    <body name=\"object_0\" pos=\"0.3 0 0.02\">\n"
       << "      <freejoint name=\"object_joint_0\"/>\n"
       << "      <geom name=\"cube\" type=\"box\" size=\"0.02 0.02 0.02\" density=\"1240\""
          " solref=\"0.004 1\" contype=\"3\" conaffinity=\"1\" group=\"1\""
@@ -249,8 +249,8 @@ class Generator {
       << "    </body>\n"
       << "    <body name=\"object_target_0\" mocap=\"true\" pos=\"0.425 0 0.02\">\n"
       << "      <geom name=\"goal\" type=\"box\" size=\"0.02 0.02 0.02\" contype=\"0\""
-         " conaffinity=\"0\" group=\"" << (options_.pixel_style ? 5 : 1)
-      << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
+         " conaffinity=\"0\" group=\""
+      << (options_.pixel_style ? 5 : 1) << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
       << "    </body>\n"
       << "  </worldbody>\n";
 

@@ -26,9 +26,9 @@ struct ArmIkOptions {
 };
 
 struct ArmIkResult {
-  Eigen::VectorXd q;        // [num_dofs()] the final configuration (gripper unchanged)
-  bool converged = false;   // both tolerances met
-  int iterations = 0;       // steps taken
+  Eigen::VectorXd q;          // [num_dofs()] the final configuration (gripper unchanged)
+  bool converged = false;     // both tolerances met
+  int iterations = 0;         // steps taken
   double position_error = 0;  // m, at q
   double rotation_error = 0;  // rad, at q
 };

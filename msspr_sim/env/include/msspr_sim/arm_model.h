@@ -11,7 +11,6 @@
 #pragma once
 
 #include <Eigen/Geometry>
-
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -32,9 +31,9 @@ class UrdfError : public std::runtime_error {
 
 // Which links and how many joints the cube task expects.
 struct ArmModelOptions {
-  std::string tip_link = "pinch";     // the controlled point (OGBench's pinch site)
-  std::string flange_link = "flange"; // the tool flange (OGBench's attachment_site)
-  int num_arm_joints = 6;             // revolute joints on the root-to-tip chain
+  std::string tip_link = "pinch";      // the controlled point (OGBench's pinch site)
+  std::string flange_link = "flange";  // the tool flange (OGBench's attachment_site)
+  int num_arm_joints = 6;              // revolute joints on the root-to-tip chain
 };
 
 class ArmModel {
@@ -44,15 +43,15 @@ class ArmModel {
   // One link and the joint that connects it to its parent (none for the root).
   struct Link {
     std::string name;
-    int parent = -1;                                     // index into links(); -1 for the root
-    std::string joint;                                   // joint name; empty for the root
+    int parent = -1;    // index into links(); -1 for the root
+    std::string joint;  // joint name; empty for the root
     JointType type = JointType::kFixed;
     Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();  // parent frame -> joint frame
-    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();     // unit, joint frame
-    int dof = -1;                                        // index into q; -1 if fixed
-    double multiplier = 1.0, offset = 0.0;               // joint value = multiplier q[dof] + offset
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();           // unit, joint frame
+    int dof = -1;                                              // index into q; -1 if fixed
+    double multiplier = 1.0, offset = 0.0;  // joint value = multiplier q[dof] + offset
     bool mimic = false;
-    double lower = 0.0, upper = 0.0;                     // joint limits (rad or m)
+    double lower = 0.0, upper = 0.0;  // joint limits (rad or m)
   };
 
   // Parses the URDF file at `path`. Throws UrdfError naming the file when it

@@ -26,7 +26,7 @@ struct CubeSceneOptions {
   std::array<double, 6> arm_kp{4500, 4500, 4500, 2000, 2000, 500};
   std::array<double, 6> arm_kv{400, 400, 400, 100, 100, 100};
   std::array<double, 6> arm_force_limit{150, 150, 150, 28, 28, 28};  // N m
-  double arm_armature = 0.1;                                           // kg m^2
+  double arm_armature = 0.1;                                         // kg m^2
 
   // Gripper: OGBench drives the 2F-85's driver angle d in [0, 0.8] rad; our
   // fingers travel s in [0, travel] m. With s = d travel / 0.8, the driver's
