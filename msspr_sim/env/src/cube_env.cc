@@ -204,9 +204,14 @@ void CubeEnv::SetCube(const Eigen::Vector3d& position, double yaw) {
   mj_forward(impl_->model.get(), d);
 }
 
-void CubeEnv::SetGoal(const Eigen::Vector3d& position) {
+void CubeEnv::SetGoal(const Eigen::Vector3d& position, double yaw) {
   mjData* d = impl_->data.get();
   for (int i = 0; i < 3; ++i) d->mocap_pos[3 * impl_->goal_mocap + i] = position[i];
+  mjtNum* q = d->mocap_quat + 4 * impl_->goal_mocap;
+  q[0] = std::cos(yaw / 2);
+  q[1] = 0;
+  q[2] = 0;
+  q[3] = std::sin(yaw / 2);
   mj_forward(impl_->model.get(), d);
 }
 
@@ -234,6 +239,11 @@ Eigen::Vector3d CubeEnv::CubePosition() const {
 Eigen::Vector3d CubeEnv::GoalPosition() const {
   const mjtNum* p = impl_->data->mocap_pos + 3 * impl_->goal_mocap;
   return Eigen::Vector3d(p[0], p[1], p[2]);
+}
+
+double CubeEnv::GoalYaw() const {
+  const mjtNum* q = impl_->data->mocap_quat + 4 * impl_->goal_mocap;
+  return Yaw(q[0], q[1], q[2], q[3]);
 }
 
 bool CubeEnv::Success() const {
@@ -358,6 +368,25 @@ CubeEnv::Observation CubeEnv::GetObservation() const {
 }  // namespace msspr::sim
 
 namespace msspr::sim {
+
+CubeEnv::Observation CubeEnv::ResetForCollection(uint64_t seed) {
+  std::mt19937_64 rng(internal::Mix64(seed));
+  mj_resetData(impl_->model.get(), impl_->data.get());
+  RandomizeArm(rng);
+  const auto xy = [&] {
+    return Eigen::Vector3d(
+        internal::Uniform(rng, options_.object_low.x(), options_.object_high.x()),
+        internal::Uniform(rng, options_.object_low.y(), options_.object_high.y()), 0.02);
+  };
+  const Eigen::Vector3d cube = xy();
+  SetCube(cube, internal::Uniform(rng, 0.0, 2 * M_PI));
+  const Eigen::Vector3d goal = xy();
+  SetGoal(goal, internal::Uniform(rng, 0.0, 2 * M_PI));
+  goal_observation_ = Observation{};
+  goal_image_.clear();
+  episode_steps_ = 0;
+  return GetObservation();
+}
 
 void CubeEnv::Render(uint8_t* rgb) const {
   if (!impl_->render_ready)

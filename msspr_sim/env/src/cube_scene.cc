@@ -114,7 +114,10 @@ class Generator {
     const Link& link = arm_.links()[l];
     if (link.type == JointType::kFixed) return;
     const std::string pad(2 * depth, ' ');
-    const bool arm_joint = link.dof >= 0 && link.dof < 6 && !link.mimic;
+    // Arm joints (and any mimic of one) get the arm's armature; the fingers
+    // the 2F-85 driver's, in finger coordinates.
+    const bool arm_joint =
+        link.dof >= 0 && link.dof < static_cast<int>(arm_.arm_joint_links().size());
     out << pad << "<joint name=\"" << link.joint << "\" type=\""
         << (link.type == JointType::kRevolute ? "hinge" : "slide") << "\" axis=\"" << Vec(link.axis)
         << "\" range=\"" << Num(link.lower) << ' ' << Num(link.upper) << '"';

@@ -35,6 +35,9 @@ struct CubeEnvOptions {
   // Random initial pinch pose: position in this box (m), yaw U(-pi, pi).
   Eigen::Vector3d init_low{0.25, -0.35, 0.20};
   Eigen::Vector3d init_high{0.60, 0.35, 0.35};
+  // Data collection: cube and target xy drawn in this box (m).
+  Eigen::Vector2d object_low{0.30, -0.30};
+  Eigen::Vector2d object_high{0.55, 0.30};
   int max_episode_steps = 200;
   // Images: create a headless GL context; frames are [S, S, 3] uint8 from
   // `camera` (front_pixels: OGBench's visual variant; set
@@ -83,6 +86,12 @@ class CubeEnv {
   // marker sits at the goal. Returns the first observation; throws
   // std::out_of_range for a bad task id.
   Observation ResetToTask(int task, uint64_t seed);
+  // Starts a data-collection episode deterministically from `seed`: a random
+  // arm pose (gripper open), the cube at rest at a random xy in the object
+  // box (z 0.02, yaw U(0, 2 pi)) and the goal marker at another (the first
+  // target of the play oracle). No goal observation. Returns the first
+  // observation.
+  Observation ResetForCollection(uint64_t seed);
   // The goal observation of the current episode (zeros before a reset).
   const Observation& goal_observation() const { return goal_observation_; }
   // With enable_rendering, the goal image of the current episode, rendered
@@ -106,14 +115,15 @@ class CubeEnv {
 
   // State setters, each followed by mj_forward. Arm joints [6] (rad), with
   // zero velocity and servo targets equal to them; the gripper opening in
-  // [0, 1]; the cube centre (m) and yaw (rad) at rest; the goal centre (m).
+  // [0, 1]; the cube centre (m) and yaw (rad) at rest; the goal marker's
+  // centre (m) and yaw (rad).
   void SetArmJoints(const Eigen::Matrix<double, 6, 1>& q);
   // Solves the IK from the home joints for the pinch at `position` pointing
   // down with `yaw` (OGBench's initial placement); returns whether it converged.
   bool PlacePinch(const Eigen::Vector3d& position, double yaw);
   void SetOpening(double opening);
   void SetCube(const Eigen::Vector3d& position, double yaw);
-  void SetGoal(const Eigen::Vector3d& position);
+  void SetGoal(const Eigen::Vector3d& position, double yaw = 0.0);
 
   Eigen::Vector3d PinchPosition() const;
   // ZYX yaw of the pinch frame, atan2(2 (wz + xy), 1 - 2 (y^2 + z^2)).
@@ -122,6 +132,7 @@ class CubeEnv {
   double Opening() const;
   Eigen::Vector3d CubePosition() const;
   Eigen::Vector3d GoalPosition() const;
+  double GoalYaw() const;
   bool Success() const;
   Eigen::Matrix<double, 6, 1> ArmJoints() const;
   // Whether the last Step's IK met its tolerances.
