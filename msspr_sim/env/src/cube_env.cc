@@ -226,6 +226,16 @@ double CubeEnv::PinchYaw() const {
   return Yaw(quat[0], quat[1], quat[2], quat[3]);
 }
 
+Eigen::Matrix3d CubeEnv::PinchRotation() const {
+  return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(impl_->data->site_xmat +
+                                                                        9 * impl_->pinch_site);
+}
+
+double CubeEnv::CubeYaw() const {
+  const mjtNum* q = impl_->data->qpos + impl_->cube_qpos + 3;
+  return Yaw(q[0], q[1], q[2], q[3]);
+}
+
 double CubeEnv::Opening() const {
   return std::clamp(impl_->data->qpos[impl_->gripper_qpos] / options_.scene.gripper_travel, 0.0,
                     1.0);

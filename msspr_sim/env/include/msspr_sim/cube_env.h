@@ -128,9 +128,11 @@ class CubeEnv {
   Eigen::Vector3d PinchPosition() const;
   // ZYX yaw of the pinch frame, atan2(2 (wz + xy), 1 - 2 (y^2 + z^2)).
   double PinchYaw() const;
+  Eigen::Matrix3d PinchRotation() const;
   // clip(finger travel / gripper travel, 0, 1): 0 open, 1 closed.
   double Opening() const;
   Eigen::Vector3d CubePosition() const;
+  double CubeYaw() const;  // ZYX yaw of the cube's quaternion
   Eigen::Vector3d GoalPosition() const;
   double GoalYaw() const;
   bool Success() const;
@@ -139,6 +141,7 @@ class CubeEnv {
   bool last_ik_converged() const { return last_ik_converged_; }
 
   const ArmModel& arm() const { return *arm_; }
+  const CubeEnvOptions& options() const { return options_; }
   const std::string& mjcf() const { return mjcf_; }
 
  private:
