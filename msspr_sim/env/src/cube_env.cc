@@ -212,7 +212,10 @@ void CubeEnv::SetGoal(const Eigen::Vector3d& position, double yaw) {
   q[1] = 0;
   q[2] = 0;
   q[3] = std::sin(yaw / 2);
-  mj_forward(impl_->model.get(), d);
+  // No mj_forward: it would refresh the arm's poses that mj_step leaves one
+  // substep old, so an oracle setting a new target mid-episode would change
+  // the observations and a replay of the stored actions would not match.
+  // The marker's pose updates at the next step (it never touches physics).
 }
 
 Eigen::Vector3d CubeEnv::PinchPosition() const {
@@ -264,6 +267,14 @@ Eigen::Matrix<double, 6, 1> CubeEnv::ArmJoints() const {
   Eigen::Matrix<double, 6, 1> q;
   for (int i = 0; i < 6; ++i) q[i] = impl_->data->qpos[impl_->arm_qpos[i]];
   return q;
+}
+
+std::vector<double> CubeEnv::Qpos() const {
+  return std::vector<double>(impl_->data->qpos, impl_->data->qpos + impl_->model->nq);
+}
+
+std::vector<double> CubeEnv::Qvel() const {
+  return std::vector<double>(impl_->data->qvel, impl_->data->qvel + impl_->model->nv);
 }
 
 bool CubeEnv::Step(const Action& action) {
@@ -392,6 +403,7 @@ CubeEnv::Observation CubeEnv::ResetForCollection(uint64_t seed) {
   SetCube(cube, internal::Uniform(rng, 0.0, 2 * M_PI));
   const Eigen::Vector3d goal = xy();
   SetGoal(goal, internal::Uniform(rng, 0.0, 2 * M_PI));
+  mj_forward(impl_->model.get(), impl_->data.get());  // pose the marker too
   goal_observation_ = Observation{};
   goal_image_.clear();
   episode_steps_ = 0;

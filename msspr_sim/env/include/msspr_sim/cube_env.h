@@ -113,10 +113,12 @@ class CubeEnv {
   // (2); c = (0.425, 0, 0). float32, as OGBench's.
   Observation GetObservation() const;
 
-  // State setters, each followed by mj_forward. Arm joints [6] (rad), with
-  // zero velocity and servo targets equal to them; the gripper opening in
-  // [0, 1]; the cube centre (m) and yaw (rad) at rest; the goal marker's
-  // centre (m) and yaw (rad).
+  // State setters, each followed by mj_forward (but SetGoal). Arm joints
+  // [6] (rad), with zero velocity and servo targets equal to them; the
+  // gripper opening in [0, 1]; the cube centre (m) and yaw (rad) at rest;
+  // the goal marker's centre (m) and yaw (rad): it moves the mocap target
+  // only, the marker's drawn pose follows at the next step (Success and
+  // GoalPosition see it at once).
   void SetArmJoints(const Eigen::Matrix<double, 6, 1>& q);
   // Solves the IK from the home joints for the pinch at `position` pointing
   // down with `yaw` (OGBench's initial placement); returns whether it converged.
@@ -137,6 +139,9 @@ class CubeEnv {
   double GoalYaw() const;
   bool Success() const;
   Eigen::Matrix<double, 6, 1> ArmJoints() const;
+  // The full MuJoCo state: qpos [nq] and qvel [nv].
+  std::vector<double> Qpos() const;
+  std::vector<double> Qvel() const;
   // Whether the last Step's IK met its tolerances.
   bool last_ik_converged() const { return last_ik_converged_; }
 
