@@ -1,0 +1,173 @@
+// OGBench's cube-single environment on the URDF arm: the 5-D action, the
+// IK-driven servo targets, 25 x 2 ms physics steps per action, the 28-D
+// state observation and the success rule (../shared/docs/manipulation.md,
+// sections 3 to 5), the five evaluation tasks and their seeded resets, and
+// headless camera images. Collection resets and the play oracle are not
+// here yet (issue 11).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "msspr_sim/arm_ik.h"
+#include "msspr_sim/arm_model.h"
+#include "msspr_sim/cube_scene.h"
+
+namespace msspr::sim {
+
+struct CubeEnvOptions {
+  std::string urdf_path;  // the arm (msspr_sim/urdf/ur5e_2f85.urdf); required
+  CubeSceneOptions scene;
+  ArmIkOptions ik;
+  int substeps = 25;  // physics steps per action (0.05 s at 2 ms)
+  // Action scale: pinch dx, dy, dz (m), dyaw (rad), dopening per unit action.
+  std::array<double, 5> action_scale{0.05, 0.05, 0.05, 0.3, 1.0};
+  // The pinch target is clipped to this box each step (m).
+  Eigen::Vector3d pinch_low{0.25, -0.35, 0.02};
+  Eigen::Vector3d pinch_high{0.60, 0.35, 0.35};
+  double success_distance = 0.04;  // m, cube centre to goal centre
+  // Random initial pinch pose: position in this box (m), yaw U(-pi, pi).
+  Eigen::Vector3d init_low{0.25, -0.35, 0.20};
+  Eigen::Vector3d init_high{0.60, 0.35, 0.35};
+  // Data collection: cube and target xy drawn in this box (m).
+  Eigen::Vector2d object_low{0.30, -0.30};
+  Eigen::Vector2d object_high{0.55, 0.30};
+  int max_episode_steps = 200;
+  // Images: create a headless GL context; frames are [S, S, 3] uint8 from
+  // `camera` (front_pixels: OGBench's visual variant; set
+  // scene.pixel_style for its look, "front" for state-mode videos).
+  bool enable_rendering = false;
+  int image_size = 64;
+  std::string camera = "front_pixels";
+};
+
+// One of OGBench's cube-single evaluation tasks: the cube centre's start and
+// goal xy (m); z is 0.02 for both.
+struct CubeTask {
+  const char* name;
+  Eigen::Vector2d start, goal;
+};
+// The 5 tasks of manipulation.md section 5 (task ids 1 to 5 are [0] to [4]).
+const std::array<CubeTask, 5>& CubeSingleTasks();
+
+class CubeEnv {
+ public:
+  static constexpr int kObservationSize = 28;
+  static constexpr int kActionSize = 5;
+  using Observation = std::array<float, kObservationSize>;
+  using Action = std::array<double, kActionSize>;
+
+  // Parses the URDF, generates and compiles the scene. Throws UrdfError for
+  // a bad URDF and std::runtime_error when MuJoCo rejects the scene. The arm
+  // starts at OGBench's home joints, gripper open, the cube at (0.3, 0, 0.02).
+  explicit CubeEnv(const CubeEnvOptions& options);
+  ~CubeEnv();
+  CubeEnv(const CubeEnv&) = delete;
+  CubeEnv& operator=(const CubeEnv&) = delete;
+
+  // One control step: the action (not clipped; callers clip to [-1, 1], as
+  // OGBench's) moves the target pinch pose from the measured one, the IK
+  // turns it into arm servo targets, then `substeps` physics steps run.
+  // Returns whether the cube is within success_distance of the goal after it.
+  bool Step(const Action& action);
+
+  // Starts an evaluation episode of task `task` (1 to 5) as OGBench does,
+  // deterministically from `seed`: a random arm pose (PlacePinch at a random
+  // pinch pose, gripper open); the goal observation made by putting the cube
+  // at the goal (identity orientation) and taking two uniformly random
+  // actions; then the state restored, the arm re-randomised, and the cube at
+  // the task's start + U(-0.01, 0.01) in x and y, yaw U(0, 2 pi). The goal
+  // marker sits at the goal. Returns the first observation; throws
+  // std::out_of_range for a bad task id.
+  Observation ResetToTask(int task, uint64_t seed);
+  // Starts a data-collection episode deterministically from `seed`: a random
+  // arm pose (gripper open), the cube at rest at a random xy in the object
+  // box (z 0.02, yaw U(0, 2 pi)) and the goal marker at another (the first
+  // target of the play oracle). No goal observation. Returns the first
+  // observation.
+  Observation ResetForCollection(uint64_t seed);
+  // The goal observation of the current episode (zeros before a reset).
+  const Observation& goal_observation() const { return goal_observation_; }
+  // With enable_rendering, the goal image of the current episode, rendered
+  // with the goal observation; empty otherwise or before a reset.
+  const std::vector<uint8_t>& goal_image() const { return goal_image_; }
+
+  // Renders the current state: [S, S, 3] uint8 HWC, row 0 = top,
+  // S = image_size. Throws std::logic_error unless enable_rendering.
+  void Render(uint8_t* rgb) const;
+  std::vector<uint8_t> Render() const;
+  // Steps since the last reset; an episode ends on success or at
+  // max_episode_steps.
+  int episode_steps() const { return episode_steps_; }
+  bool EpisodeOver() const { return Success() || episode_steps_ >= options_.max_episode_steps; }
+
+  // The 28-D state: arm q (6), arm qdot (6), 10 (pinch - c) (3), cos / sin of
+  // the pinch yaw (2), 3 x opening (1), pad contact in [0, 1] (1),
+  // 10 (cube - c) (3), cube quaternion wxyz (4), cos / sin of the cube yaw
+  // (2); c = (0.425, 0, 0). float32, as OGBench's.
+  Observation GetObservation() const;
+
+  // State setters, each followed by mj_forward (but SetGoal). Arm joints
+  // [6] (rad), with zero velocity and servo targets equal to them; the
+  // gripper opening in [0, 1]; the cube centre (m) and yaw (rad) at rest;
+  // the goal marker's centre (m) and yaw (rad): it moves the mocap target
+  // only, the marker's drawn pose follows at the next step (Success and
+  // GoalPosition see it at once).
+  void SetArmJoints(const Eigen::Matrix<double, 6, 1>& q);
+  // Solves the IK from the home joints for the pinch at `position` pointing
+  // down with `yaw` (OGBench's initial placement); returns whether it converged.
+  bool PlacePinch(const Eigen::Vector3d& position, double yaw);
+  void SetOpening(double opening);
+  void SetCube(const Eigen::Vector3d& position, double yaw);
+  void SetGoal(const Eigen::Vector3d& position, double yaw = 0.0);
+
+  Eigen::Vector3d PinchPosition() const;
+  // ZYX yaw of the pinch frame, atan2(2 (wz + xy), 1 - 2 (y^2 + z^2)).
+  double PinchYaw() const;
+  Eigen::Matrix3d PinchRotation() const;
+  // clip(finger travel / gripper travel, 0, 1): 0 open, 1 closed.
+  double Opening() const;
+  Eigen::Vector3d CubePosition() const;
+  double CubeYaw() const;  // ZYX yaw of the cube's quaternion
+  Eigen::Vector3d GoalPosition() const;
+  double GoalYaw() const;
+  bool Success() const;
+  Eigen::Matrix<double, 6, 1> ArmJoints() const;
+  // The full MuJoCo state: qpos [nq] and qvel [nv].
+  std::vector<double> Qpos() const;
+  std::vector<double> Qvel() const;
+  // Whether the last Step's IK met its tolerances.
+  bool last_ik_converged() const { return last_ik_converged_; }
+
+  const ArmModel& arm() const { return *arm_; }
+  const CubeEnvOptions& options() const { return options_; }
+  const std::string& mjcf() const { return mjcf_; }
+
+ private:
+  struct Impl;
+  CubeEnvOptions options_;
+  std::unique_ptr<ArmModel> arm_;
+  std::unique_ptr<ArmIk> ik_;
+  std::string mjcf_;
+  std::unique_ptr<Impl> impl_;
+  // Random arm pose as at an episode start; gripper open.
+  void RandomizeArm(std::mt19937_64& rng);
+
+  Eigen::Isometry3d pinch_to_flange_;
+  bool last_ik_converged_ = true;
+  Observation goal_observation_{};
+  std::vector<uint8_t> goal_image_;
+  int episode_steps_ = 0;
+};
+
+// The target orientation of OGBench's cube tasks: Rz(yaw) Rx(pi), the tool
+// pointing straight down.
+Eigen::Matrix3d PinchDownRotation(double yaw);
+
+}  // namespace msspr::sim

@@ -1,0 +1,59 @@
+// OGBench's "play" oracle for cube-single data collection
+// (ogbench/manipspace/oracles/plan/cube_plan.py, plan_oracle.py; facts in
+// ../shared/docs/manipulation.md section 6): at each cycle start an
+// open-loop pick-and-place plan of keyframes, sampled every 0.05 s, plus
+// smoothed Gaussian noise; each step's action drives the measured pinch
+// pose and opening toward the plan's sample. Deterministic by seed.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "msspr_sim/cube_env.h"
+
+namespace msspr::sim {
+
+struct CubePlayOracleOptions {
+  double control_dt = 0.05;   // s per action
+  double time_jitter = 0.08;  // s, U(-j, j) on every keyframe time but the first
+  // Noise: N(0, 1) x action scale x noise_scale per sample, then smoothed.
+  double noise_scale = 0.1;
+  std::array<double, 5> action_scale{0.05, 0.05, 0.05, 0.3, 1.0};
+};
+
+// One plan sample: pinch x, y, z (m), yaw (rad), grip (0 open, 1 closed).
+using CubePlanSample = Eigen::Matrix<double, 5, 1>;
+
+// SciPy's gaussian_filter1d with sigma 0.5 (5 taps, reflected edges:
+// x[-1] = x[0], x[-2] = x[1]) along time, per column. [T, 5] -> [T, 5].
+std::vector<CubePlanSample> SmoothPlanNoise(const std::vector<CubePlanSample>& noise);
+
+class CubePlayOracle {
+ public:
+  explicit CubePlayOracle(uint64_t seed, const CubePlayOracleOptions& options = {});
+
+  // The action for env's current state, clipped to [-1, 1]. Plans a cycle
+  // on the first call and whenever the current plan is used up; a used-up
+  // plan also draws a new target (env.SetGoal) in the env's object box.
+  CubeEnv::Action Act(CubeEnv& env);
+
+  // The current plan (with noise), one sample per control step.
+  const std::vector<CubePlanSample>& plan() const { return plan_; }
+  // Cycles planned so far.
+  int cycles() const { return cycles_; }
+
+ private:
+  void Plan(const CubeEnv& env);
+
+  CubePlayOracleOptions options_;
+  std::mt19937_64 rng_;
+  std::vector<CubePlanSample> plan_;
+  size_t step_ = 0;  // index into plan_ of the next action
+  int cycles_ = 0;
+};
+
+}  // namespace msspr::sim
