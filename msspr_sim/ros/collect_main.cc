@@ -12,6 +12,7 @@
 
 #include "cli_args.h"
 #include "dataset_bag.h"
+#include "msspr_sim/cube_dataset.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/expert.h"
 #include "msspr_sim/point_maze.h"
@@ -19,7 +20,9 @@
 namespace {
 
 constexpr char kUsage[] = R"(usage: msspr_collect --out FILE.bag [options]
-Writes an expert dataset of an msspr point maze into a rosbag (LZ4).
+Writes an expert dataset of an msspr point maze, or OGBench's cube-single-play
+dataset of the URDF arm, into a rosbag (LZ4).
+  --env ENV              pointmaze | cube-single               (default pointmaze)
   --maze NAME            arena | medium | large | giant        (default medium)
   --kind KIND            navigate | stitch                     (default navigate)
   --episodes N           training episodes (default: 1000 navigate, 5000 stitch)
@@ -32,9 +35,96 @@ Writes an expert dataset of an msspr point maze into a rosbag (LZ4).
   --seed S               base seed; episode k uses EpisodeSeed(S, k) (default 0)
   --no-compress          write an uncompressed bag
   --quiet                no progress output
+cube-single (--env cube-single; --maze, --kind and --noise do not apply): the
+play oracle (CubePlayOracle) from collection resets, 1000 + 100 episodes of
+1001 steps by default; --episodes, --val-episodes, --length, --images,
+--image-episodes, --seed as above, and
+  --urdf FILE            the arm's URDF (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
 Example (the full pointmaze-medium-navigate dataset, states only):
   rosrun msspr msspr_collect --maze medium --kind navigate --out medium-navigate.bag
+Example (the full cube-single-play dataset, states only):
+  rosrun msspr msspr_collect --env cube-single --out cube-single-play.bag
 )";
+
+// Progress line on stderr: every 200 ms on a terminal, every 5 s otherwise, and at the end.
+struct Progress {
+  bool quiet, tty;
+  long total;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now(), last = t0;
+  void Update(long done, uint64_t transitions) {
+    const auto now = std::chrono::steady_clock::now();
+    if (quiet || !(now - last > std::chrono::milliseconds(tty ? 200 : 5000) || done == total)) return;
+    last = now;
+    const double s = std::chrono::duration<double>(now - t0).count();
+    const double rate = transitions / std::max(s, 1e-9);
+    const double eta = (total - done) * (s / done);
+    std::fprintf(stderr, "%s[msspr_collect] %ld/%ld episodes  %.0f transitions/s  %.0fs elapsed  ETA %.0fs%s",
+                 tty ? "\r" : "", done, total, rate, s, eta, tty ? "   " : "\n");
+  }
+  double Elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+};
+
+// cube-single-play: CollectCubeEpisode per episode, state-only or with images.
+int CollectCube(const msspr::ros_bridge::CliArgs& args) {
+  using namespace msspr;
+  sim::CubeCollectOptions opt;
+  sim::CubeEnvOptions env_opt;
+  long episodes = 0, val = 0, image_episodes = 0;
+  try {
+    if (!args.positional().empty()) throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    for (const char* f : {"maze", "kind", "noise"})
+      if (args.Has(f)) throw cli::CliError(std::string("--") + f + " does not apply to --env cube-single");
+    episodes = args.GetInt("episodes", 1000, 1, 100000000);
+    val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
+    opt.episode_length = static_cast<int>(args.GetInt("length", 1001, 2, 1000000));
+    opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+    image_episodes = args.Has("images") ? episodes + val : args.GetInt("image-episodes", 0, 0, 100000000);
+    env_opt.urdf_path = args.Get("urdf", MSSPR_DEFAULT_ARM_URDF);
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  ros::Time::init();
+  env_opt.enable_rendering = image_episodes > 0;
+  sim::CubeEnv env(env_opt);
+  const std::string env_name = "cube-single";
+  const double control_dt = env_opt.scene.timestep * env_opt.substeps;
+  ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
+  const long total = episodes + val;
+  Progress progress{args.Has("quiet"), isatty(STDERR_FILENO) != 0, total};
+  uint64_t transitions = 0;
+  for (long k = 0; k < total; ++k) {
+    sim::CubeCollectOptions o = opt;
+    o.images = k < image_episodes;
+    const sim::CubeEpisode ep = sim::CollectCubeEpisode(env, o, static_cast<uint64_t>(k));
+    ros_bridge::EpisodeMeta meta;
+    meta.episode_id = static_cast<uint64_t>(k);
+    meta.env = env_name;
+    meta.split = k < episodes ? "train" : "val";
+    meta.seed = ep.seed;
+    meta.start.assign(ep.observations.begin(), ep.observations.begin() + sim::CubeEnv::kObservationSize);
+    // play data has no goal: meta.goal stays empty, so no step is marked success
+    writer.WriteEpisode(meta, ep.length, sim::CubeEnv::kObservationSize, sim::CubeEnv::kActionSize,
+                        ep.observations.data(), ep.actions.data(), o.images ? ep.images.data() : nullptr,
+                        env_opt.image_size, env_opt.success_distance);
+    transitions += static_cast<uint64_t>(ep.length);
+    progress.Update(k + 1, transitions);
+  }
+  writer.Close();
+  const double s = progress.Elapsed();
+  if (!progress.quiet) {
+    if (progress.tty) std::fprintf(stderr, "\n");
+    std::fprintf(stderr,
+                 "[msspr_collect] wrote %s: %s-play, %ld train + %ld val episodes of %d steps "
+                 "(%lu transitions, %ld with images) in %.1f s (%.0f steps/s)\n",
+                 args.Get("out", "").c_str(), env_name.c_str(), episodes, val, opt.episode_length,
+                 static_cast<unsigned long>(transitions), std::min(image_episodes, total), s,
+                 transitions / std::max(s, 1e-9));
+  }
+  return 0;
+}
 
 }  // namespace
 
@@ -44,7 +134,7 @@ int main(int argc, char** argv) {
   try {
     parsed = std::make_unique<ros_bridge::CliArgs>(
         argc, argv, std::set<std::string>{"images", "no-compress", "quiet", "help"},
-        std::set<std::string>{"out", "maze", "kind", "episodes", "val-episodes", "length", "noise",
+        std::set<std::string>{"out", "env", "urdf", "maze", "kind", "episodes", "val-episodes", "length", "noise",
                               "image-episodes", "seed"});
   } catch (const std::exception& e) {
     std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
@@ -60,6 +150,15 @@ int main(int argc, char** argv) {
       std::cerr << "msspr_collect: --out FILE.bag is required\n" << kUsage;
       return 2;
     }
+    std::string env_kind;
+    try {
+      env_kind = args.GetChoice("env", "pointmaze", {"pointmaze", "cube-single"});
+      if (env_kind != "cube-single" && args.Has("urdf")) throw cli::CliError("--urdf needs --env cube-single");
+    } catch (const std::exception& e) {
+      std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+      return 2;
+    }
+    if (env_kind == "cube-single") return CollectCube(args);
     sim::CollectOptions opt;
     long episodes = 0, val = 0, image_episodes = 0;
     try {  // every flag is checked first: a bad one is a usage error (exit 2)
