@@ -41,6 +41,8 @@ Eigen::Matrix<double, 6, 1> PoseError(const Eigen::Isometry3d& target,
 
 class ArmIk {
  public:
+  // Keeps a reference to `arm`, which must outlive the solver. Throws
+  // std::invalid_argument for options out of range.
   explicit ArmIk(const ArmModel& arm, const ArmIkOptions& options = {});
 
   // The 6 x num_arm_joints geometric Jacobian of link `link`'s origin at q:

@@ -1,9 +1,9 @@
 // OGBench's cube-single environment on the URDF arm: the 5-D action, the
 // IK-driven servo targets, 25 x 2 ms physics steps per action, the 28-D
 // state observation and the success rule (../shared/docs/manipulation.md,
-// sections 3 to 5), the five evaluation tasks and their seeded resets, and
-// headless camera images. Collection resets and the play oracle are not
-// here yet (issue 11).
+// sections 3 to 5), the five evaluation tasks and their seeded resets,
+// collection resets and headless camera images. The play oracle is in
+// cube_oracle.h, episode collection in cube_dataset.h.
 #pragma once
 
 #include <Eigen/Core>
@@ -151,14 +151,14 @@ class CubeEnv {
 
  private:
   struct Impl;
-  CubeEnvOptions options_;
-  std::unique_ptr<ArmModel> arm_;
-  std::unique_ptr<ArmIk> ik_;
-  std::string mjcf_;
-  std::unique_ptr<Impl> impl_;
   // Random arm pose as at an episode start; gripper open.
   void RandomizeArm(std::mt19937_64& rng);
 
+  CubeEnvOptions options_;
+  std::unique_ptr<ArmModel> arm_;  // heap: ik_ keeps a reference to it
+  std::unique_ptr<ArmIk> ik_;
+  std::string mjcf_;
+  std::unique_ptr<Impl> impl_;
   Eigen::Isometry3d pinch_to_flange_;
   bool last_ik_converged_ = true;
   Observation goal_observation_{};

@@ -40,6 +40,10 @@ struct CubeSceneOptions {
   std::array<std::string, 2> pad_geoms{"left_pad", "right_pad"};
 
   double timestep = 0.002;  // s
+  // Shadow map size (px). MuJoCo's default, 4096, is what OGBench renders
+  // with; for 64 x 64 frames 512 looks the same and, on a software GL
+  // (llvmpipe), doubles collection speed with images (42 -> 90 rows/s).
+  int shadow_size = 512;
 
   // OGBench's pixel-mode look (visual-cube-single): robot visuals at alpha
   // 0.1, the gripper's black and pad materials purple, the pads at alpha 0.5,
