@@ -1,0 +1,460 @@
+#include "cube_sim_node.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/JointState.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include "dataset_bag.h"
+#include "msg_conversion.h"
+#include "msspr/EpisodeInfo.h"
+#include "robot_model.h"
+#include "ros_params.h"
+
+namespace msspr::ros_bridge {
+
+namespace {
+template <typename T>
+T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
+  return LoggedParam(pnh, name, def, "msspr_sim");
+}
+
+constexpr int kObs = sim::CubeEnv::kObservationSize;
+constexpr int kAct = sim::CubeEnv::kActionSize;
+const Eigen::Vector3d kCentre(0.425, 0.0, 0.0);  // c of the observation's 10 (x - c) terms
+
+geometry_msgs::TransformStamped ToTf(const Eigen::Isometry3d& pose, const ros::Time& stamp,
+                                     const std::string& parent, const std::string& child) {
+  geometry_msgs::TransformStamped tf;
+  tf.header.stamp = stamp;
+  tf.header.frame_id = parent;
+  tf.child_frame_id = child;
+  tf.transform.translation.x = pose.translation().x();
+  tf.transform.translation.y = pose.translation().y();
+  tf.transform.translation.z = pose.translation().z();
+  const Eigen::Quaterniond q(pose.rotation());
+  tf.transform.rotation.w = q.w();
+  tf.transform.rotation.x = q.x();
+  tf.transform.rotation.y = q.y();
+  tf.transform.rotation.z = q.z();
+  return tf;
+}
+
+// Joint values q [num_dofs] of the ArmModel from MuJoCo's qpos (arm 0-5, left finger 6).
+Eigen::VectorXd ArmQ(const sim::CubeEnv& env) {
+  const std::vector<double> qpos = env.Qpos();
+  const int n = env.arm().num_dofs();
+  Eigen::VectorXd q(n);
+  for (int i = 0; i < n; ++i) q[i] = qpos[static_cast<size_t>(i)];
+  return q;
+}
+}  // namespace
+
+Eigen::Vector3d CubePositionFromObservation(const float* obs) {
+  return kCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
+}
+double CubeYawFromObservation(const float* obs) { return std::atan2(obs[27], obs[26]); }
+
+CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
+  CubeSimNodeOptions o;
+  ROS_INFO_NAMED("msspr_sim", "msspr_sim_node (env cube-single) parameters:");
+  o.observation_mode = Param(pnh, "observation_mode", o.observation_mode);
+  o.image_size = Param(pnh, "image_size", o.image_size);
+  o.stepping = Param(pnh, "stepping", o.stepping);
+  o.control_rate = Param(pnh, "control_rate", o.control_rate);
+  o.action_timeout = Param(pnh, "action_timeout", o.action_timeout);
+  o.republish_timeout = Param(pnh, "republish_timeout", o.republish_timeout);
+  o.max_episode_steps = Param(pnh, "max_episode_steps", o.max_episode_steps);
+  o.initial_task = Param(pnh, "initial_task", o.initial_task);
+  o.seed = Param(pnh, "seed", o.seed);
+  o.publish_clock = Param(pnh, "publish_clock", o.publish_clock);
+  o.world_frame = Param(pnh, "world_frame", o.world_frame);
+  o.cube_frame = Param(pnh, "cube_frame", o.cube_frame);
+  o.goal_frame = Param(pnh, "goal_frame", o.goal_frame);
+  o.robot_description = Param(pnh, "robot_description", o.robot_description);
+  o.urdf = Param(pnh, "urdf", std::string(MSSPR_DEFAULT_ARM_URDF));
+  auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
+    std::ostringstream s;
+    s << "~" << name << " must be " << rule << ", got " << v;
+    throw std::invalid_argument(s.str());
+  };
+  if (o.observation_mode != "state" && o.observation_mode != "pixels" && o.observation_mode != "both")
+    bad("observation_mode", "state, pixels or both", "'" + o.observation_mode + "'");
+  if (o.stepping != "lockstep" && o.stepping != "realtime")
+    bad("stepping", "lockstep or realtime", "'" + o.stepping + "'");
+  if (!(o.control_rate > 0 && std::isfinite(o.control_rate))) bad("control_rate", "> 0 (Hz)", o.control_rate);
+  if (!(o.action_timeout > 0 && std::isfinite(o.action_timeout))) bad("action_timeout", "> 0 (s)", o.action_timeout);
+  if (!(o.republish_timeout > 0 && std::isfinite(o.republish_timeout)))
+    bad("republish_timeout", "> 0 (s)", o.republish_timeout);
+  if (o.image_size < 8 || o.image_size > 1024) bad("image_size", "in 8..1024", o.image_size);
+  if (o.initial_task != -1 && (o.initial_task < 1 || o.initial_task > 5))
+    bad("initial_task", "-1 (none) or 1..5", o.initial_task);
+  if (o.max_episode_steps < 1) bad("max_episode_steps", ">= 1", o.max_episode_steps);
+  if (o.seed < 0) bad("seed", ">= 0", o.seed);
+  if (o.world_frame.empty() || o.cube_frame.empty() || o.goal_frame.empty())
+    bad("world_frame/~cube_frame/~goal_frame", "non-empty", "''");
+  return o;
+}
+
+CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimNodeOptions& options)
+    : options_(options), nh_(nh), pnh_(pnh), it_(nh) {
+  // The URDF: robot_description when set (written to a temporary file for
+  // CubeEnv, which parses a path), else ~urdf, then served as robot_description.
+  std::string key, xml, source;
+  if (!options_.robot_description.empty() && nh_.searchParam(options_.robot_description, key) &&
+      nh_.getParam(key, xml)) {
+    source = "parameter " + key;
+  } else {
+    xml = ReadTextFile(options_.urdf);
+    source = options_.urdf;
+    if (!options_.robot_description.empty()) {
+      key = nh_.resolveName(options_.robot_description);
+      nh_.setParam(key, xml);
+    }
+  }
+  sim::CubeEnvOptions env_opt;
+  env_opt.enable_rendering = pixels();
+  env_opt.image_size = options_.image_size;
+  env_opt.max_episode_steps = options_.max_episode_steps;
+  env_opt.scene.pixel_style = pixels();
+  const std::string tmp = "/tmp/msspr_cube_sim_" + std::to_string(getpid()) + ".urdf";
+  {
+    std::ofstream f(tmp);
+    f << xml;
+    if (!f) throw std::runtime_error("cannot write " + tmp);
+  }
+  env_opt.urdf_path = tmp;
+  try {
+    env_ = std::make_unique<sim::CubeEnv>(env_opt);
+  } catch (const std::exception& e) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error(source + ": " + e.what());
+  }
+  std::remove(tmp.c_str());
+  control_dt_ = env_opt.scene.timestep * env_opt.substeps;
+  const auto& root = env_->arm().links().front().name;
+  if (root != options_.world_frame)
+    throw std::invalid_argument(source + ": the URDF's root link is '" + root + "', ~world_frame is '" +
+                                options_.world_frame + "'");
+  ROS_INFO_STREAM_NAMED("msspr_sim", "robot_description " << key << " (from " << source << "): robot '"
+                                         << env_->arm().name() << "', " << env_->arm().links().size()
+                                         << " links; simulated from the same text");
+
+  obs_pub_ = nh_.advertise<msspr::Observation>("observation", 10);
+  episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", 10, /*latch=*/true);
+  if (options_.publish_clock) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
+  marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
+  if (pixels()) {
+    image_pub_ = it_.advertise("camera/image", 10);
+    goal_image_pub_ = nh_.advertise<sensor_msgs::Image>("goal_image", 1, /*latch=*/true);
+  }
+  action_sub_ = nh_.subscribe("action", 10, &CubeSimNode::OnAction, this, ros::TransportHints().tcpNoDelay());
+  reset_srv_ = nh_.advertiseService("reset", &CubeSimNode::OnReset, this);
+  goal_srv_ = nh_.advertiseService("set_goal", &CubeSimNode::OnSetGoal, this);
+  pause_srv_ = nh_.advertiseService("pause", &CubeSimNode::OnPause, this);
+  if (options_.stepping == "realtime")
+    realtime_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / options_.control_rate),
+                                          &CubeSimNode::OnRealtimeTick, this);
+  watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &CubeSimNode::OnWatchdog, this);
+  diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &CubeSimNode::OnDiagnostics, this);
+  PublishStaticFrames();
+  if (options_.publish_clock) {  // time 0 until the first step
+    rosgraph_msgs::Clock c;
+    c.clock = TickToTime(0, control_dt_);
+    clock_pub_.publish(c);
+  }
+  PublishRobot(Now());  // the arm at home, before any episode
+  ROS_INFO_STREAM_NAMED("msspr_sim", "msspr_sim_node serving cube-single (" << options_.stepping << ", "
+                                                                            << options_.observation_mode << ")");
+}
+
+CubeSimNode::~CubeSimNode() = default;
+
+ros::Time CubeSimNode::Now() const { return TickToTime(tick_, control_dt_); }
+
+// Fixed URDF joints once on /tf_static (as robot_state_publisher does), and
+// latched markers for the cube and the goal, locked to their frames.
+void CubeSimNode::PublishStaticFrames() {
+  const auto& links = env_->arm().links();
+  const std::vector<Eigen::Isometry3d> poses = env_->arm().LinkPoses(ArmQ(*env_));
+  std::vector<geometry_msgs::TransformStamped> tfs;
+  for (size_t i = 1; i < links.size(); ++i) {
+    if (links[i].type != sim::ArmModel::JointType::kFixed) continue;
+    const auto& parent = links[static_cast<size_t>(links[i].parent)];
+    tfs.push_back(ToTf(poses[static_cast<size_t>(links[i].parent)].inverse() * poses[i], ros::Time(0),
+                       parent.name, links[i].name));
+  }
+  static_tf_.sendTransform(tfs);
+
+  visualization_msgs::MarkerArray arr;
+  for (int k = 0; k < 2; ++k) {
+    visualization_msgs::Marker m;
+    m.header.frame_id = k == 0 ? options_.cube_frame : options_.goal_frame;
+    m.ns = k == 0 ? "cube" : "goal";
+    m.type = visualization_msgs::Marker::CUBE;
+    m.action = visualization_msgs::Marker::ADD;
+    m.pose.orientation.w = 1.0;
+    m.scale.x = m.scale.y = m.scale.z = 0.04;
+    m.color.r = 0.96f;
+    m.color.g = 0.26f;
+    m.color.b = 0.33f;
+    m.color.a = k == 0 ? 1.0f : 0.3f;
+    m.frame_locked = true;
+    arr.markers.push_back(m);
+  }
+  marker_pub_.publish(arr);
+}
+
+// joint_states for every moving URDF joint (the mimic finger included) and
+// tf2 for the moving joints, the cube and the goal marker.
+void CubeSimNode::PublishRobot(const ros::Time& stamp) {
+  const auto& arm = env_->arm();
+  const auto& links = arm.links();
+  const Eigen::VectorXd q = ArmQ(*env_);
+  const std::vector<Eigen::Isometry3d> poses = arm.LinkPoses(q);
+  const std::vector<double> qvel = env_->Qvel();
+  sensor_msgs::JointState js;
+  js.header.stamp = stamp;
+  std::vector<geometry_msgs::TransformStamped> tfs;
+  for (size_t i = 1; i < links.size(); ++i) {
+    const auto& l = links[i];
+    if (l.type == sim::ArmModel::JointType::kFixed) continue;
+    js.name.push_back(l.joint);
+    js.position.push_back(l.multiplier * q[l.dof] + l.offset);
+    // qvel: arm 0-5, then the fingers (the mimic one follows the left's dof)
+    js.velocity.push_back(l.multiplier * qvel[static_cast<size_t>(l.dof)]);
+    tfs.push_back(ToTf(poses[static_cast<size_t>(l.parent)].inverse() * poses[i], stamp,
+                       links[static_cast<size_t>(l.parent)].name, l.name));
+  }
+  Eigen::Isometry3d cube = Eigen::Isometry3d::Identity();
+  const std::vector<double> qpos = env_->Qpos();
+  cube.translation() = Eigen::Vector3d(qpos[8], qpos[9], qpos[10]);
+  cube.linear() = Eigen::Quaterniond(qpos[11], qpos[12], qpos[13], qpos[14]).normalized().toRotationMatrix();
+  tfs.push_back(ToTf(cube, stamp, options_.world_frame, options_.cube_frame));
+  Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
+  goal.translation() = env_->GoalPosition();
+  goal.linear() = Eigen::AngleAxisd(env_->GoalYaw(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  tfs.push_back(ToTf(goal, stamp, options_.world_frame, options_.goal_frame));
+  tf_.sendTransform(tfs);
+  joint_state_pub_.publish(js);
+}
+
+void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {
+  ++episode_id_;
+  ++tick_;
+  const sim::CubeEnv::Observation o = env_->ResetToTask(task_id, seed);
+  goal_.assign(env_->goal_observation().begin(), env_->goal_observation().end());
+  active_ = true;
+  have_action_ = false;
+  ++counters_.episodes;
+  msspr::EpisodeInfo info;
+  info.header.stamp = Now();
+  info.episode_id = static_cast<uint32_t>(episode_id_);
+  info.env = "cube-single";
+  info.split = "";
+  info.task_id = task_id;
+  info.seed = seed;
+  info.start.assign(o.begin(), o.end());
+  info.goal = goal_;
+  episode_pub_.publish(info);
+  if (pixels())
+    goal_image_pub_.publish(ToImageMsg(env_->goal_image().data(), options_.image_size, info.header.stamp,
+                                       kCameraFrame));
+  Publish();
+}
+
+msspr::Observation CubeSimNode::MakeObservation() const {
+  msspr::Observation o;
+  o.header.stamp = Now();
+  o.header.frame_id = options_.world_frame;
+  o.episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
+  o.step = static_cast<uint32_t>(env_->episode_steps());
+  const sim::CubeEnv::Observation s = env_->GetObservation();
+  o.state.assign(s.begin(), s.end());
+  o.goal = goal_;
+  o.success = env_->Success();
+  o.last = env_->episode_steps() >= options_.max_episode_steps;
+  return o;
+}
+
+void CubeSimNode::Publish() {
+  const msspr::Observation o = MakeObservation();
+  if (options_.publish_clock) {
+    rosgraph_msgs::Clock c;
+    c.clock = o.header.stamp;
+    clock_pub_.publish(c);
+  }
+  PublishRobot(o.header.stamp);
+  if (pixels()) {
+    const auto img = env_->Render();
+    image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
+  }
+  obs_pub_.publish(o);
+  last_publish_time_ = ros::WallTime::now();
+  if (o.last) active_ = false;  // wait for a reset
+}
+
+void CubeSimNode::DoStep(const sim::CubeEnv::Action& action) {
+  env_->Step(action);
+  ++tick_;
+  ++counters_.steps;
+  Publish();
+}
+
+void CubeSimNode::OnAction(const msspr::Action::ConstPtr& msg) {
+  ++counters_.actions;
+  if (msg->action.size() != static_cast<size_t>(kAct)) {
+    ++counters_.rejected_wrong_length;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with " << msg->action.size()
+                                                                             << " values, expected " << kAct);
+    return;
+  }
+  if (!AllFinite(msg->action)) {
+    ++counters_.rejected_nonfinite;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with NaN or Inf values");
+    return;
+  }
+  sim::CubeEnv::Action a;
+  bool clipped = false;
+  for (int i = 0; i < kAct; ++i) {
+    const double v = msg->action[static_cast<size_t>(i)];
+    a[static_cast<size_t>(i)] = std::clamp(v, -1.0, 1.0);
+    clipped = clipped || std::abs(v) > 1.0;
+  }
+  if (clipped) ++counters_.clipped;
+  if (paused_) {
+    ++counters_.ignored_paused;
+    return;
+  }
+  if (!active_) {
+    ++counters_.ignored_after_end;
+    return;
+  }
+  if (options_.stepping == "realtime") {
+    latest_action_ = a;
+    latest_action_time_ = ros::WallTime::now();
+    have_action_ = true;
+    return;
+  }
+  if (static_cast<int64_t>(msg->episode_id) != episode_id_ ||
+      msg->step != static_cast<uint32_t>(env_->episode_steps())) {
+    ++counters_.stale;
+    return;
+  }
+  DoStep(a);
+}
+
+void CubeSimNode::OnRealtimeTick(const ros::WallTimerEvent&) {
+  if (!active_ || paused_) return;
+  sim::CubeEnv::Action a{};
+  if (have_action_ && (ros::WallTime::now() - latest_action_time_).toSec() <= options_.action_timeout)
+    a = latest_action_;
+  else if (have_action_)
+    ++counters_.timeouts;
+  DoStep(a);
+}
+
+void CubeSimNode::OnWatchdog(const ros::WallTimerEvent&) {
+  if (!started_) {
+    started_ = true;
+    if (options_.initial_task >= 1) StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed));
+    return;
+  }
+  if (options_.stepping == "lockstep" && active_ && !paused_ &&
+      (ros::WallTime::now() - last_publish_time_).toSec() > options_.republish_timeout) {
+    ++counters_.republished;
+    Publish();
+  }
+}
+
+bool CubeSimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
+  if (!req.start.empty() || !req.goal.empty()) {
+    res.ok = false;
+    res.message = "cube-single takes no explicit start and goal: use task_id 1..5 (and set_goal)";
+    return true;
+  }
+  if (req.task_id < 1 || req.task_id > 5) {
+    res.ok = false;
+    res.message = "task_id must be 1..5 for cube-single, got " + std::to_string(req.task_id);
+    return true;
+  }
+  try {
+    started_ = true;
+    StartEpisode(req.task_id, req.seed);
+  } catch (const std::exception& e) {
+    res.ok = false;
+    res.message = e.what();
+    return true;
+  }
+  res.ok = true;
+  res.message = "episode " + std::to_string(episode_id_);
+  res.observation = MakeObservation();
+  res.goal = goal_;
+  return true;
+}
+
+// A new goal observation (28 numbers): the goal marker moves to its cube
+// position and yaw, so success and tf2 follow it. The goal image is not
+// re-rendered (CubeEnv renders goal images at reset only).
+bool CubeSimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) {
+  if (req.goal.size() != static_cast<size_t>(kObs) || !AllFinite(req.goal)) {
+    res.ok = false;
+    res.message = "goal must be 28 finite numbers (a cube-single observation)";
+    return true;
+  }
+  goal_ = req.goal;
+  env_->SetGoal(CubePositionFromObservation(goal_.data()), CubeYawFromObservation(goal_.data()));
+  res.ok = true;
+  res.message = "goal set";
+  return true;
+}
+
+bool CubeSimNode::OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res) {
+  paused_ = req.pause;
+  res.paused = paused_;
+  if (!paused_) last_publish_time_ = ros::WallTime::now();
+  ROS_INFO_STREAM_NAMED("msspr_sim", (paused_ ? "paused" : "resumed"));
+  return true;
+}
+
+void CubeSimNode::OnDiagnostics(const ros::WallTimerEvent&) {
+  diagnostic_msgs::DiagnosticArray arr;
+  arr.header.stamp = Now();
+  diagnostic_msgs::DiagnosticStatus st;
+  st.name = ros::this_node::getName() + ": actions";
+  st.hardware_id = "cube-single";
+  const uint64_t rejected = counters_.rejected_wrong_length + counters_.rejected_nonfinite;
+  st.level = rejected > 0 ? diagnostic_msgs::DiagnosticStatus::WARN : diagnostic_msgs::DiagnosticStatus::OK;
+  st.message = rejected > 0 ? std::to_string(rejected) + " malformed actions rejected" : "ok";
+  auto kv = [&](const std::string& k, uint64_t v) {
+    diagnostic_msgs::KeyValue p;
+    p.key = k;
+    p.value = std::to_string(v);
+    st.values.push_back(p);
+  };
+  kv("steps", counters_.steps);
+  kv("episodes", counters_.episodes);
+  kv("actions", counters_.actions);
+  kv("rejected_wrong_length", counters_.rejected_wrong_length);
+  kv("rejected_nonfinite", counters_.rejected_nonfinite);
+  kv("clipped", counters_.clipped);
+  kv("stale", counters_.stale);
+  kv("ignored_paused", counters_.ignored_paused);
+  kv("ignored_after_end", counters_.ignored_after_end);
+  kv("timeouts", counters_.timeouts);
+  kv("republished", counters_.republished);
+  arr.status.push_back(st);
+  diag_pub_.publish(arr);
+}
+
+}  // namespace msspr::ros_bridge
