@@ -29,6 +29,7 @@
 #include "cli_args.h"
 #include "msspr/Observation.h"
 #include "msspr/Reset.h"
+#include "msspr_sim/cube_env.h"
 #include "msspr_sim/custom_tasks.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
@@ -38,10 +39,11 @@ namespace {
 
 constexpr char kUsage[] = R"(usage: rosrun msspr msspr_eval [options]
 Evaluates the agent that answers the sim's observations (lockstep), by OGBench's protocol.
+  --env ENV           pointmaze | cube-single: the running sim's env (default pointmaze)
   --maze NAME         maze of the running sim (default medium)
   --tasks LIST        comma-separated task ids (default 1,2,3,4,5)
   --episodes N        episodes per task (default 50)
-  --max-steps N       step limit per episode (default 1000)
+  --max-steps N       step limit per episode (default 1000; cube-single 200)
   --seed S            evaluation seed (default 0)
   --agent NAME        label written into the results (default "agent")
   --out FILE.json     results JSON (default: none)
@@ -52,6 +54,8 @@ Evaluates the agent that answers the sim's observations (lockstep), by OGBench's
                           - {id: 1, start: [0.0, 0.0], goal: [8.0, 0.0]}
                       (start/goal in metres; sent through reset + set_goal; msspr_make_tasks
                       draws random ones)
+cube-single: the 5 tasks of OGBench's cube-single (success: the cube within 4 cm of the goal,
+at the step that ends the episode); --maze, --plot and --tasks-file do not apply.
   --step-timeout S    seconds without a new observation before an episode counts as stalled (default 10)
   --sims N            drive N sim + agent pairs at once, in namespaces PREFIX0..PREFIX{N-1}, one
                       thread each, the episodes shared out; the results equal the serial run's
@@ -184,6 +188,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<CliArgs> args;
   std::unique_ptr<msspr::sim::MazeMap> map_ptr;
   std::string maze;
+  bool cube = false;
   std::vector<int> tasks;
   std::map<int, std::pair<std::vector<float>, std::vector<float>>> custom;  // id -> start, goal
   int episodes = 0, max_steps = 0;
@@ -192,7 +197,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> namespaces;  // one per sim; {""}: msspr_eval's own namespace
   try {
     args = std::make_unique<CliArgs>(argc, argv, std::set<std::string>{"help"},
-                                     std::set<std::string>{"maze", "tasks", "episodes", "max-steps", "seed",
+                                     std::set<std::string>{"env", "maze", "tasks", "episodes", "max-steps", "seed",
                                                            "agent", "out", "plot", "success-plot", "step-timeout",
                                                            "tasks-file", "sims", "sim-ns", "wait"});
     if (args->Has("help")) {
@@ -200,6 +205,10 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (!args->positional().empty()) throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
+    cube = args->GetChoice("env", "pointmaze", {"pointmaze", "cube-single"}) == "cube-single";
+    if (cube)
+      for (const char* f : {"maze", "plot", "tasks-file"})
+        if (args->Has(f)) throw std::invalid_argument(std::string("--") + f + " does not apply to --env cube-single");
     maze = args->Get("maze", "medium");
     map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (args->Has("tasks-file")) {
@@ -213,7 +222,7 @@ int main(int argc, char** argv) {
         tasks.push_back(static_cast<int>(id));
     }
     episodes = static_cast<int>(args->GetInt("episodes", 50, 1, 1000000));
-    max_steps = static_cast<int>(args->GetInt("max-steps", 1000, 1, 100000000));
+    max_steps = static_cast<int>(args->GetInt("max-steps", cube ? 200 : 1000, 1, 100000000));
     seed = static_cast<uint64_t>(args->GetInt("seed", 0, 0));
     step_timeout = args->GetDouble("step-timeout", 10.0, 1e-3, 1e6);
     wait_s = args->GetDouble("wait", 60.0, 0.0, 1e6);
@@ -313,7 +322,7 @@ int main(int argc, char** argv) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
   msspr::sim::EvalReport report;
-  report.env = "pointmaze-" + maze;
+  report.env = cube ? "cube-single" : "pointmaze-" + maze;
   report.agent = args->Get("agent", "agent");
   report.episodes_per_task = episodes;
   report.max_steps = max_steps;
@@ -335,6 +344,10 @@ int main(int argc, char** argv) {
     if (auto it = custom.find(t.task_id); it != custom.end()) {
       t.start.assign(it->second.first.begin(), it->second.first.end());
       t.goal.assign(it->second.second.begin(), it->second.second.end());
+    } else if (cube) {  // the cube's start and goal xy (m)
+      const auto& ct = msspr::sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];
+      t.start = {ct.start.x(), ct.start.y()};
+      t.goal = {ct.goal.x(), ct.goal.y()};
     }
     report.tasks.push_back(t);
   }

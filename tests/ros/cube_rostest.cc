@@ -4,8 +4,13 @@
 // serves robot_description, joint_states and tf2 for every URDF link, the
 // cube and the goal, consistent with the observations; reset / set_goal /
 // pause and malformed actions.
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -190,6 +195,40 @@ TEST(CubeSimOracle, ServicesAndBadInput) {
   ASSERT_TRUE(h.WaitFor([&] { return h.latest()->step == 2; }, 10));
   EXPECT_TRUE(h.WaitFor([&] { return h.Counter("rejected_wrong_length") >= 1 && h.Counter("rejected_nonfinite") >= 1; },
                         5.0));
+}
+
+// msspr_eval --env cube-single against msspr_cube_oracle_node (eval_cube_oracle.test):
+// OGBench's protocol over ROS, the oracle at >= 90% on each task, the results JSON.
+TEST(CubeEvalOracle, FiveTasks) {
+  ros::NodeHandle pnh("~");
+  const int episodes = pnh.param("episodes", 5);
+  const std::string json = "/tmp/msspr_cube_eval_" + std::to_string(getpid()) + ".json";
+  std::remove(json.c_str());
+  const std::string cmd = std::string(MSSPR_EVAL_EXE) + " __ns:=" + ros::this_node::getNamespace() +
+                          " --env cube-single --episodes " + std::to_string(episodes) +
+                          " --seed 3 --agent cube-oracle --out " + json + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  const int status = pclose(p);
+  std::printf("%s\n", out.c_str());
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
+  std::ifstream in(json);
+  const std::string j((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(j.find("\"env\": \"cube-single\""), std::string::npos) << j;
+  EXPECT_NE(j.find("\"max_steps\": 200"), std::string::npos) << j;
+  EXPECT_NE(j.find("\"stalled_episodes\": 0"), std::string::npos) << j;
+  int tasks = 0;
+  for (size_t at = j.find("\"success\": "); at != std::string::npos; at = j.find("\"success\": ", at + 1)) {
+    const double success = std::stod(j.substr(at + 11));
+    EXPECT_GE(success, 0.9) << j;
+    ++tasks;
+  }
+  EXPECT_EQ(tasks, 5) << j;
+  std::remove(json.c_str());
 }
 
 }  // namespace
