@@ -430,30 +430,7 @@ bool CubeSimNode::OnPause(msspr::Pause::Request& req, msspr::Pause::Response& re
 void CubeSimNode::OnDiagnostics(const ros::WallTimerEvent&) {
   diagnostic_msgs::DiagnosticArray arr;
   arr.header.stamp = Now();
-  diagnostic_msgs::DiagnosticStatus st;
-  st.name = ros::this_node::getName() + ": actions";
-  st.hardware_id = "cube-single";
-  const uint64_t rejected = counters_.rejected_wrong_length + counters_.rejected_nonfinite;
-  st.level = rejected > 0 ? diagnostic_msgs::DiagnosticStatus::WARN : diagnostic_msgs::DiagnosticStatus::OK;
-  st.message = rejected > 0 ? std::to_string(rejected) + " malformed actions rejected" : "ok";
-  auto kv = [&](const std::string& k, uint64_t v) {
-    diagnostic_msgs::KeyValue p;
-    p.key = k;
-    p.value = std::to_string(v);
-    st.values.push_back(p);
-  };
-  kv("steps", counters_.steps);
-  kv("episodes", counters_.episodes);
-  kv("actions", counters_.actions);
-  kv("rejected_wrong_length", counters_.rejected_wrong_length);
-  kv("rejected_nonfinite", counters_.rejected_nonfinite);
-  kv("clipped", counters_.clipped);
-  kv("stale", counters_.stale);
-  kv("ignored_paused", counters_.ignored_paused);
-  kv("ignored_after_end", counters_.ignored_after_end);
-  kv("timeouts", counters_.timeouts);
-  kv("republished", counters_.republished);
-  arr.status.push_back(st);
+  arr.status.push_back(ActionDiagnostics(counters_, ros::this_node::getName(), "cube-single"));
   diag_pub_.publish(arr);
 }
 

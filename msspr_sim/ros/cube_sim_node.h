@@ -24,6 +24,7 @@
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
 #include "msspr_sim/cube_env.h"
+#include "action_counters.h"
 
 namespace msspr::ros_bridge {
 
@@ -60,11 +61,7 @@ class CubeSimNode {
   CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimNodeOptions& options);
   ~CubeSimNode();
 
-  struct Counters {
-    uint64_t steps = 0, episodes = 0, actions = 0;
-    uint64_t rejected_wrong_length = 0, rejected_nonfinite = 0, clipped = 0;
-    uint64_t stale = 0, ignored_paused = 0, ignored_after_end = 0, timeouts = 0, republished = 0;
-  };
+  using Counters = ActionCounters;
 
  private:
   bool pixels() const { return options_.observation_mode != "state"; }

@@ -20,6 +20,7 @@
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
 #include "msspr_sim/point_maze.h"
+#include "action_counters.h"
 #include "robot_model.h"
 
 namespace msspr::ros_bridge {
@@ -61,11 +62,7 @@ class SimNode {
  public:
   SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& options);
 
-  struct Counters {
-    uint64_t steps = 0, episodes = 0, actions = 0;
-    uint64_t rejected_wrong_length = 0, rejected_nonfinite = 0, clipped = 0;
-    uint64_t stale = 0, ignored_paused = 0, ignored_after_end = 0, timeouts = 0, republished = 0;
-  };
+  using Counters = ActionCounters;
   const Counters& counters() const { return counters_; }
 
  private:
