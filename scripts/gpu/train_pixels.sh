@@ -58,6 +58,7 @@ build() {
   cmake --build build-core -j16 --target msspr_train >"$WORK/build.log" 2>&1 || { tail -40 "$WORK/build.log"; return 1; }
   echo "msspr_train built in $(($(date +%s) - t0)) s"
   local ENV_SRC="msspr_sim/env/src/maze_map.cc msspr_sim/env/src/point_maze.cc msspr_sim/env/src/expert.cc
+    msspr_sim/env/src/mujoco_util.cc msspr_sim/env/src/offscreen_renderer.cc
     msspr_sim/env/src/dataset_gen.cc msspr_sim/env/src/gl_context_egl.cc"
   local INC="-Imsspr_core/include -Imsspr_sim/env/include -Imsspr_sim/env/src -I$SIM/include -I$PREFIX/usr/include"
   local LIBS="-L$SIM/lib -L$PREFIX/usr/lib/x86_64-linux-gnu -lmujoco -lEGL -lOpenGL -lzip -lz -lpthread"

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "gl_context.h"
 #include "mujoco_util.h"
+#include "offscreen_renderer.h"
 #include "random_util.h"
 
 namespace msspr::sim {
@@ -65,22 +65,7 @@ struct CubeEnv::Impl {
   int goal_mocap = -1;
 
   // Rendering (only with enable_rendering); it reads the physics data.
-  std::unique_ptr<internal::GlContext> gl;
-  bool render_ready = false;
-  mjvScene scene;
-  mjvCamera camera;
-  mjvOption vopt;
-  mjrContext context;
-  std::vector<uint8_t> flip;  // [S, S, 3] scratch for the bottom-up read
-
-  ~Impl() {
-    if (render_ready) {
-      gl->MakeCurrent();
-      mjr_freeContext(&context);
-      mjv_freeScene(&scene);
-      gl->Release();
-    }
-  }
+  std::unique_ptr<internal::OffscreenRenderer> renderer;
 };
 
 CubeEnv::CubeEnv(const CubeEnvOptions& options)
@@ -133,27 +118,10 @@ CubeEnv::CubeEnv(const CubeEnvOptions& options)
     if (size < 1 || size > 4096)
       throw std::invalid_argument("CubeEnvOptions: image_size must be in [1, 4096], got " +
                                   std::to_string(size));
-    impl_->gl = std::make_unique<internal::GlContext>(size, size);
-    mjv_defaultScene(&impl_->scene);
-    mjv_defaultCamera(&impl_->camera);
     // Default visibility: geom groups 0-2 (floor, cube, robot visuals);
     // collision geoms and walls (3), sites (4) and a pixel-mode goal (5) hidden.
-    mjv_defaultOption(&impl_->vopt);
-    mjr_defaultContext(&impl_->context);
-    mjv_makeScene(m, &impl_->scene, 2000);
-    mjr_makeContext(m, &impl_->context, mjFONTSCALE_100);
-    mjr_setBuffer(mjFB_OFFSCREEN, &impl_->context);
-    if (impl_->context.currentBuffer != mjFB_OFFSCREEN) {
-      mjr_freeContext(&impl_->context);
-      mjv_freeScene(&impl_->scene);
-      throw std::runtime_error("MuJoCo: offscreen framebuffer is not available");
-    }
-    impl_->camera.type = mjCAMERA_FIXED;
-    impl_->camera.fixedcamid = RequireId(m, mjOBJ_CAMERA, options.camera, "camera");
-    impl_->flip.resize(static_cast<size_t>(size) * size * 3);
-    impl_->render_ready = true;
-    // Not left current: another thread may render with this env later.
-    impl_->gl->Release();
+    const int camera = RequireId(m, mjOBJ_CAMERA, options.camera, "camera");
+    impl_->renderer = std::make_unique<internal::OffscreenRenderer>(m, size, camera);
   }
 }
 
@@ -411,21 +379,11 @@ CubeEnv::Observation CubeEnv::ResetForCollection(uint64_t seed) {
 }
 
 void CubeEnv::Render(uint8_t* rgb) const {
-  if (!impl_->render_ready)
+  if (!impl_->renderer)
     throw std::logic_error("CubeEnv::Render: construct with enable_rendering = true");
   const mjModel* m = impl_->model.get();
   mjData* d = impl_->data.get();
-  impl_->gl->MakeCurrent();
-  const int s = options_.image_size;
-  const mjrRect viewport = {0, 0, s, s};
-  mjv_updateScene(m, d, &impl_->vopt, nullptr, &impl_->camera, mjCAT_ALL, &impl_->scene);
-  mjr_render(viewport, &impl_->scene, &impl_->context);
-  mjr_readPixels(impl_->flip.data(), nullptr, viewport, &impl_->context);
-  impl_->gl->Release();
-  // mjr_readPixels gives the bottom row first; images are top row first.
-  const size_t row = static_cast<size_t>(s) * 3;
-  for (int r = 0; r < s; ++r)
-    std::memcpy(rgb + r * row, impl_->flip.data() + (s - 1 - r) * row, row);
+  impl_->renderer->Render(m, d, rgb);
 }
 
 std::vector<uint8_t> CubeEnv::Render() const {

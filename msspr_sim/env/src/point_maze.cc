@@ -9,8 +9,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "gl_context.h"
 #include "mujoco_util.h"
+#include "offscreen_renderer.h"
 #include "random_util.h"
 
 namespace msspr::sim {
@@ -28,22 +28,7 @@ struct PointMaze::Impl {
   // physics qpos before each frame.
   std::unique_ptr<mjModel, ModelDeleter> render_model;
   std::unique_ptr<mjData, DataDeleter> render_data;
-  std::unique_ptr<internal::GlContext> gl;
-  bool render_ready = false;
-  mjvScene scene;
-  mjvCamera camera;
-  mjvOption vopt;
-  mjrContext context;
-  std::vector<uint8_t> flip;  // [S, S, 3] scratch for the bottom-up read
-
-  ~Impl() {
-    if (render_ready) {
-      gl->MakeCurrent();
-      mjr_freeContext(&context);
-      mjv_freeScene(&scene);
-      gl->Release();
-    }
-  }
+  std::unique_ptr<internal::OffscreenRenderer> renderer;
 };
 
 PointMaze::PointMaze(const PointMazeOptions& options)
@@ -69,28 +54,11 @@ PointMaze::PointMaze(const PointMazeOptions& options)
     impl_->render_data.reset(mj_makeData(m));
     if (!impl_->render_data) throw std::runtime_error("MuJoCo: mj_makeData failed");
     mj_forward(m, impl_->render_data.get());
-    impl_->gl = std::make_unique<internal::GlContext>(s, s);
-    mjv_defaultScene(&impl_->scene);
-    mjv_defaultCamera(&impl_->camera);
-    mjv_defaultOption(&impl_->vopt);
-    mjr_defaultContext(&impl_->context);
-    mjv_makeScene(m, &impl_->scene, 2000);
-    mjr_makeContext(m, &impl_->context, mjFONTSCALE_100);
-    mjr_setBuffer(mjFB_OFFSCREEN, &impl_->context);
-    if (impl_->context.currentBuffer != mjFB_OFFSCREEN) {
-      mjr_freeContext(&impl_->context);
-      mjv_freeScene(&impl_->scene);
-      throw std::runtime_error("MuJoCo: offscreen framebuffer is not available");
-    }
-    impl_->scene.flags[mjRND_SHADOW] = 0;
-    impl_->scene.flags[mjRND_SKYBOX] = 0;
-    impl_->camera.type = mjCAMERA_FIXED;
-    impl_->camera.fixedcamid = mj_name2id(m, mjOBJ_CAMERA, "track");
-    if (impl_->camera.fixedcamid < 0) throw std::logic_error("PointMaze: no camera 'track'");
-    impl_->flip.resize(static_cast<size_t>(s) * s * 3);
-    impl_->render_ready = true;
-    // Not left current: another thread may render with this env later.
-    impl_->gl->Release();
+    const int camera = mj_name2id(m, mjOBJ_CAMERA, "track");
+    if (camera < 0) throw std::logic_error("PointMaze: no camera 'track'");
+    impl_->renderer = std::make_unique<internal::OffscreenRenderer>(m, s, camera);
+    impl_->renderer->scene().flags[mjRND_SHADOW] = 0;
+    impl_->renderer->scene().flags[mjRND_SKYBOX] = 0;
   }
 }
 
@@ -171,7 +139,7 @@ void PointMaze::Render(uint8_t* rgb) const {
 }
 
 void PointMaze::RenderPose(double x, double y, uint8_t* rgb) const {
-  if (!impl_->render_ready) {
+  if (!impl_->renderer) {
     throw std::logic_error("PointMaze::Render: construct with enable_rendering = true");
   }
   mjModel* m = impl_->render_model.get();
@@ -182,19 +150,7 @@ void PointMaze::RenderPose(double x, double y, uint8_t* rgb) const {
   mj_kinematics(m, d);
   mj_comPos(m, d);
   mj_camlight(m, d);
-  impl_->gl->MakeCurrent();
-  const int s = options_.image_size;
-  const mjrRect viewport = {0, 0, s, s};
-  mjv_updateScene(m, d, &impl_->vopt, nullptr, &impl_->camera, mjCAT_ALL, &impl_->scene);
-  mjr_render(viewport, &impl_->scene, &impl_->context);
-  mjr_readPixels(impl_->flip.data(), nullptr, viewport, &impl_->context);
-  // Released after every frame so that any thread may render next (a
-  // context can be current in one thread only).
-  impl_->gl->Release();
-  const size_t row = static_cast<size_t>(s) * 3;
-  for (int r = 0; r < s; ++r) {
-    std::memcpy(rgb + r * row, impl_->flip.data() + (s - 1 - r) * row, row);
-  }
+  impl_->renderer->Render(m, d, rgb);
 }
 
 std::vector<uint8_t> PointMaze::Render() const {
