@@ -1,14 +1,21 @@
-// What a simulator node counts of the actions it receives, and their
-// /diagnostics status: shared by msspr_sim_node's point maze (SimNode) and
-// cube-single (CubeSimNode), so that both report alike.
+// What a simulator node does with the actions it receives, what it counts of
+// them, and their /diagnostics status: shared by msspr_sim_node's point maze
+// (SimNode) and cube-single (CubeSimNode), so that both behave and report alike.
 #ifndef MSSPR_SIM_ROS_ACTION_COUNTERS_H_
 #define MSSPR_SIM_ROS_ACTION_COUNTERS_H_
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <diagnostic_msgs/DiagnosticStatus.h>
 #include <diagnostic_msgs/KeyValue.h>
+#include <ros/console.h>
+
+#include "msg_conversion.h"
+#include "msspr/Action.h"
 
 namespace msspr::ros_bridge {
 
@@ -17,6 +24,61 @@ struct ActionCounters {
   uint64_t rejected_wrong_length = 0, rejected_nonfinite = 0, clipped = 0;
   uint64_t stale = 0, ignored_paused = 0, ignored_after_end = 0, timeouts = 0, republished = 0;
 };
+
+// Where an action message goes, given the node's state.
+enum class ActionUse {
+  kDrop,    // rejected (wrong length, NaN or Inf) or ignored (paused, episode over, stale)
+  kLatest,  // realtime stepping: the action to hold until the next tick
+  kStep,    // lockstep: it answers the current observation, step now
+};
+struct ActionGate {
+  bool paused = false;
+  bool active = false;    // an episode is running
+  bool realtime = false;  // stepping "realtime" (else lockstep)
+  int64_t episode_id = -1;
+  uint32_t step = 0;      // the current observation's step
+};
+
+// Checks `msg` (expected_size values) against `gate`, counts the outcome in
+// `c`, and writes the action clipped to [-1, 1] into `action` unless dropped.
+// Malformed actions are logged (throttled).
+inline ActionUse CheckAction(const msspr::Action& msg, size_t expected_size, const ActionGate& gate,
+                             ActionCounters* c, std::vector<double>* action) {
+  ++c->actions;
+  if (msg.action.size() != expected_size) {
+    ++c->rejected_wrong_length;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with " << msg.action.size()
+                                                                             << " values, expected " << expected_size);
+    return ActionUse::kDrop;
+  }
+  if (!AllFinite(msg.action)) {
+    ++c->rejected_nonfinite;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with NaN or Inf values");
+    return ActionUse::kDrop;
+  }
+  action->resize(expected_size);
+  bool clipped = false;
+  for (size_t i = 0; i < expected_size; ++i) {
+    const double v = msg.action[i];
+    (*action)[i] = std::clamp(v, -1.0, 1.0);
+    clipped = clipped || std::abs(v) > 1.0;
+  }
+  if (clipped) ++c->clipped;
+  if (gate.paused) {
+    ++c->ignored_paused;
+    return ActionUse::kDrop;
+  }
+  if (!gate.active) {
+    ++c->ignored_after_end;
+    return ActionUse::kDrop;
+  }
+  if (gate.realtime) return ActionUse::kLatest;
+  if (static_cast<int64_t>(msg.episode_id) != gate.episode_id || msg.step != gate.step) {
+    ++c->stale;  // answers an observation that is no longer current
+    return ActionUse::kDrop;
+  }
+  return ActionUse::kStep;
+}
 
 // "NODE: actions": WARN with the count when malformed actions were rejected,
 // else OK; every counter as a key/value.

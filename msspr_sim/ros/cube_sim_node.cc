@@ -312,43 +312,18 @@ void CubeSimNode::DoStep(const sim::CubeEnv::Action& action) {
 }
 
 void CubeSimNode::OnAction(const msspr::Action::ConstPtr& msg) {
-  ++counters_.actions;
-  if (msg->action.size() != static_cast<size_t>(kAct)) {
-    ++counters_.rejected_wrong_length;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with " << msg->action.size()
-                                                                             << " values, expected " << kAct);
-    return;
-  }
-  if (!AllFinite(msg->action)) {
-    ++counters_.rejected_nonfinite;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with NaN or Inf values");
-    return;
-  }
+  std::vector<double> v;
+  const ActionUse use = CheckAction(
+      *msg, kAct,
+      {paused_, active_, options_.stepping == "realtime", episode_id_, static_cast<uint32_t>(env_->episode_steps())},
+      &counters_, &v);
+  if (use == ActionUse::kDrop) return;
   sim::CubeEnv::Action a;
-  bool clipped = false;
-  for (int i = 0; i < kAct; ++i) {
-    const double v = msg->action[static_cast<size_t>(i)];
-    a[static_cast<size_t>(i)] = std::clamp(v, -1.0, 1.0);
-    clipped = clipped || std::abs(v) > 1.0;
-  }
-  if (clipped) ++counters_.clipped;
-  if (paused_) {
-    ++counters_.ignored_paused;
-    return;
-  }
-  if (!active_) {
-    ++counters_.ignored_after_end;
-    return;
-  }
-  if (options_.stepping == "realtime") {
+  std::copy(v.begin(), v.end(), a.begin());
+  if (use == ActionUse::kLatest) {
     latest_action_ = a;
     latest_action_time_ = ros::WallTime::now();
     have_action_ = true;
-    return;
-  }
-  if (static_cast<int64_t>(msg->episode_id) != episode_id_ ||
-      msg->step != static_cast<uint32_t>(env_->episode_steps())) {
-    ++counters_.stale;
     return;
   }
   DoStep(a);

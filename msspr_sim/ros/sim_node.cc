@@ -343,41 +343,17 @@ void SimNode::DoStep(const Eigen::Vector2d& action) {
 }
 
 void SimNode::OnAction(const msspr::Action::ConstPtr& msg) {
-  ++counters_.actions;
-  if (msg->action.size() != static_cast<size_t>(sim::PointMaze::kActionDim)) {
-    ++counters_.rejected_wrong_length;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with "
-                                                          << msg->action.size() << " values, expected "
-                                                          << sim::PointMaze::kActionDim);
-    return;
-  }
-  if (!AllFinite(msg->action)) {
-    ++counters_.rejected_nonfinite;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, "msspr_sim", "rejected action with NaN or Inf values");
-    return;
-  }
-  Eigen::Vector2d a(msg->action[0], msg->action[1]);
-  if (a.cwiseAbs().maxCoeff() > 1.0) {
-    ++counters_.clipped;
-    a = a.cwiseMax(-1.0).cwiseMin(1.0);
-  }
-  if (paused_) {
-    ++counters_.ignored_paused;
-    return;
-  }
-  if (!active_) {
-    ++counters_.ignored_after_end;
-    return;
-  }
-  if (options_.stepping == "realtime") {
+  std::vector<double> v;
+  const ActionUse use =
+      CheckAction(*msg, sim::PointMaze::kActionDim,
+                  {paused_, active_, options_.stepping == "realtime", episode_id_, static_cast<uint32_t>(env_->steps())},
+                  &counters_, &v);
+  if (use == ActionUse::kDrop) return;
+  const Eigen::Vector2d a(v[0], v[1]);
+  if (use == ActionUse::kLatest) {
     latest_action_ = a;
     latest_action_time_ = ros::WallTime::now();
     have_action_ = true;
-    return;
-  }
-  if (static_cast<int64_t>(msg->episode_id) != episode_id_ ||
-      msg->step != static_cast<uint32_t>(env_->steps())) {
-    ++counters_.stale;  // answers an observation that is no longer current
     return;
   }
   DoStep(a);
