@@ -16,7 +16,15 @@
 # Needs in the working tree: .gpu_deps/*.deb (yaml-cpp, libzip, googletest;
 # see build_and_bench.sh) and .gpu_deps/simdeps.tar.gz (MuJoCo 2.2.2 and its
 # libraries, glvnd's EGL/OpenGL, the Eigen, EGL, KHR and MuJoCo headers,
-# taken from Debian 12; carried, never installed into /).
+# taken from Debian 12; carried, never installed into /). Made on a machine
+# where `make deps` has run:
+#   mkdir -p /tmp/s/include /tmp/s/lib && cd /usr/include &&
+#   cp -r mujoco EGL KHR eigen3/Eigen /tmp/s/include && cd /usr/lib/x86_64-linux-gnu &&
+#   cp -L libmujoco.so.2.2.2 libccd.so.2 liblodepng.so.0 libqhull_r.so.8.0 libtinyxml2.so.9 \
+#     libEGL.so.1 libOpenGL.so.0 libGLdispatch.so.0 libGL.so.1 libGLX.so.0 /tmp/s/lib &&
+#   cd /tmp/s/lib && ln -s libmujoco.so.2.2.2 libmujoco.so && ln -s libEGL.so.1 libEGL.so &&
+#   ln -s libOpenGL.so.0 libOpenGL.so && tar czf $REPO/.gpu_deps/simdeps.tar.gz -C /tmp/s .
+# (2.3 MB). The device call carries .gpu_deps (carry: [".gpu_deps"]).
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 ROOT=$PWD
