@@ -10,8 +10,12 @@
 #include <mutex>
 #include <sstream>
 
+#include "urdf_util.h"
+
 namespace msspr::sim {
 namespace {
+
+using internal::ToEigen;
 
 // urdfdom reports why it rejects a description only through console_bridge
 // (it returns nullptr); this handler collects those lines so that the
@@ -52,15 +56,6 @@ urdf::ModelInterfaceSharedPtr ParseCollectingErrors(const std::string& xml,
   console_bridge::restorePreviousOutputHandler();
   if (!model) throw UrdfError(source + ": urdfdom cannot parse it: " + handler.Joined());
   return model;
-}
-
-Eigen::Isometry3d ToEigen(const urdf::Pose& p) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  t.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
-                   .normalized()
-                   .toRotationMatrix();
-  return t;
 }
 
 const char* TypeName(int type) {

@@ -6,8 +6,12 @@
 #include <sstream>
 #include <vector>
 
+#include "urdf_util.h"
+
 namespace msspr::sim {
 namespace {
+
+using internal::ToEigen;
 
 using Link = ArmModel::Link;
 using JointType = ArmModel::JointType;
@@ -34,15 +38,6 @@ std::string Num(double x) {
   s.precision(17);
   s << x;
   return s.str();
-}
-
-Eigen::Isometry3d ToEigen(const urdf::Pose& p) {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
-  t.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
-                   .normalized()
-                   .toRotationMatrix();
-  return t;
 }
 
 class Generator {
