@@ -31,16 +31,6 @@
 namespace msspr::testing {
 namespace {
 
-msspr::Reset::Response CallReset(ros::NodeHandle& nh, int task, uint64_t seed) {
-  ros::ServiceClient c = nh.serviceClient<msspr::Reset>("reset");
-  EXPECT_TRUE(c.waitForExistence(ros::Duration(30.0)));
-  msspr::Reset srv;
-  srv.request.task_id = task;
-  srv.request.seed = seed;
-  EXPECT_TRUE(c.call(srv));
-  return srv.response;
-}
-
 std::vector<float> ToVec(const sim::CubeEnv::Action& a) { return std::vector<float>(a.begin(), a.end()); }
 
 // Drives one episode in lockstep with the oracle; returns the last observation.

@@ -8,12 +8,26 @@
 #include <string>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <gtest/gtest.h>
 #include <ros/ros.h>
 
 #include "msspr/Action.h"
 #include "msspr/Observation.h"
+#include "msspr/Reset.h"
 
 namespace msspr::testing {
+
+// Calls the sim's `reset` service (task 1..5, or 0 random where the env has
+// it) and returns its response; a missing service or a failed call fails the test.
+inline msspr::Reset::Response CallReset(ros::NodeHandle& nh, int task, uint64_t seed) {
+  ros::ServiceClient c = nh.serviceClient<msspr::Reset>("reset");
+  EXPECT_TRUE(c.waitForExistence(ros::Duration(30.0)));
+  msspr::Reset srv;
+  srv.request.task_id = task;
+  srv.request.seed = seed;
+  EXPECT_TRUE(c.call(srv));
+  return srv.response;
+}
 
 class RosTestHelper {
  public:

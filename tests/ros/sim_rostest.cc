@@ -27,16 +27,6 @@
 namespace msspr::testing {
 namespace {
 
-msspr::Reset::Response CallReset(ros::NodeHandle& nh, int task, uint64_t seed) {
-  ros::ServiceClient c = nh.serviceClient<msspr::Reset>("reset");
-  EXPECT_TRUE(c.waitForExistence(ros::Duration(30.0)));
-  msspr::Reset srv;
-  srv.request.task_id = task;
-  srv.request.seed = seed;
-  EXPECT_TRUE(c.call(srv));
-  return srv.response;
-}
-
 // sim + expert (goal mode) in lockstep reach the goal of every task of the maze
 // (~maze) in >= 95% of ~episodes episodes per task, within 1000 steps.
 TEST(SimExpertLockstep, ReachesGoals) {
