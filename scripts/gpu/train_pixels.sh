@@ -46,6 +46,12 @@ RUNS=(
   "paper|config/mspr_pixels_paper.yaml|"
   "light1024|config/pointmaze_pixels_cpu.yaml,scripts/gpu/fp32.yaml|--batch 1024"
 )
+# MSSPR_GPU_RUNS="paper" keeps only the named runs (space-separated names).
+if [ -n "${MSSPR_GPU_RUNS:-}" ]; then
+  kept=()
+  for r in "${RUNS[@]}"; do [[ " $MSSPR_GPU_RUNS " == *" ${r%%|*} "* ]] && kept+=("$r"); done
+  RUNS=("${kept[@]}")
+fi
 
 build() {
   note "deps"
