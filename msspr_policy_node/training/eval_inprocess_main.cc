@@ -8,6 +8,7 @@
 #include <set>
 #include <string>
 
+#include "cube_evaluator.h"
 #include "maze_evaluator.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/policy.h"
@@ -21,17 +22,19 @@ namespace {
 constexpr const char* kUsage = R"(usage: msspr_eval_inprocess --policy POLICY.pt [options]
 Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_eval --seed S).
   --policy FILE       a policy export (policy.pt) or a training checkpoint (required)
-  --maze NAME         arena, medium, large or giant (default medium)
+  --env ENV           pointmaze | cube-single (default pointmaze)
+  --maze NAME         arena, medium, large or giant (default medium; pointmaze only)
   --tasks LIST        task ids (default 1,2,3,4,5)
-  --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format)
+  --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format; pointmaze only)
   --episodes N        episodes per task (default 50)
-  --max-steps N       step limit (default 1000)
+  --max-steps N       step limit (default 1000; cube-single 200)
   --seed S            evaluation seed (default 0)
   --threads N         torch threads (default: torch's choice)
   --agent NAME        label in the results (default: the policy's file name)
   --out FILE.json     results JSON (default: none)
-  --plot FILE.png     trajectories on the maze (default: none)
-Prints the per-task table.
+  --plot FILE.png     trajectories on the maze (default: none; pointmaze only)
+  --urdf FILE         cube-single: the arm (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
+Prints the per-task table. cube-single: state policies (pixels: msspr_eval over ROS).
 )";
 
 }  // namespace
@@ -40,11 +43,13 @@ int main(int argc, char** argv) {
   msspr::core::ReexecWithPassiveOpenMpWait(argv);
   namespace sim = msspr::sim;
   msspr::agent::MazeEvalOptions eo;
+  msspr::agent::CubeEvalOptions co;
+  bool cube = false;
   std::string policy_path, out, plot, agent;
   try {
     msspr::cli::CliArgs args(argc, argv, {"help"},
-                             {"policy", "maze", "tasks", "tasks-file", "episodes", "max-steps", "seed", "threads",
-                              "agent", "out", "plot"});
+                             {"policy", "env", "maze", "tasks", "tasks-file", "episodes", "max-steps", "seed",
+                              "threads", "agent", "out", "plot", "urdf"});
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
@@ -52,24 +57,37 @@ int main(int argc, char** argv) {
     if (!args.positional().empty()) throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
     policy_path = args.Get("policy", "");
     if (policy_path.empty()) throw msspr::cli::CliError("--policy is required");
-    const auto names = sim::MazeMap::Names();
-    eo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
-    const auto map = sim::MazeMap::FromName(eo.maze);
-    if (args.Has("tasks-file") && args.Has("tasks")) throw msspr::cli::CliError("give --tasks or --tasks-file, not both");
-    if (args.Has("tasks-file")) {
-      try {
-        eo.custom_tasks = sim::LoadCustomTasks(args.Get("tasks-file", ""), &map);
-      } catch (const std::runtime_error& e) {
-        throw msspr::cli::CliError("--tasks-file: " + std::string(e.what()));
-      }
+    cube = args.GetChoice("env", "pointmaze", {"pointmaze", "cube-single"}) == "cube-single";
+    if (cube) {
+      for (const char* f : {"maze", "tasks-file", "plot"})
+        if (args.Has(f)) throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env cube-single");
+      co.urdf_path = args.Get("urdf", "");
+      co.tasks.clear();
+      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, 5)) co.tasks.push_back(static_cast<int>(t));
+      co.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
+      co.max_steps = static_cast<int>(args.GetInt("max-steps", 200, 1, 100000000));
+      co.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     } else {
-      eo.tasks.clear();
-      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map.Tasks().size())))
-        eo.tasks.push_back(static_cast<int>(t));
+      if (args.Has("urdf")) throw msspr::cli::CliError("--urdf applies to --env cube-single only");
+      const auto names = sim::MazeMap::Names();
+      eo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+      const auto map = sim::MazeMap::FromName(eo.maze);
+      if (args.Has("tasks-file") && args.Has("tasks")) throw msspr::cli::CliError("give --tasks or --tasks-file, not both");
+      if (args.Has("tasks-file")) {
+        try {
+          eo.custom_tasks = sim::LoadCustomTasks(args.Get("tasks-file", ""), &map);
+        } catch (const std::runtime_error& e) {
+          throw msspr::cli::CliError("--tasks-file: " + std::string(e.what()));
+        }
+      } else {
+        eo.tasks.clear();
+        for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map.Tasks().size())))
+          eo.tasks.push_back(static_cast<int>(t));
+      }
+      eo.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
+      eo.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
+      eo.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     }
-    eo.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
-    eo.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
-    eo.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
     if (threads > 0) torch::set_num_threads(threads);
     out = args.Get("out", "");
@@ -82,6 +100,17 @@ int main(int argc, char** argv) {
   }
   try {
     auto policy = msspr::core::Policy::Load(policy_path);
+    if (cube) {
+      std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x " << co.episodes
+                << " episodes on cube-single ...\n";
+      const auto result = msspr::agent::EvaluateOnCube(policy, co);
+      const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, co, agent);
+      const auto map = sim::MazeMap::FromName("medium");  // not used for reports with starts and goals
+      std::cout << sim::EvalReportTable(map, report);
+      if (!out.empty()) sim::WriteTextFile(out, sim::EvalReportJson(map, report));
+      std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in " << result.seconds << " s\n";
+      return 0;
+    }
     std::cerr << "msspr_eval_inprocess: " << policy_path << " (" << (policy.pixels() ? "pixels" : "states") << "), "
               << (eo.custom_tasks.empty() ? eo.tasks.size() : eo.custom_tasks.size()) << " tasks x " << eo.episodes
               << " episodes on " << eo.maze << " ...\n";

@@ -1,13 +1,15 @@
 // msspr_train (catkin build): the core's training command line, plus msspr
 // dataset bags (--data a.bag,b.bag; the "val" split of the same bags validates
-// unless --val is given) and success rates in the point maze, evaluated in
-// process every --eval-every steps by OGBench's protocol.
+// unless --val is given) and success rates in the point maze or cube-single
+// (the bags' env), evaluated in process every --eval-every steps by OGBench's
+// protocol.
 #include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
 
 #include "bag_dataset.h"
+#include "cube_evaluator.h"
 #include "maze_evaluator.h"
 #include "msspr_sim/learning_curve.h"
 #include "msspr_core/cli_args.h"
@@ -67,12 +69,13 @@ int main(int argc, char** argv) {
   ext.extra_options = {"eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps",
                        "eval-tasks-file"};
   ext.extra_usage =
-      "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0):\n"
+      "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
+      "maze, or cube-single's 5 tasks for cube-single bags (state policies)\n"
       "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
       "  --eval-episodes N  episodes per task (default 50)\n"
       "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
       "  --eval-seed S      evaluation seed (default 0; same episodes as msspr_eval --seed S)\n"
-      "  --eval-max-steps N step limit (default 1000)\n"
+      "  --eval-max-steps N step limit (default 1000; cube-single 200)\n"
       "  --eval-tasks-file YAML  also evaluate custom start/goal pairs (msspr_eval --tasks-file\n"
       "                     format; msspr_make_tasks draws random ones), --eval-episodes each\n"
       "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
@@ -111,7 +114,9 @@ int main(int argc, char** argv) {
     using msspr::cli::ParseInt;
     eo.episodes = static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
     eo.seed = static_cast<uint64_t>(ParseInt("eval-seed", get("eval-seed", "0"), 0));
-    eo.max_steps = static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", "1000"), 1, 100000000));
+    const bool cube = get("eval-maze", "").empty() && g_env == "cube-single";
+    eo.max_steps =
+        static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", cube ? "200" : "1000"), 1, 100000000));
     eo.tasks.clear();
     for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5")))
       eo.tasks.push_back(static_cast<int>(ParseInt("eval-tasks", t, 1, 5)));
@@ -126,7 +131,34 @@ int main(int argc, char** argv) {
         throw msspr::cli::CliError("--eval-maze: " + std::string(e.what()));
       }
     }
+    if (cube && extra.count("eval-tasks-file"))
+      throw msspr::cli::CliError("--eval-tasks-file: custom tasks are point-maze tasks (these bags are cube-single)");
     if (trainer.options().trainer.eval_every <= 0) return nullptr;
+    const auto start = std::chrono::steady_clock::now();
+    if (cube) {
+      msspr::agent::CubeEvalOptions co;
+      co.tasks = eo.tasks;
+      co.episodes = eo.episodes;
+      co.max_steps = eo.max_steps;
+      co.seed = eo.seed;
+      return [co, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
+        const auto result = msspr::agent::EvaluateOnCube(policy, co);
+        msspr::core::EvalResult r;
+        for (size_t i = 0; i < result.tasks.size(); ++i)
+          r.emplace_back("success_task" + std::to_string(result.tasks[i]), result.success[i]);
+        r.emplace_back("mean_success", result.mean_success);
+        r.emplace_back("eval_s", result.seconds);
+        r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        if (!out_dir.empty()) {
+          char name[64];
+          std::snprintf(name, sizeof name, "/eval/step_%08lld.json", static_cast<long long>(step));
+          const auto report = msspr::agent::MakeCubeEvalReport(result, co, "msspr step " + std::to_string(step));
+          msspr::sim::WriteTextFile(out_dir + name,
+                                    msspr::sim::EvalReportJson(msspr::sim::MazeMap::FromName("medium"), report));
+        }
+        return r;
+      };
+    }
     if (maze.empty()) {
       std::cerr << "msspr_train: no --eval-maze and no point-maze bags: no success evaluation\n";
       return nullptr;
@@ -141,7 +173,6 @@ int main(int argc, char** argv) {
         throw msspr::cli::CliError("--eval-tasks-file: " + std::string(e.what()));
       }
     }
-    const auto start = std::chrono::steady_clock::now();
     return [eo, custom, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
       const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
       msspr::core::EvalResult r;

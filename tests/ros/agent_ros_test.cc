@@ -22,6 +22,7 @@
 #include <rosbag/bag.h>
 
 #include "bag_dataset.h"
+#include "cube_evaluator.h"
 #include "dataset_bag.h"
 #include "maze_evaluator.h"
 #include "msspr/Action.h"
@@ -31,6 +32,7 @@
 #include "msspr_core/options.h"
 #include "msspr_core/policy.h"
 #include "msspr_core/checkpoint.h"
+#include "msspr_core/trainer.h"
 #include "test_util.h"
 #include "torch_test_util.h"
 
@@ -167,6 +169,46 @@ TEST(MazeEvaluator, DeterministicAndSane) {
     }
   opt.tasks = {7};
   EXPECT_THROW(EvaluateOnMaze(policy, opt), std::invalid_argument);
+}
+
+// An untrained cube-single policy (28-D states, 5-D actions): the evaluator's
+// bookkeeping, determinism and errors (the trained agent's numbers are in the README).
+TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
+  torch::manual_seed(0);
+  core::DatasetBuilder b(28, 5);
+  std::vector<float> obs(10 * 28, 0.1f), act(10 * 5, 0.2f);
+  b.AddEpisode(obs, act);
+  b.AddEpisode(obs, act);
+  core::Trainer trainer(core::testing_util::TinyOptions(), std::make_shared<const core::Dataset>(b.Build()));
+  trainer.Step();
+  core::Policy policy = trainer.MakePolicy();
+  CubeEvalOptions opt;
+  opt.tasks = {2, 5};
+  opt.episodes = 2;
+  opt.max_steps = 15;
+  const auto a = EvaluateOnCube(policy, opt);
+  const auto c = EvaluateOnCube(policy, opt);
+  ASSERT_EQ(a.tasks, opt.tasks);
+  ASSERT_EQ(a.success.size(), 2u);
+  EXPECT_EQ(a.success, c.success);
+  EXPECT_EQ(a.mean_steps_success, c.mean_steps_success);
+  for (size_t t = 0; t < 2; ++t) {
+    EXPECT_GE(a.success[t], 0.0);
+    EXPECT_LE(a.success[t], 1.0);
+    EXPECT_LE(a.mean_steps_success[t], 15.0);
+  }
+  const auto report = MakeCubeEvalReport(a, opt, "untrained");
+  EXPECT_EQ(report.env, "cube-single");
+  ASSERT_EQ(report.tasks.size(), 2u);
+  EXPECT_EQ(report.tasks[1].task_id, 5);
+  ASSERT_EQ(report.tasks[1].start.size(), 2u);  // task 5: cube from (0.35, 0.2) to (0.5, -0.2)
+  EXPECT_NEAR(report.tasks[1].start[1], 0.2, 1e-9);
+  EXPECT_NEAR(report.tasks[1].goal[1], -0.2, 1e-9);
+  opt.tasks = {6};
+  EXPECT_THROW(EvaluateOnCube(policy, opt), std::invalid_argument);
+  auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D: not a cube policy
+  opt.tasks = {1};
+  EXPECT_THROW(EvaluateOnCube(maze_policy, opt), std::invalid_argument);
 }
 
 TEST(MazeEvaluator, CustomTasksStartExactlyWhereTheySay) {

@@ -1,0 +1,130 @@
+#include "cube_evaluator.h"
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+
+#include <torch/torch.h>
+
+#include "msspr_core/policy.h"
+#include "msspr_sim/cube_env.h"
+
+namespace msspr::agent {
+
+std::string DefaultArmUrdf() { return MSSPR_DEFAULT_ARM_URDF; }
+
+CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  constexpr int kObs = sim::CubeEnv::kObservationSize, kAct = sim::CubeEnv::kActionSize;
+  if (policy.pixels())
+    throw std::invalid_argument(
+        "EvaluateOnCube: a pixels policy; evaluate it over ROS (msspr_eval --env cube-single, the sim in "
+        "observation_mode pixels)");
+  if (policy.obs_dim() != kObs)
+    throw std::invalid_argument("EvaluateOnCube: the policy expects " + std::to_string(policy.obs_dim()) +
+                                "-dimensional observations, cube-single gives 28");
+  if (policy.action_dim() != kAct)
+    throw std::invalid_argument("EvaluateOnCube: the policy has " + std::to_string(policy.action_dim()) +
+                                " action dimensions, cube-single takes 5");
+  const int n_tasks = static_cast<int>(sim::CubeSingleTasks().size());
+  for (int t : options.tasks)
+    if (t < 1 || t > n_tasks)
+      throw std::invalid_argument("EvaluateOnCube: task " + std::to_string(t) + " is not a task of cube-single (1 to " +
+                                  std::to_string(n_tasks) + ")");
+  if (options.episodes < 1 || options.max_steps < 1)
+    throw std::invalid_argument("EvaluateOnCube: episodes and max_steps must be at least 1");
+
+  sim::CubeEnvOptions eo;
+  eo.urdf_path = options.urdf_path.empty() ? DefaultArmUrdf() : options.urdf_path;
+  eo.max_episode_steps = options.max_steps;
+  struct Slot {
+    std::unique_ptr<sim::CubeEnv> env;
+    sim::CubeEnv::Observation obs;
+    bool done = false, success = false;
+    int steps = 0;
+  };
+  std::vector<Slot> slots;
+  const size_t nt = options.tasks.size();
+  slots.reserve(nt * static_cast<size_t>(options.episodes));
+  for (int t : options.tasks)
+    for (int e = 0; e < options.episodes; ++e) {
+      Slot s;
+      s.env = std::make_unique<sim::CubeEnv>(eo);
+      s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
+      s.success = s.done = s.env->Success();
+      slots.push_back(std::move(s));
+    }
+
+  torch::InferenceMode guard;
+  for (int step = 0; step < options.max_steps; ++step) {
+    std::vector<Slot*> active;
+    for (auto& s : slots)
+      if (!s.done) active.push_back(&s);
+    if (active.empty()) break;
+    const int64_t B = static_cast<int64_t>(active.size());
+    torch::Tensor obs = torch::empty({B, kObs}, torch::kFloat32), goal = torch::empty({B, kObs}, torch::kFloat32);
+    for (int64_t b = 0; b < B; ++b) {
+      std::copy(active[b]->obs.begin(), active[b]->obs.end(), obs[b].data_ptr<float>());
+      const auto& g = active[b]->env->goal_observation();
+      std::copy(g.begin(), g.end(), goal[b].data_ptr<float>());
+    }
+    const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
+    auto a = act.accessor<float, 2>();
+    for (int64_t b = 0; b < B; ++b) {
+      Slot& s = *active[b];
+      sim::CubeEnv::Action u;
+      for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[b][k], -1.0, 1.0);
+      s.success = s.env->Step(u);
+      s.obs = s.env->GetObservation();
+      ++s.steps;
+      s.done = s.success || s.steps >= options.max_steps;
+    }
+  }
+
+  CubeEvalResult r;
+  r.tasks = options.tasks;
+  r.success.assign(nt, 0.0);
+  r.mean_steps_success.assign(nt, 0.0);
+  for (size_t ti = 0; ti < nt; ++ti) {
+    int ok = 0;
+    for (int e = 0; e < options.episodes; ++e) {
+      const Slot& s = slots[ti * static_cast<size_t>(options.episodes) + static_cast<size_t>(e)];
+      if (s.success) {
+        ++ok;
+        r.mean_steps_success[ti] += s.steps;
+      }
+    }
+    r.success[ti] = double(ok) / options.episodes;
+    if (ok) r.mean_steps_success[ti] /= ok;
+    r.mean_success += r.success[ti] / static_cast<double>(nt);
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
+                                   const std::string& agent) {
+  sim::EvalReport report;
+  report.env = "cube-single";
+  report.agent = agent;
+  report.episodes_per_task = options.episodes;
+  report.max_steps = options.max_steps;
+  report.seed = options.seed;
+  report.wall_time_s = result.seconds;
+  for (size_t i = 0; i < result.tasks.size(); ++i) {
+    sim::TaskResult t;
+    t.task_id = result.tasks[i];
+    t.episodes = options.episodes;
+    t.success = result.success[i];
+    t.mean_steps_successful = result.mean_steps_success[i];
+    const auto& ct = sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];
+    t.start = {ct.start.x(), ct.start.y()};
+    t.goal = {ct.goal.x(), ct.goal.y()};
+    report.tasks.push_back(t);
+  }
+  sim::FinalizeReport(&report);
+  return report;
+}
+
+}  // namespace msspr::agent

@@ -1,0 +1,49 @@
+// In-process evaluation of a Policy on cube-single by OGBench's protocol (no
+// ROS): the 5 tasks' resets with the same seeds as msspr_eval --env cube-single
+// over ROS (sim::EvalEpisodeSeed), up to max_steps steps, success when the cube
+// is within 4 cm of the goal (the episode ends there, as over ROS). All
+// episodes run side by side so that each control step is one batched forward
+// pass. State policies only: a pixels policy is evaluated over ROS
+// (msspr_eval --env cube-single with the sim's images).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "msspr_sim/eval_protocol.h"
+
+namespace msspr::core {
+class Policy;
+}
+
+namespace msspr::agent {
+
+struct CubeEvalOptions {
+  std::string urdf_path;  // the arm; empty: the package's msspr_sim/urdf/ur5e_2f85.urdf
+  std::vector<int> tasks = {1, 2, 3, 4, 5};
+  int episodes = 50;   // per task
+  int max_steps = 200;
+  uint64_t seed = 0;   // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
+};
+
+struct CubeEvalResult {
+  std::vector<int> tasks;
+  std::vector<double> success;             // per task, in [0, 1]
+  std::vector<double> mean_steps_success;  // per task, steps of the successful episodes
+  double mean_success = 0.0;
+  double seconds = 0.0;
+};
+
+// The package's arm URDF (the build's source tree).
+std::string DefaultArmUrdf();
+
+// Runs the evaluation. Throws std::invalid_argument on a bad task or when the
+// policy's dimensions do not fit cube-single (28-D states, 5-D actions).
+CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& options);
+
+// The results in msspr_eval's report format (env "cube-single").
+sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
+                                   const std::string& agent);
+
+}  // namespace msspr::agent
