@@ -5,6 +5,8 @@
 #   MSSPR_DEMO_PIXELS=1 make demo    serve from 64x64 camera images instead of states
 #   DEMO_EPISODES=50 make demo       episodes per task (default 20)
 #   DEMO_TASKS_FILE=config/eval_tasks_medium_easy.yaml make demo   custom tasks
+#   MSSPR_DEMO_ENV=cube-single make demo   the URDF arm's cube-single (states; writes
+#                                          results.json and success.png)
 set -euo pipefail
 BUILD=${1:-build}
 cd "$(dirname "$0")/.."
@@ -15,15 +17,37 @@ rm -f "$OUT/results.json"
 LOG=$OUT/roslaunch.log
 PIXELS=false
 [ "${MSSPR_DEMO_PIXELS:-0}" = 1 ] && PIXELS=true
-CKPT=msspr_policy_node/checkpoints/pointmaze-medium-$([ "$PIXELS" = true ] && echo pixels || echo state).pt
-if [ -f "$CKPT" ]; then
-  echo "[demo] pointmaze-medium: msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo images || echo states)), lockstep over ROS"
-  LAUNCH=(demo.launch pixels:="$PIXELS")
-  [ -n "${DEMO_TASKS_FILE:-}" ] && LAUNCH+=(tasks_file:="$(readlink -f "$DEMO_TASKS_FILE")")
-else
-  echo "[demo] no $CKPT: evaluating the scripted expert instead"
-  LAUNCH=(expert_demo.launch)
-fi
+ENV=${MSSPR_DEMO_ENV:-pointmaze}
+case "$ENV" in
+  pointmaze)
+    CKPT=msspr_policy_node/checkpoints/pointmaze-medium-$([ "$PIXELS" = true ] && echo pixels || echo state).pt
+    if [ -f "$CKPT" ]; then
+      echo "[demo] pointmaze-medium: msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo images || echo states)), lockstep over ROS"
+      LAUNCH=(demo.launch pixels:="$PIXELS")
+      [ -n "${DEMO_TASKS_FILE:-}" ] && LAUNCH+=(tasks_file:="$(readlink -f "$DEMO_TASKS_FILE")")
+    else
+      echo "[demo] no $CKPT: evaluating the scripted expert instead"
+      LAUNCH=(expert_demo.launch)
+    fi
+    ;;
+  cube-single)
+    if [ "$PIXELS" = true ] || [ -n "${DEMO_TASKS_FILE:-}" ]; then
+      echo "[demo] MSSPR_DEMO_ENV=cube-single serves the state checkpoint: no MSSPR_DEMO_PIXELS or DEMO_TASKS_FILE" >&2
+      exit 2
+    fi
+    CKPT=msspr_policy_node/checkpoints/cube-single-state.pt
+    if [ ! -f "$CKPT" ]; then
+      echo "[demo] no $CKPT" >&2
+      exit 1
+    fi
+    echo "[demo] cube-single (URDF arm): msspr_policy_node serving $CKPT (states), lockstep over ROS"
+    LAUNCH=(demo.launch env:=cube-single cube_checkpoint:="$(readlink -f "$CKPT")")
+    ;;
+  *)
+    echo "[demo] MSSPR_DEMO_ENV must be pointmaze or cube-single, not '$ENV'" >&2
+    exit 2
+    ;;
+esac
 echo "[demo] running sim + agent + evaluator, ${DEMO_EPISODES:-20} episodes per task (log: $LOG) ..."
 roslaunch -p "$MSSPR_PORT" msspr "${LAUNCH[@]}" out_dir:="$OUT" episodes:="${DEMO_EPISODES:-20}" >"$LOG" 2>&1 || true
 grep -E "msspr_eval: task" "$LOG" | sed -E 's/^.*(msspr_eval: task)/[demo] \1/; s/\x1b\[[0-9;]*m//g' || true
@@ -33,4 +57,8 @@ if [ ! -s "$OUT/results.json" ]; then
   exit 1
 fi
 python3 scripts/print_results.py "$OUT/results.json"
-echo "[demo] wrote $OUT/results.json, $OUT/trajectories.png and $OUT/success.png"
+if [ "$ENV" = cube-single ]; then
+  echo "[demo] wrote $OUT/results.json and $OUT/success.png"
+else
+  echo "[demo] wrote $OUT/results.json, $OUT/trajectories.png and $OUT/success.png"
+fi

@@ -73,7 +73,7 @@ std::string EvalReportTable(const MazeMap& map, const EvalReport& r) {
   for (const auto& x : r.tasks) {
     std::string cells = "";
     if (x.start.size() == 2 && x.goal.size() == 2) {
-      std::snprintf(line, sizeof line, "(%.1f,%.1f)->(%.1f,%.1f)", x.start[0], x.start[1], x.goal[0], x.goal[1]);
+      std::snprintf(line, sizeof line, "(%.2f,%.2f)->(%.2f,%.2f)", x.start[0], x.start[1], x.goal[0], x.goal[1]);
       cells = line;
     } else if (x.task_id >= 1 && x.task_id <= static_cast<int>(map.Tasks().size())) {
       const auto& task = map.Tasks()[static_cast<size_t>(x.task_id - 1)];
