@@ -29,7 +29,6 @@ T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
 
 constexpr int kObs = sim::CubeEnv::kObservationSize;
 constexpr int kAct = sim::CubeEnv::kActionSize;
-const Eigen::Vector3d kCentre(0.425, 0.0, 0.0);  // c of the observation's 10 (x - c) terms
 
 geometry_msgs::TransformStamped ToTf(const Eigen::Isometry3d& pose, const ros::Time& stamp,
                                      const std::string& parent, const std::string& child) {
@@ -57,11 +56,6 @@ Eigen::VectorXd ArmQ(const sim::CubeEnv& env) {
   return q;
 }
 }  // namespace
-
-Eigen::Vector3d CubePositionFromObservation(const float* obs) {
-  return kCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
-}
-double CubeYawFromObservation(const float* obs) { return std::atan2(obs[27], obs[26]); }
 
 CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   CubeSimNodeOptions o;
@@ -379,8 +373,8 @@ bool CubeSimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& re
 }
 
 // A new goal observation (28 numbers): the goal marker moves to its cube
-// position and yaw, so success and tf2 follow it. The goal image is not
-// re-rendered (CubeEnv renders goal images at reset only).
+// position and yaw, so success and tf2 follow it; in pixels mode the goal
+// image is rendered for it (the scene posed as the goal) and published.
 bool CubeSimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) {
   if (req.goal.size() != static_cast<size_t>(kObs) || !AllFinite(req.goal)) {
     res.ok = false;
@@ -388,7 +382,11 @@ bool CubeSimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Respon
     return true;
   }
   goal_ = req.goal;
-  env_->SetGoal(CubePositionFromObservation(goal_.data()), CubeYawFromObservation(goal_.data()));
+  sim::CubeEnv::Observation g;
+  std::copy(goal_.begin(), goal_.end(), g.begin());
+  env_->SetGoalObservation(g);
+  if (pixels())
+    goal_image_pub_.publish(ToImageMsg(env_->goal_image().data(), options_.image_size, Now(), kCameraFrame));
   res.ok = true;
   res.message = "goal set";
   return true;

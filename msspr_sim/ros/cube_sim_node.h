@@ -52,9 +52,9 @@ struct CubeSimNodeOptions {
 // Reads ~params into CubeSimNodeOptions, logs every value; throws std::invalid_argument.
 CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh);
 
-// Decodes a 28-D cube-single observation: the cube centre (m) and yaw (rad).
-Eigen::Vector3d CubePositionFromObservation(const float* obs);
-double CubeYawFromObservation(const float* obs);
+// The observation decoders live with CubeEnv (msspr_sim/cube_env.h).
+using sim::CubePositionFromObservation;
+using sim::CubeYawFromObservation;
 
 class CubeSimNode {
  public:

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -44,6 +45,11 @@ const std::array<CubeTask, 5>& CubeSingleTasks() {
   }};
   return tasks;
 }
+
+Eigen::Vector3d CubePositionFromObservation(const float* obs) {
+  return kCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
+}
+double CubeYawFromObservation(const float* obs) { return std::atan2(obs[27], obs[26]); }
 
 Eigen::Matrix3d PinchDownRotation(double yaw) {
   return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
@@ -376,6 +382,33 @@ CubeEnv::Observation CubeEnv::ResetForCollection(uint64_t seed) {
   goal_image_.clear();
   episode_steps_ = 0;
   return GetObservation();
+}
+
+std::vector<uint8_t> CubeEnv::RenderObservation(const Observation& obs) {
+  if (!impl_->renderer)
+    throw std::logic_error("CubeEnv::RenderObservation: construct with enable_rendering = true");
+  const mjModel* m = impl_->model.get();
+  mjData* d = impl_->data.get();
+  // All of mjData, not only the state: after mj_step its poses are those of the
+  // last substep's start (what observations and the next action read), which a
+  // fresh mj_forward would change.
+  std::unique_ptr<mjData, void (*)(mjData*)> saved(mj_makeData(m), mj_deleteData);
+  if (!saved) throw std::runtime_error("CubeEnv::RenderObservation: mj_makeData failed");
+  mj_copyData(saved.get(), m, d);
+  Eigen::Matrix<double, 6, 1> q;
+  for (int i = 0; i < 6; ++i) q[i] = obs[i];
+  SetArmJoints(q);
+  SetOpening(obs[17] / 3.0);
+  SetCube(CubePositionFromObservation(obs.data()), CubeYawFromObservation(obs.data()));
+  std::vector<uint8_t> rgb = Render();
+  mj_copyData(d, m, saved.get());
+  return rgb;
+}
+
+void CubeEnv::SetGoalObservation(const Observation& goal) {
+  SetGoal(CubePositionFromObservation(goal.data()), CubeYawFromObservation(goal.data()));
+  goal_observation_ = goal;
+  if (impl_->renderer) goal_image_ = RenderObservation(goal);
 }
 
 void CubeEnv::Render(uint8_t* rgb) const {

@@ -56,6 +56,11 @@ struct CubeTask {
 // The 5 tasks of manipulation.md section 5 (task ids 1 to 5 are [0] to [4]).
 const std::array<CubeTask, 5>& CubeSingleTasks();
 
+// Decodes a 28-D cube-single observation (CubeEnv::GetObservation): the cube
+// centre (m) and its yaw (rad).
+Eigen::Vector3d CubePositionFromObservation(const float* obs);
+double CubeYawFromObservation(const float* obs);
+
 class CubeEnv {
  public:
   static constexpr int kObservationSize = 28;
@@ -92,6 +97,15 @@ class CubeEnv {
   // target of the play oracle). No goal observation. Returns the first
   // observation.
   Observation ResetForCollection(uint64_t seed);
+  // A goal given as an observation (a user's goal, not a task's): the goal
+  // marker moves to its cube position and yaw, goal_observation() becomes
+  // `goal`, and with enable_rendering goal_image() is re-rendered: the scene
+  // posed as `goal` (arm joints, opening, cube position and yaw), then the
+  // state restored exactly, so the episode goes on unchanged.
+  void SetGoalObservation(const Observation& goal);
+  // The scene posed as observation `obs` (as above), rendered; the state is
+  // restored. Throws std::logic_error unless enable_rendering.
+  std::vector<uint8_t> RenderObservation(const Observation& obs);
   // The goal observation of the current episode (zeros before a reset).
   const Observation& goal_observation() const { return goal_observation_; }
   // With enable_rendering, the goal image of the current episode, rendered
