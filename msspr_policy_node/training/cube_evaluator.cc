@@ -9,6 +9,7 @@
 
 #include "msspr_core/policy.h"
 #include "msspr_sim/cube_env.h"
+#include "msspr_sim/maze_map.h"
 
 namespace msspr::agent {
 
@@ -105,26 +106,21 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
 
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
                                    const std::string& agent) {
-  sim::EvalReport report;
-  report.env = "cube-single";
-  report.agent = agent;
-  report.episodes_per_task = options.episodes;
-  report.max_steps = options.max_steps;
-  report.seed = options.seed;
-  report.wall_time_s = result.seconds;
-  for (size_t i = 0; i < result.tasks.size(); ++i) {
-    sim::TaskResult t;
-    t.task_id = result.tasks[i];
-    t.episodes = options.episodes;
-    t.success = result.success[i];
-    t.mean_steps_successful = result.mean_steps_success[i];
+  sim::EvalReport report =
+      MakeTaskReport(result, "cube-single", agent, options.episodes, options.max_steps, options.seed);
+  for (auto& t : report.tasks) {  // the cube's start and goal xy (m), as msspr_eval --env cube-single
     const auto& ct = sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];
     t.start = {ct.start.x(), ct.start.y()};
     t.goal = {ct.goal.x(), ct.goal.y()};
-    report.tasks.push_back(t);
   }
-  sim::FinalizeReport(&report);
   return report;
+}
+
+void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options, const std::string& agent,
+                          const std::string& path) {
+  // The maze map only names cells of tasks without starts and goals: none here.
+  sim::WriteTextFile(path, sim::EvalReportJson(sim::MazeMap::FromName("medium"),
+                                               MakeCubeEvalReport(result, options, agent)));
 }
 
 }  // namespace msspr::agent

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "msspr_sim/eval_protocol.h"
+#include "eval_result.h"
 
 namespace msspr::core {
 class Policy;
@@ -27,13 +27,7 @@ struct CubeEvalOptions {
   uint64_t seed = 0;   // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
 };
 
-struct CubeEvalResult {
-  std::vector<int> tasks;
-  std::vector<double> success;             // per task, in [0, 1]
-  std::vector<double> mean_steps_success;  // per task, steps of the successful episodes
-  double mean_success = 0.0;
-  double seconds = 0.0;
-};
+using CubeEvalResult = TaskSuccessResult;
 
 // The package's arm URDF (the build's source tree).
 std::string DefaultArmUrdf();
@@ -45,5 +39,8 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
 // The results in msspr_eval's report format (env "cube-single").
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
                                    const std::string& agent);
+// Writes the results JSON shared with msspr_eval; throws std::runtime_error naming the path.
+void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options, const std::string& agent,
+                          const std::string& path);
 
 }  // namespace msspr::agent

@@ -105,9 +105,8 @@ int main(int argc, char** argv) {
                 << " episodes on cube-single ...\n";
       const auto result = msspr::agent::EvaluateOnCube(policy, co);
       const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, co, agent);
-      const auto map = sim::MazeMap::FromName("medium");  // not used for reports with starts and goals
-      std::cout << sim::EvalReportTable(map, report);
-      if (!out.empty()) sim::WriteTextFile(out, sim::EvalReportJson(map, report));
+      std::cout << sim::EvalReportTable(sim::MazeMap::FromName("medium"), report);  // (no cells named)
+      if (!out.empty()) msspr::agent::WriteCubeResultsJson(result, co, agent, out);
       std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in " << result.seconds << " s\n";
       return 0;
     }

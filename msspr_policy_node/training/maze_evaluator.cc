@@ -392,27 +392,13 @@ void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
 
 sim::EvalReport MakeEvalReport(const MazeEvalResult& result, const MazeEvalOptions& options,
                                const std::string& agent) {
-  sim::EvalReport report;
-  report.env = "pointmaze-" + options.maze;
-  report.agent = agent;
-  report.episodes_per_task = options.episodes;
-  report.max_steps = options.max_steps;
-  report.seed = options.seed;
-  report.wall_time_s = result.seconds;
-  for (size_t i = 0; i < result.tasks.size(); ++i) {
-    sim::TaskResult t;
-    t.task_id = result.tasks[i];
-    if (i < options.custom_tasks.size()) {
-      const auto& c = options.custom_tasks[i];
-      t.start = {c.start.x(), c.start.y()};
-      t.goal = {c.goal.x(), c.goal.y()};
-    }
-    t.success = result.success[i];
-    t.episodes = options.episodes;
-    t.mean_steps_successful = result.mean_steps_success[i];
-    report.tasks.push_back(t);
+  sim::EvalReport report = MakeTaskReport(result, "pointmaze-" + options.maze, agent, options.episodes,
+                                          options.max_steps, options.seed);
+  for (size_t i = 0; i < report.tasks.size() && i < options.custom_tasks.size(); ++i) {
+    const auto& c = options.custom_tasks[i];
+    report.tasks[i].start = {c.start.x(), c.start.y()};
+    report.tasks[i].goal = {c.goal.x(), c.goal.y()};
   }
-  sim::FinalizeReport(&report);
   return report;
 }
 

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "eval_result.h"
 #include "msspr_sim/custom_tasks.h"
 #include "msspr_sim/eval_protocol.h"
 
@@ -32,12 +33,7 @@ struct MazeEvalOptions {
   std::vector<sim::CustomTask> custom_tasks;
 };
 
-struct MazeEvalResult {
-  std::vector<int> tasks;
-  std::vector<double> success;              // per task, in [0, 1]
-  std::vector<double> mean_steps_success;   // per task, steps of the successful episodes
-  double mean_success = 0.0;
-  double seconds = 0.0;
+struct MazeEvalResult : TaskSuccessResult {
   // With keep_paths: per task, per episode.
   std::vector<std::vector<std::vector<Eigen::Vector2d>>> paths;
   std::vector<std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>> start_goal;

@@ -152,9 +152,7 @@ int main(int argc, char** argv) {
         if (!out_dir.empty()) {
           char name[64];
           std::snprintf(name, sizeof name, "/eval/step_%08lld.json", static_cast<long long>(step));
-          const auto report = msspr::agent::MakeCubeEvalReport(result, co, "msspr step " + std::to_string(step));
-          msspr::sim::WriteTextFile(out_dir + name,
-                                    msspr::sim::EvalReportJson(msspr::sim::MazeMap::FromName("medium"), report));
+          msspr::agent::WriteCubeResultsJson(result, co, "msspr step " + std::to_string(step), out_dir + name);
         }
         return r;
       };
