@@ -11,12 +11,13 @@
 #include <random>
 #include <string>
 
+#include "cube_test_util.h"
 #include "msspr_sim/cube_scene.h"
 
 namespace msspr::sim {
 namespace {
 
-const std::string kUrdfPath = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
+const std::string kUrdfPath = testing_util::ArmUrdfPath();
 
 Eigen::VectorXd Home() {
   Eigen::VectorXd q = Eigen::VectorXd::Zero(7);

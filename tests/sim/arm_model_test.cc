@@ -10,10 +10,12 @@
 #include <sstream>
 #include <string>
 
+#include "cube_test_util.h"
+
 namespace msspr::sim {
 namespace {
 
-const std::string kUrdfPath = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
+const std::string kUrdfPath = testing_util::ArmUrdfPath();
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path);

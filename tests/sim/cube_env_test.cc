@@ -8,14 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "cube_test_util.h"
+
 namespace msspr::sim {
 namespace {
 
-CubeEnvOptions Options() {
-  CubeEnvOptions o;
-  o.urdf_path = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
-  return o;
-}
+CubeEnvOptions Options() { return testing_util::CubeOptions(); }
 
 // A proportional controller to a pinch position, as OGBench's oracles write
 // actions: (target - current) / scale, clipped to [-1, 1].

@@ -7,14 +7,12 @@
 #include <string>
 #include <vector>
 
+#include "cube_test_util.h"
+
 namespace msspr::sim {
 namespace {
 
-CubeEnvOptions EnvOptions() {
-  CubeEnvOptions o;
-  o.urdf_path = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
-  return o;
-}
+CubeEnvOptions EnvOptions() { return testing_util::CubeOptions(); }
 
 std::vector<CubePlanSample> Column(const std::vector<double>& v) {
   std::vector<CubePlanSample> out;

@@ -1,6 +1,7 @@
 #include "msspr_sim/cube_scene.h"
 
 #include <gtest/gtest.h>
+
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
@@ -12,19 +13,16 @@
 #include <sstream>
 #include <string>
 
+#include "cube_test_util.h"
+#include "mujoco_util.h"
+
 namespace msspr::sim {
 namespace {
 
-const std::string kUrdfPath = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
+const std::string kUrdfPath = testing_util::ArmUrdfPath();
 
-struct ModelDeleter {
-  void operator()(mjModel* m) const { mj_deleteModel(m); }
-};
-struct DataDeleter {
-  void operator()(mjData* d) const { mj_deleteData(d); }
-};
-using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
-using DataPtr = std::unique_ptr<mjData, DataDeleter>;
+using internal::DataPtr;
+using internal::ModelPtr;
 
 // Writes `xml` to a temporary file and compiles it; fails the test with
 // MuJoCo's message if it does not compile.

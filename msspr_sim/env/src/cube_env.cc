@@ -392,7 +392,7 @@ std::vector<uint8_t> CubeEnv::RenderObservation(const Observation& obs) {
   // All of mjData, not only the state: after mj_step its poses are those of the
   // last substep's start (what observations and the next action read), which a
   // fresh mj_forward would change.
-  std::unique_ptr<mjData, void (*)(mjData*)> saved(mj_makeData(m), mj_deleteData);
+  internal::DataPtr saved(mj_makeData(m));
   if (!saved) throw std::runtime_error("CubeEnv::RenderObservation: mj_makeData failed");
   mj_copyData(saved.get(), m, d);
   Eigen::Matrix<double, 6, 1> q;

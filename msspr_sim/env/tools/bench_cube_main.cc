@@ -4,12 +4,12 @@
 // Usage: msspr_bench_cube --urdf FILE [--out FILE.json] [--episodes N]
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 #include <string>
 
 #include "msspr_core/cli_args.h"
 #include "msspr_sim/cube_dataset.h"
+#include "msspr_sim/eval_protocol.h"
 
 namespace {
 
@@ -68,14 +68,7 @@ int main(int argc, char** argv) {
                   rows_per_s, image_rows_per_s, dataset_rows / rows_per_s / 60,
                   dataset_rows / image_rows_per_s / 60, checksum);
     std::cout << json;
-    if (!out.empty()) {
-      std::ofstream f(out);
-      f << json;
-      if (!f) {
-        std::cerr << "cannot write " << out << "\n";
-        return 1;
-      }
-    }
+    if (!out.empty()) sim::WriteTextFile(out, json);  // throws, naming the path
   } catch (const std::exception& e) {
     std::cerr << "msspr_bench_cube: " << e.what() << "\n";
     return 1;

@@ -4,12 +4,12 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <iostream>
 #include <string>
 
 #include "msspr_core/cli_args.h"
 #include "msspr_sim/dataset_gen.h"
+#include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/point_maze.h"
 
 namespace {
@@ -99,14 +99,7 @@ int main(int argc, char** argv) {
 #endif
                   checksum);
     std::cout << json;
-    if (!out.empty()) {
-      std::ofstream f(out);
-      f << json;
-      if (!f) {
-        std::cerr << "cannot write " << out << "\n";
-        return 1;
-      }
-    }
+    if (!out.empty()) sim::WriteTextFile(out, json);  // throws, naming the path
   } catch (const std::exception& e) {
     std::cerr << "msspr_bench_env: " << e.what() << "\n";
     return 1;
