@@ -7,9 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
-#include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/JointState.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -60,16 +58,10 @@ Eigen::VectorXd ArmQ(const sim::CubeEnv& env) {
 CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   CubeSimNodeOptions o;
   ROS_INFO_NAMED("msspr_sim", "msspr_sim_node (env cube-single) parameters:");
-  o.observation_mode = Param(pnh, "observation_mode", o.observation_mode);
-  o.image_size = Param(pnh, "image_size", o.image_size);
-  o.stepping = Param(pnh, "stepping", o.stepping);
-  o.control_rate = Param(pnh, "control_rate", o.control_rate);
-  o.action_timeout = Param(pnh, "action_timeout", o.action_timeout);
-  o.republish_timeout = Param(pnh, "republish_timeout", o.republish_timeout);
+  LoadSimNodeCommonOptions(pnh, &o);
   o.max_episode_steps = Param(pnh, "max_episode_steps", o.max_episode_steps);
   o.initial_task = Param(pnh, "initial_task", o.initial_task);
   o.seed = Param(pnh, "seed", o.seed);
-  o.publish_clock = Param(pnh, "publish_clock", o.publish_clock);
   o.world_frame = Param(pnh, "world_frame", o.world_frame);
   o.cube_frame = Param(pnh, "cube_frame", o.cube_frame);
   o.goal_frame = Param(pnh, "goal_frame", o.goal_frame);
@@ -80,15 +72,6 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
     s << "~" << name << " must be " << rule << ", got " << v;
     throw std::invalid_argument(s.str());
   };
-  if (o.observation_mode != "state" && o.observation_mode != "pixels" && o.observation_mode != "both")
-    bad("observation_mode", "state, pixels or both", "'" + o.observation_mode + "'");
-  if (o.stepping != "lockstep" && o.stepping != "realtime")
-    bad("stepping", "lockstep or realtime", "'" + o.stepping + "'");
-  if (!(o.control_rate > 0 && std::isfinite(o.control_rate))) bad("control_rate", "> 0 (Hz)", o.control_rate);
-  if (!(o.action_timeout > 0 && std::isfinite(o.action_timeout))) bad("action_timeout", "> 0 (s)", o.action_timeout);
-  if (!(o.republish_timeout > 0 && std::isfinite(o.republish_timeout)))
-    bad("republish_timeout", "> 0 (s)", o.republish_timeout);
-  if (o.image_size < 8 || o.image_size > 1024) bad("image_size", "in 8..1024", o.image_size);
   if (o.initial_task != -1 && (o.initial_task < 1 || o.initial_task > 5))
     bad("initial_task", "-1 (none) or 1..5", o.initial_task);
   if (o.max_episode_steps < 1) bad("max_episode_steps", ">= 1", o.max_episode_steps);
@@ -99,7 +82,9 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
 }
 
 CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimNodeOptions& options)
-    : options_(options), nh_(nh), pnh_(pnh), it_(nh) {
+    : SimNodeBase(nh, pnh, options, kAct, sim::CubeSceneOptions().timestep * sim::CubeEnvOptions().substeps,
+                  "cube-single"),
+      options_(options) {
   // The URDF: robot_description when set (written to a temporary file for
   // CubeEnv, which parses a path), else ~urdf, then served as robot_description.
   std::string key, xml, source;
@@ -133,7 +118,6 @@ CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimN
     throw std::runtime_error(source + ": " + e.what());
   }
   std::remove(tmp.c_str());
-  control_dt_ = env_opt.scene.timestep * env_opt.substeps;
   const auto& root = env_->arm().links().front().name;
   if (root != options_.world_frame)
     throw std::invalid_argument(source + ": the URDF's root link is '" + root + "', ~world_frame is '" +
@@ -142,39 +126,14 @@ CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimN
                                          << env_->arm().name() << "', " << env_->arm().links().size()
                                          << " links; simulated from the same text");
 
-  obs_pub_ = nh_.advertise<msspr::Observation>("observation", 10);
-  episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", 10, /*latch=*/true);
-  if (options_.publish_clock) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
   marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
-  if (pixels()) {
-    image_pub_ = it_.advertise("camera/image", 10);
-    goal_image_pub_ = nh_.advertise<sensor_msgs::Image>("goal_image", 1, /*latch=*/true);
-  }
-  action_sub_ = nh_.subscribe("action", 10, &CubeSimNode::OnAction, this, ros::TransportHints().tcpNoDelay());
-  reset_srv_ = nh_.advertiseService("reset", &CubeSimNode::OnReset, this);
-  goal_srv_ = nh_.advertiseService("set_goal", &CubeSimNode::OnSetGoal, this);
-  pause_srv_ = nh_.advertiseService("pause", &CubeSimNode::OnPause, this);
-  if (options_.stepping == "realtime")
-    realtime_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / options_.control_rate),
-                                          &CubeSimNode::OnRealtimeTick, this);
-  watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &CubeSimNode::OnWatchdog, this);
-  diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &CubeSimNode::OnDiagnostics, this);
   PublishStaticFrames();
-  if (options_.publish_clock) {  // time 0 until the first step
-    rosgraph_msgs::Clock c;
-    c.clock = TickToTime(0, control_dt_);
-    clock_pub_.publish(c);
-  }
   PublishRobot(Now());  // the arm at home, before any episode
-  ROS_INFO_STREAM_NAMED("msspr_sim", "msspr_sim_node serving cube-single (" << options_.stepping << ", "
-                                                                            << options_.observation_mode << ")");
+  StartRos();
 }
 
 CubeSimNode::~CubeSimNode() = default;
-
-ros::Time CubeSimNode::Now() const { return TickToTime(tick_, control_dt_); }
 
 // Fixed URDF joints once on /tf_static (as robot_state_publisher does), and
 // latched markers for the cube and the goal, locked to their frames.
@@ -249,7 +208,7 @@ void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {
   const sim::CubeEnv::Observation o = env_->ResetToTask(task_id, seed);
   goal_.assign(env_->goal_observation().begin(), env_->goal_observation().end());
   active_ = true;
-  have_action_ = false;
+  ForgetAction();
   ++counters_.episodes;
   msspr::EpisodeInfo info;
   info.header.stamp = Now();
@@ -283,70 +242,32 @@ msspr::Observation CubeSimNode::MakeObservation() const {
 
 void CubeSimNode::Publish() {
   const msspr::Observation o = MakeObservation();
-  if (options_.publish_clock) {
-    rosgraph_msgs::Clock c;
-    c.clock = o.header.stamp;
-    clock_pub_.publish(c);
-  }
+  PublishClock(o.header.stamp);
   PublishRobot(o.header.stamp);
   if (pixels()) {
     const auto img = env_->Render();
     image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
   }
   obs_pub_.publish(o);
-  last_publish_time_ = ros::WallTime::now();
+  MarkPublished();
   if (o.last) active_ = false;  // wait for a reset
 }
 
-void CubeSimNode::DoStep(const sim::CubeEnv::Action& action) {
-  env_->Step(action);
+void CubeSimNode::DoStep(const std::vector<double>& action) {
+  sim::CubeEnv::Action a;
+  std::copy(action.begin(), action.end(), a.begin());
+  env_->Step(a);
   ++tick_;
   ++counters_.steps;
   Publish();
 }
 
-void CubeSimNode::OnAction(const msspr::Action::ConstPtr& msg) {
-  std::vector<double> v;
-  const ActionUse use = CheckAction(
-      *msg, kAct,
-      {paused_, active_, options_.stepping == "realtime", episode_id_, static_cast<uint32_t>(env_->episode_steps())},
-      &counters_, &v);
-  if (use == ActionUse::kDrop) return;
-  sim::CubeEnv::Action a;
-  std::copy(v.begin(), v.end(), a.begin());
-  if (use == ActionUse::kLatest) {
-    latest_action_ = a;
-    latest_action_time_ = ros::WallTime::now();
-    have_action_ = true;
-    return;
-  }
-  DoStep(a);
+void CubeSimNode::TryStart() {
+  started_ = true;
+  if (options_.initial_task >= 1) StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed));
 }
 
-void CubeSimNode::OnRealtimeTick(const ros::WallTimerEvent&) {
-  if (!active_ || paused_) return;
-  sim::CubeEnv::Action a{};
-  if (have_action_ && (ros::WallTime::now() - latest_action_time_).toSec() <= options_.action_timeout)
-    a = latest_action_;
-  else if (have_action_)
-    ++counters_.timeouts;
-  DoStep(a);
-}
-
-void CubeSimNode::OnWatchdog(const ros::WallTimerEvent&) {
-  if (!started_) {
-    started_ = true;
-    if (options_.initial_task >= 1) StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed));
-    return;
-  }
-  if (options_.stepping == "lockstep" && active_ && !paused_ &&
-      (ros::WallTime::now() - last_publish_time_).toSec() > options_.republish_timeout) {
-    ++counters_.republished;
-    Publish();
-  }
-}
-
-bool CubeSimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
+bool CubeSimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
   if (!req.start.empty() || !req.goal.empty()) {
     res.ok = false;
     res.message = "cube-single takes no explicit start and goal: use task_id 1..5 (and set_goal)";
@@ -375,7 +296,7 @@ bool CubeSimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& re
 // A new goal observation (28 numbers): the goal marker moves to its cube
 // position and yaw, so success and tf2 follow it; in pixels mode the goal
 // image is rendered for it (the scene posed as the goal) and published.
-bool CubeSimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) {
+bool CubeSimNode::SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) {
   if (req.goal.size() != static_cast<size_t>(kObs) || !AllFinite(req.goal)) {
     res.ok = false;
     res.message = "goal must be 28 finite numbers (a cube-single observation)";
@@ -390,21 +311,6 @@ bool CubeSimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Respon
   res.ok = true;
   res.message = "goal set";
   return true;
-}
-
-bool CubeSimNode::OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res) {
-  paused_ = req.pause;
-  res.paused = paused_;
-  if (!paused_) last_publish_time_ = ros::WallTime::now();
-  ROS_INFO_STREAM_NAMED("msspr_sim", (paused_ ? "paused" : "resumed"));
-  return true;
-}
-
-void CubeSimNode::OnDiagnostics(const ros::WallTimerEvent&) {
-  diagnostic_msgs::DiagnosticArray arr;
-  arr.header.stamp = Now();
-  arr.status.push_back(ActionDiagnostics(counters_, ros::this_node::getName(), "cube-single"));
-  diag_pub_.publish(arr);
 }
 
 }  // namespace msspr::ros_bridge

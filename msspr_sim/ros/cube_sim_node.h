@@ -24,21 +24,15 @@
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
 #include "msspr_sim/cube_env.h"
-#include "action_counters.h"
+#include "sim_node_base.h"
 
 namespace msspr::ros_bridge {
 
-struct CubeSimNodeOptions {
-  std::string observation_mode = "state";  // state | pixels | both
-  int image_size = 64;
-  std::string stepping = "lockstep";       // lockstep | realtime
-  double control_rate = 20.0;              // Hz, real-time stepping (1 / 0.05 s: real time)
-  double action_timeout = 0.5;             // s; an older action becomes zero (real time)
-  double republish_timeout = 1.0;          // s; lockstep re-sends an unanswered observation
+struct CubeSimNodeOptions : SimNodeCommonOptions {
+  CubeSimNodeOptions() { control_rate = 20.0; }  // Hz, real-time stepping (1 / 0.05 s: real time)
   int max_episode_steps = 200;             // OGBench's cube-single episodes
   int initial_task = -1;                   // -1: wait for reset; 1..5: task
   int seed = 0;
-  bool publish_clock = true;
   std::string world_frame = "world";       // the URDF's root link
   std::string cube_frame = "cube";
   std::string goal_frame = "cube_goal";
@@ -56,53 +50,31 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh);
 using sim::CubePositionFromObservation;
 using sim::CubeYawFromObservation;
 
-class CubeSimNode {
+class CubeSimNode : public SimNodeBase {
  public:
   CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimNodeOptions& options);
-  ~CubeSimNode();
-
-  using Counters = ActionCounters;
+  ~CubeSimNode() override;
 
  private:
-  bool pixels() const { return options_.observation_mode != "state"; }
-  void OnAction(const msspr::Action::ConstPtr& msg);
-  bool OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res);
-  bool OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res);
-  bool OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res);
-  void OnRealtimeTick(const ros::WallTimerEvent&);
-  void OnWatchdog(const ros::WallTimerEvent&);
-  void OnDiagnostics(const ros::WallTimerEvent&);
+  // SimNodeBase's hooks
+  void DoStep(const std::vector<double>& action) override;
+  uint32_t EpisodeStep() const override { return static_cast<uint32_t>(env_->episode_steps()); }
+  void Publish() override;
+  bool Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) override;
+  bool SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) override;
+  void TryStart() override;  // initial_task
 
   void StartEpisode(int task_id, uint64_t seed);
-  void DoStep(const sim::CubeEnv::Action& action);
   msspr::Observation MakeObservation() const;
-  ros::Time Now() const;
-  void Publish();
   void PublishRobot(const ros::Time& stamp);
   void PublishStaticFrames();
 
   CubeSimNodeOptions options_;
-  ros::NodeHandle nh_, pnh_;
   std::unique_ptr<sim::CubeEnv> env_;
   std::vector<float> goal_;  // the episode's goal observation (set_goal replaces it)
-  image_transport::ImageTransport it_;
-  ros::Publisher obs_pub_, episode_pub_, clock_pub_, diag_pub_, goal_image_pub_, joint_state_pub_,
-      marker_pub_;
-  image_transport::Publisher image_pub_;
-  ros::Subscriber action_sub_;
-  ros::ServiceServer reset_srv_, goal_srv_, pause_srv_;
+  ros::Publisher joint_state_pub_, marker_pub_;
   tf2_ros::TransformBroadcaster tf_;
   tf2_ros::StaticTransformBroadcaster static_tf_;
-  ros::WallTimer realtime_timer_, watchdog_timer_, diag_timer_;
-
-  bool started_ = false, active_ = false, paused_ = false;
-  int64_t episode_id_ = -1;
-  uint64_t tick_ = 0;
-  double control_dt_ = 0.05;
-  sim::CubeEnv::Action latest_action_{};
-  ros::WallTime latest_action_time_, last_publish_time_;
-  bool have_action_ = false;
-  Counters counters_;
 };
 
 }  // namespace msspr::ros_bridge

@@ -3,9 +3,7 @@
 #include <cmath>
 #include <sstream>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
-#include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/JointState.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -28,13 +26,8 @@ T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
 SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   SimNodeOptions o;
   ROS_INFO_NAMED("msspr_sim", "msspr_sim_node parameters:");
+  LoadSimNodeCommonOptions(pnh, &o);
   o.maze = Param(pnh, "maze", o.maze);
-  o.observation_mode = Param(pnh, "observation_mode", o.observation_mode);
-  o.image_size = Param(pnh, "image_size", o.image_size);
-  o.stepping = Param(pnh, "stepping", o.stepping);
-  o.control_rate = Param(pnh, "control_rate", o.control_rate);
-  o.action_timeout = Param(pnh, "action_timeout", o.action_timeout);
-  o.republish_timeout = Param(pnh, "republish_timeout", o.republish_timeout);
   o.max_episode_steps = Param(pnh, "max_episode_steps", o.max_episode_steps);
   o.initial_task = Param(pnh, "initial_task", o.initial_task);
   o.seed = Param(pnh, "seed", o.seed);
@@ -44,18 +37,12 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   o.val_episodes = Param(pnh, "val_episodes", o.val_episodes);
   o.shutdown_when_done = Param(pnh, "shutdown_when_done", o.shutdown_when_done);
   o.wait_for_subscribers = Param(pnh, "wait_for_subscribers", o.wait_for_subscribers);
-  o.publish_clock = Param(pnh, "publish_clock", o.publish_clock);
   o.world_frame = Param(pnh, "world_frame", o.world_frame);
   o.agent_frame = Param(pnh, "agent_frame", o.agent_frame);
   o.robot_description = Param(pnh, "robot_description", o.robot_description);
   o.publish_markers = Param(pnh, "publish_markers", o.publish_markers);
   o.path_length = Param(pnh, "path_length", o.path_length);
   o.marker_rate = Param(pnh, "marker_rate", o.marker_rate);
-  if (o.observation_mode != "state" && o.observation_mode != "pixels" && o.observation_mode != "both")
-    throw std::invalid_argument("~observation_mode must be state, pixels or both, got '" +
-                                o.observation_mode + "'");
-  if (o.stepping != "lockstep" && o.stepping != "realtime")
-    throw std::invalid_argument("~stepping must be lockstep or realtime, got '" + o.stepping + "'");
   // Every parameter is checked before the node starts: a bad one is fatal (exit 1).
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
     std::ostringstream s;
@@ -67,11 +54,6 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   } catch (const std::exception&) {
     bad("maze", "arena, medium, large or giant", "'" + o.maze + "'");
   }
-  if (!(o.control_rate > 0 && std::isfinite(o.control_rate))) bad("control_rate", "> 0 (Hz)", o.control_rate);
-  if (!(o.action_timeout > 0 && std::isfinite(o.action_timeout))) bad("action_timeout", "> 0 (s)", o.action_timeout);
-  if (!(o.republish_timeout > 0 && std::isfinite(o.republish_timeout)))
-    bad("republish_timeout", "> 0 (s)", o.republish_timeout);
-  if (o.image_size < 8 || o.image_size > 1024) bad("image_size", "in 8..1024", o.image_size);
   if (o.initial_task < -1 || o.initial_task > 5) bad("initial_task", "-1 (none), 0 (random) or 1..5", o.initial_task);
   if (o.episode_length < 2) bad("episode_length", ">= 2", o.episode_length);
   if (o.max_episode_steps < 1) bad("max_episode_steps", ">= 1", o.max_episode_steps);
@@ -87,7 +69,9 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
 }
 
 SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& options)
-    : options_(options), nh_(nh), pnh_(pnh), it_(nh) {
+    : SimNodeBase(nh, pnh, options, sim::PointMaze::kActionDim, 0.02 * sim::PointMaze::kFrameSkip,
+                  "pointmaze-" + options.maze),
+      options_(options) {
   sim::PointMazeOptions env_opt;
   env_opt.maze = options_.maze;
   env_opt.enable_rendering = pixels();
@@ -95,11 +79,6 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
   env_opt.max_episode_steps = options_.max_episode_steps;
   env_ = std::make_unique<sim::PointMaze>(env_opt);
   env_name_ = "pointmaze-" + options_.maze;
-
-  obs_pub_ = nh_.advertise<msspr::Observation>("observation", 10);
-  episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", 10, /*latch=*/true);
-  if (options_.publish_clock) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   // The robot description, when one is loaded: checked against the MuJoCo model
   // (a mismatch is fatal), then joint_states and tf2 along its joints.
   std::string key, xml;
@@ -116,29 +95,8 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
   }
   if (options_.publish_markers)
     marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
-  if (pixels()) {
-    image_pub_ = it_.advertise("camera/image", 10);
-    goal_image_pub_ = nh_.advertise<sensor_msgs::Image>("goal_image", 1, /*latch=*/true);
-  }
-  action_sub_ = nh_.subscribe("action", 10, &SimNode::OnAction, this,
-                              ros::TransportHints().tcpNoDelay());
-  reset_srv_ = nh_.advertiseService("reset", &SimNode::OnReset, this);
-  goal_srv_ = nh_.advertiseService("set_goal", &SimNode::OnSetGoal, this);
-  pause_srv_ = nh_.advertiseService("pause", &SimNode::OnPause, this);
-  if (options_.stepping == "realtime")
-    realtime_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / options_.control_rate),
-                                          &SimNode::OnRealtimeTick, this);
-  watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &SimNode::OnWatchdog, this);
-  diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &SimNode::OnDiagnostics, this);
   wait_since_ = ros::WallTime::now();
-  if (options_.publish_clock) {  // time 0 until the first step
-    rosgraph_msgs::Clock c;
-    c.clock = TickToTime(0, 0.1);
-    clock_pub_.publish(c);
-  }
-  ROS_INFO_STREAM_NAMED("msspr_sim", "msspr_sim_node serving " << env_name_ << " ("
-                                         << options_.stepping << ", " << options_.observation_mode
-                                         << ")");
+  StartRos();
 }
 
 void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
@@ -152,12 +110,12 @@ void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
   else
     env_->ResetToTask(task_id, seed);
   active_ = true;
-  have_action_ = false;
+  ForgetAction();
   path_.clear();
   markers_due_ = true;
   ++counters_.episodes;
   msspr::EpisodeInfo info;
-  info.header.stamp = TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip);
+  info.header.stamp = Now();
   info.episode_id = static_cast<uint32_t>(episode_id_);
   info.env = env_name_;
   info.split = split;
@@ -194,7 +152,7 @@ bool SimNode::NextAutoEpisode() {
 
 msspr::Observation SimNode::MakeObservation() const {
   msspr::Observation o;
-  o.header.stamp = TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip);
+  o.header.stamp = Now();
   o.header.frame_id = options_.world_frame;
   o.episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
   o.step = static_cast<uint32_t>(env_->steps());
@@ -208,11 +166,7 @@ msspr::Observation SimNode::MakeObservation() const {
 
 void SimNode::Publish() {
   const msspr::Observation o = MakeObservation();
-  if (options_.publish_clock) {
-    rosgraph_msgs::Clock c;
-    c.clock = o.header.stamp;
-    clock_pub_.publish(c);
-  }
+  PublishClock(o.header.stamp);
   if (robot_) {  // along the URDF's joints: joint k moves by qpos[k] = state[k] along its axis
     std::vector<geometry_msgs::TransformStamped> tfs;
     sensor_msgs::JointState js;
@@ -257,7 +211,7 @@ void SimNode::Publish() {
     image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
   }
   obs_pub_.publish(o);
-  last_publish_time_ = ros::WallTime::now();
+  MarkPublished();
   if (o.last && !options_.auto_reset) active_ = false;  // wait for a reset
 }
 
@@ -331,73 +285,36 @@ void SimNode::PublishMarkers(const ros::Time& stamp) {
   marker_pub_.publish(arr);
 }
 
-void SimNode::DoStep(const Eigen::Vector2d& action) {
+void SimNode::DoStep(const std::vector<double>& action) {
   if (options_.auto_reset && env_->steps() >= options_.episode_length - 1) {
     NextAutoEpisode();  // the last action of the episode is recorded; start the next
     return;
   }
-  env_->Step(action);
+  env_->Step(Eigen::Vector2d(action[0], action[1]));
   ++tick_;
   ++counters_.steps;
   Publish();
 }
 
-void SimNode::OnAction(const msspr::Action::ConstPtr& msg) {
-  std::vector<double> v;
-  const ActionUse use =
-      CheckAction(*msg, sim::PointMaze::kActionDim,
-                  {paused_, active_, options_.stepping == "realtime", episode_id_, static_cast<uint32_t>(env_->steps())},
-                  &counters_, &v);
-  if (use == ActionUse::kDrop) return;
-  const Eigen::Vector2d a(v[0], v[1]);
-  if (use == ActionUse::kLatest) {
-    latest_action_ = a;
-    latest_action_time_ = ros::WallTime::now();
-    have_action_ = true;
+void SimNode::TryStart() {
+  const bool subs_ok = obs_pub_.getNumSubscribers() >= static_cast<uint32_t>(options_.wait_for_subscribers);
+  const bool agent_ok = !options_.auto_reset || action_sub_.getNumPublishers() > 0;
+  if (!subs_ok || !agent_ok) {
+    wait_since_ = ros::WallTime::now();
+    ROS_INFO_THROTTLE_NAMED(5.0, "msspr_sim", "waiting for %d observation subscriber(s)%s",
+                            options_.wait_for_subscribers, options_.auto_reset ? " and an action publisher" : "");
     return;
   }
-  DoStep(a);
+  // Let every new subscriber finish connecting to the other topics too.
+  if (options_.wait_for_subscribers > 0 && (ros::WallTime::now() - wait_since_).toSec() < 0.5) return;
+  started_ = true;
+  if (options_.auto_reset)
+    NextAutoEpisode();
+  else if (options_.initial_task >= 0)
+    StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed), "");
 }
 
-void SimNode::OnRealtimeTick(const ros::WallTimerEvent&) {
-  if (!active_ || paused_) return;
-  Eigen::Vector2d a = Eigen::Vector2d::Zero();
-  if (have_action_ && (ros::WallTime::now() - latest_action_time_).toSec() <= options_.action_timeout)
-    a = latest_action_;
-  else if (have_action_)
-    ++counters_.timeouts;
-  DoStep(a);
-}
-
-void SimNode::OnWatchdog(const ros::WallTimerEvent&) {
-  MaybePublishMarkers(false);  // the last steps' path, once the rate allows
-  if (!started_) {
-    const bool subs_ok = obs_pub_.getNumSubscribers() >= static_cast<uint32_t>(options_.wait_for_subscribers);
-    const bool agent_ok = !options_.auto_reset || action_sub_.getNumPublishers() > 0;
-    if (!subs_ok || !agent_ok) {
-      wait_since_ = ros::WallTime::now();
-      ROS_INFO_THROTTLE_NAMED(5.0, "msspr_sim", "waiting for %d observation subscriber(s)%s",
-                              options_.wait_for_subscribers,
-                              options_.auto_reset ? " and an action publisher" : "");
-      return;
-    }
-    // Let every new subscriber finish connecting to the other topics too.
-    if (options_.wait_for_subscribers > 0 && (ros::WallTime::now() - wait_since_).toSec() < 0.5) return;
-    started_ = true;
-    if (options_.auto_reset)
-      NextAutoEpisode();
-    else if (options_.initial_task >= 0)
-      StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed), "");
-    return;
-  }
-  if (options_.stepping == "lockstep" && active_ && !paused_ &&
-      (ros::WallTime::now() - last_publish_time_).toSec() > options_.republish_timeout) {
-    ++counters_.republished;  // the observation or its answer was lost: send it again
-    Publish();
-  }
-}
-
-bool SimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
+bool SimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
   const bool explicit_start = !req.start.empty() || !req.goal.empty();
   if (explicit_start) {
     if (req.start.size() != 2 || req.goal.size() != 2 || !AllFinite(req.start) || !AllFinite(req.goal)) {
@@ -439,7 +356,7 @@ bool SimNode::OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
   return true;
 }
 
-bool SimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) {
+bool SimNode::SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) {
   if (req.goal.size() != static_cast<size_t>(sim::PointMaze::kObsDim) || !AllFinite(req.goal)) {
     res.ok = false;
     res.message = "goal must be 2 finite numbers (x, y)";
@@ -449,27 +366,12 @@ bool SimNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& 
   if (pixels()) {
     const auto goal_img = env_->RenderGoal();
     goal_image_pub_.publish(ToImageMsg(goal_img.data(), options_.image_size,
-                                       TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip),
+                                       Now(),
                                        kCameraFrame));
   }
   res.ok = true;
   res.message = "goal set";
   return true;
-}
-
-bool SimNode::OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res) {
-  paused_ = req.pause;
-  res.paused = paused_;
-  if (!paused_) last_publish_time_ = ros::WallTime::now();
-  ROS_INFO_STREAM_NAMED("msspr_sim", (paused_ ? "paused" : "resumed"));
-  return true;
-}
-
-void SimNode::OnDiagnostics(const ros::WallTimerEvent&) {
-  diagnostic_msgs::DiagnosticArray arr;
-  arr.header.stamp = TickToTime(tick_, 0.02 * sim::PointMaze::kFrameSkip);
-  arr.status.push_back(ActionDiagnostics(counters_, ros::this_node::getName(), env_name_));
-  diag_pub_.publish(arr);
 }
 
 }  // namespace msspr::ros_bridge

@@ -1,0 +1,138 @@
+#include "sim_node_base.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/Image.h>
+
+#include "msg_conversion.h"
+#include "msspr/EpisodeInfo.h"
+#include "msspr/Observation.h"
+#include "ros_params.h"
+
+namespace msspr::ros_bridge {
+
+void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* o) {
+  auto param = [&](const std::string& name, const auto& def) { return LoggedParam(pnh, name, def, "msspr_sim"); };
+  o->observation_mode = param("observation_mode", o->observation_mode);
+  o->image_size = param("image_size", o->image_size);
+  o->stepping = param("stepping", o->stepping);
+  o->control_rate = param("control_rate", o->control_rate);
+  o->action_timeout = param("action_timeout", o->action_timeout);
+  o->republish_timeout = param("republish_timeout", o->republish_timeout);
+  o->publish_clock = param("publish_clock", o->publish_clock);
+  auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
+    std::ostringstream s;
+    s << "~" << name << " must be " << rule << ", got " << v;
+    throw std::invalid_argument(s.str());
+  };
+  if (o->observation_mode != "state" && o->observation_mode != "pixels" && o->observation_mode != "both")
+    bad("observation_mode", "state, pixels or both", "'" + o->observation_mode + "'");
+  if (o->stepping != "lockstep" && o->stepping != "realtime")
+    bad("stepping", "lockstep or realtime", "'" + o->stepping + "'");
+  if (!(o->control_rate > 0 && std::isfinite(o->control_rate))) bad("control_rate", "> 0 (Hz)", o->control_rate);
+  if (!(o->action_timeout > 0 && std::isfinite(o->action_timeout)))
+    bad("action_timeout", "> 0 (s)", o->action_timeout);
+  if (!(o->republish_timeout > 0 && std::isfinite(o->republish_timeout)))
+    bad("republish_timeout", "> 0 (s)", o->republish_timeout);
+  if (o->image_size < 8 || o->image_size > 1024) bad("image_size", "in 8..1024", o->image_size);
+}
+
+SimNodeBase::SimNodeBase(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeCommonOptions& common,
+                         size_t action_dim, double control_dt, std::string env_name)
+    : common_(common),
+      nh_(nh),
+      pnh_(pnh),
+      it_(nh),
+      action_dim_(action_dim),
+      control_dt_(control_dt),
+      env_name_(std::move(env_name)),
+      latest_action_(action_dim, 0.0) {
+  obs_pub_ = nh_.advertise<msspr::Observation>("observation", 10);
+  episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", 10, /*latch=*/true);
+  if (common_.publish_clock) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  if (pixels()) {
+    image_pub_ = it_.advertise("camera/image", 10);
+    goal_image_pub_ = nh_.advertise<sensor_msgs::Image>("goal_image", 1, /*latch=*/true);
+  }
+}
+
+void SimNodeBase::StartRos() {
+  action_sub_ = nh_.subscribe("action", 10, &SimNodeBase::OnAction, this, ros::TransportHints().tcpNoDelay());
+  reset_srv_ = nh_.advertiseService("reset", &SimNodeBase::OnReset, this);
+  goal_srv_ = nh_.advertiseService("set_goal", &SimNodeBase::OnSetGoal, this);
+  pause_srv_ = nh_.advertiseService("pause", &SimNodeBase::OnPause, this);
+  if (realtime())
+    realtime_timer_ =
+        nh_.createWallTimer(ros::WallDuration(1.0 / common_.control_rate), &SimNodeBase::OnRealtimeTick, this);
+  watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &SimNodeBase::OnWatchdog, this);
+  diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &SimNodeBase::OnDiagnostics, this);
+  PublishClock(TickToTime(0, control_dt_));  // time 0 until the first step
+  ROS_INFO_STREAM_NAMED("msspr_sim", "msspr_sim_node serving " << env_name_ << " (" << common_.stepping << ", "
+                                                                << common_.observation_mode << ")");
+}
+
+void SimNodeBase::PublishClock(const ros::Time& stamp) {
+  if (!common_.publish_clock) return;
+  rosgraph_msgs::Clock c;
+  c.clock = stamp;
+  clock_pub_.publish(c);
+}
+
+void SimNodeBase::OnAction(const msspr::Action::ConstPtr& msg) {
+  std::vector<double> a;
+  const ActionUse use =
+      CheckAction(*msg, action_dim_, {paused_, active_, realtime(), episode_id_, EpisodeStep()}, &counters_, &a);
+  if (use == ActionUse::kDrop) return;
+  if (use == ActionUse::kLatest) {
+    latest_action_ = a;
+    latest_action_time_ = ros::WallTime::now();
+    have_action_ = true;
+    return;
+  }
+  DoStep(a);
+}
+
+void SimNodeBase::OnRealtimeTick(const ros::WallTimerEvent&) {
+  if (!active_ || paused_) return;
+  std::vector<double> a(action_dim_, 0.0);
+  if (have_action_ && (ros::WallTime::now() - latest_action_time_).toSec() <= common_.action_timeout)
+    a = latest_action_;
+  else if (have_action_)
+    ++counters_.timeouts;
+  DoStep(a);
+}
+
+void SimNodeBase::OnWatchdog(const ros::WallTimerEvent&) {
+  OnWatchdogTick();
+  if (!started_) {
+    TryStart();
+    return;
+  }
+  if (!realtime() && active_ && !paused_ &&
+      (ros::WallTime::now() - last_publish_time_).toSec() > common_.republish_timeout) {
+    ++counters_.republished;  // the observation or its answer was lost: send it again
+    Publish();
+  }
+}
+
+bool SimNodeBase::OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res) {
+  paused_ = req.pause;
+  res.paused = paused_;
+  if (!paused_) last_publish_time_ = ros::WallTime::now();
+  ROS_INFO_STREAM_NAMED("msspr_sim", (paused_ ? "paused" : "resumed"));
+  return true;
+}
+
+void SimNodeBase::OnDiagnostics(const ros::WallTimerEvent&) {
+  diagnostic_msgs::DiagnosticArray arr;
+  arr.header.stamp = Now();
+  arr.status.push_back(ActionDiagnostics(counters_, ros::this_node::getName(), env_name_));
+  diag_pub_.publish(arr);
+}
+
+}  // namespace msspr::ros_bridge

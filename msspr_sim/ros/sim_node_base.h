@@ -1,0 +1,113 @@
+// The ROS layer that msspr_sim_node's two environments share (SimNode: the
+// point maze; CubeSimNode: cube-single), so that both behave alike: the
+// observation, episode, camera/image, goal_image, /clock and /diagnostics
+// publishers; the action subscriber with its checks and counters
+// (action_counters.h); the reset, set_goal and pause services; lockstep
+// stepping (one step per current action; an unanswered observation is sent
+// again after republish_timeout) or real-time stepping (control_rate Hz, the
+// latest action held for action_timeout, then zero). A derived node owns the
+// environment and implements the hooks below.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+
+#include "action_counters.h"
+#include "msspr/Action.h"
+#include "msspr/Pause.h"
+#include "msspr/Reset.h"
+#include "msspr/SetGoal.h"
+
+namespace msspr::ros_bridge {
+
+// The parameters every sim node takes (README "msspr_sim_node").
+struct SimNodeCommonOptions {
+  std::string observation_mode = "state";  // state | pixels | both
+  int image_size = 64;
+  std::string stepping = "lockstep";       // lockstep | realtime
+  double control_rate = 10.0;              // Hz, real-time stepping
+  double action_timeout = 0.5;             // s; an older action becomes zero (real time)
+  double republish_timeout = 1.0;          // s; lockstep re-sends an unanswered observation
+  bool publish_clock = true;
+};
+
+// Reads the common ~params into `o` (its values are the defaults), logging
+// each; throws std::invalid_argument naming a bad one.
+void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* o);
+
+class SimNodeBase {
+ public:
+  virtual ~SimNodeBase() = default;
+  using Counters = ActionCounters;
+  const Counters& counters() const { return counters_; }
+
+ protected:
+  SimNodeBase(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeCommonOptions& common, size_t action_dim,
+              double control_dt, std::string env_name);
+  // Advertises the common topics and services, starts the timers and
+  // publishes /clock at time 0: the end of a derived constructor (callbacks
+  // run from the spinner, after construction).
+  void StartRos();
+
+  // --- hooks ---
+  // One control step with a checked, clipped action; publishes what follows.
+  virtual void DoStep(const std::vector<double>& action) = 0;
+  // The current observation's step (for matching lockstep actions).
+  virtual uint32_t EpisodeStep() const = 0;
+  // Publishes the current observation (and its images, tf2, ...); called again
+  // for an unanswered lockstep observation.
+  virtual void Publish() = 0;
+  virtual bool Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) = 0;
+  virtual bool SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) = 0;
+  // Called every watchdog tick (20 Hz) until started_ is set: start the first
+  // episode when the node is ready (or leave it to a reset).
+  virtual void TryStart() = 0;
+  // Called first at every watchdog tick.
+  virtual void OnWatchdogTick() {}
+
+  bool pixels() const { return common_.observation_mode != "state"; }
+  bool realtime() const { return common_.stepping == "realtime"; }
+  ros::Time Now() const { return TickToTime(tick_, control_dt_); }
+  void PublishClock(const ros::Time& stamp);
+  // An episode starts: no held action from the previous one.
+  void ForgetAction() { have_action_ = false; }
+  // After publishing an observation (for lockstep's republish timeout).
+  void MarkPublished() { last_publish_time_ = ros::WallTime::now(); }
+
+  SimNodeCommonOptions common_;
+  ros::NodeHandle nh_, pnh_;
+  image_transport::ImageTransport it_;
+  // goal_image is a plain latched publisher: image_transport publishes only to
+  // transports that have a subscriber at that moment, which loses the latch.
+  ros::Publisher obs_pub_, episode_pub_, clock_pub_, diag_pub_, goal_image_pub_;
+  image_transport::Publisher image_pub_;
+  ros::Subscriber action_sub_;
+  bool started_ = false, active_ = false, paused_ = false;
+  int64_t episode_id_ = -1;
+  uint64_t tick_ = 0;
+  Counters counters_;
+
+ private:
+  void OnAction(const msspr::Action::ConstPtr& msg);
+  bool OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) { return Reset(req, res); }
+  bool OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) { return SetGoal(req, res); }
+  bool OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res);
+  void OnRealtimeTick(const ros::WallTimerEvent&);
+  void OnWatchdog(const ros::WallTimerEvent&);
+  void OnDiagnostics(const ros::WallTimerEvent&);
+
+  size_t action_dim_;
+  double control_dt_;
+  std::string env_name_;
+  std::vector<double> latest_action_;
+  bool have_action_ = false;
+  ros::WallTime latest_action_time_, last_publish_time_;
+  ros::ServiceServer reset_srv_, goal_srv_, pause_srv_;
+  ros::WallTimer realtime_timer_, watchdog_timer_, diag_timer_;
+};
+
+}  // namespace msspr::ros_bridge
