@@ -15,15 +15,10 @@
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
 #include "robot_model.h"
-#include "ros_params.h"
 
 namespace msspr::ros_bridge {
 
 namespace {
-template <typename T>
-T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
-  return LoggedParam(pnh, name, def, "msspr_sim");
-}
 
 constexpr int kObs = sim::CubeEnv::kObservationSize;
 constexpr int kAct = sim::CubeEnv::kActionSize;
@@ -59,14 +54,14 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   CubeSimNodeOptions o;
   ROS_INFO_NAMED("msspr_sim", "msspr_sim_node (env cube-single) parameters:");
   LoadSimNodeCommonOptions(pnh, &o);
-  o.max_episode_steps = Param(pnh, "max_episode_steps", o.max_episode_steps);
-  o.initial_task = Param(pnh, "initial_task", o.initial_task);
-  o.seed = Param(pnh, "seed", o.seed);
-  o.world_frame = Param(pnh, "world_frame", o.world_frame);
-  o.cube_frame = Param(pnh, "cube_frame", o.cube_frame);
-  o.goal_frame = Param(pnh, "goal_frame", o.goal_frame);
-  o.robot_description = Param(pnh, "robot_description", o.robot_description);
-  o.urdf = Param(pnh, "urdf", std::string(MSSPR_DEFAULT_ARM_URDF));
+  o.max_episode_steps = SimParam(pnh, "max_episode_steps", o.max_episode_steps);
+  o.initial_task = SimParam(pnh, "initial_task", o.initial_task);
+  o.seed = SimParam(pnh, "seed", o.seed);
+  o.world_frame = SimParam(pnh, "world_frame", o.world_frame);
+  o.cube_frame = SimParam(pnh, "cube_frame", o.cube_frame);
+  o.goal_frame = SimParam(pnh, "goal_frame", o.goal_frame);
+  o.robot_description = SimParam(pnh, "robot_description", o.robot_description);
+  o.urdf = SimParam(pnh, "urdf", std::string(MSSPR_DEFAULT_ARM_URDF));
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
     std::ostringstream s;
     s << "~" << name << " must be " << rule << ", got " << v;

@@ -9,40 +9,32 @@
 
 #include "dataset_bag.h"
 #include "msg_conversion.h"
-#include "ros_params.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr_sim/expert.h"
 #include "msspr_sim/maze_map.h"
 
 namespace msspr::ros_bridge {
 
-namespace {
-template <typename T>
-T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
-  return LoggedParam(pnh, name, def, "msspr_sim");
-}
-}  // namespace
-
 SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   SimNodeOptions o;
   ROS_INFO_NAMED("msspr_sim", "msspr_sim_node parameters:");
   LoadSimNodeCommonOptions(pnh, &o);
-  o.maze = Param(pnh, "maze", o.maze);
-  o.max_episode_steps = Param(pnh, "max_episode_steps", o.max_episode_steps);
-  o.initial_task = Param(pnh, "initial_task", o.initial_task);
-  o.seed = Param(pnh, "seed", o.seed);
-  o.auto_reset = Param(pnh, "auto_reset", o.auto_reset);
-  o.episode_length = Param(pnh, "episode_length", o.episode_length);
-  o.num_episodes = Param(pnh, "num_episodes", o.num_episodes);
-  o.val_episodes = Param(pnh, "val_episodes", o.val_episodes);
-  o.shutdown_when_done = Param(pnh, "shutdown_when_done", o.shutdown_when_done);
-  o.wait_for_subscribers = Param(pnh, "wait_for_subscribers", o.wait_for_subscribers);
-  o.world_frame = Param(pnh, "world_frame", o.world_frame);
-  o.agent_frame = Param(pnh, "agent_frame", o.agent_frame);
-  o.robot_description = Param(pnh, "robot_description", o.robot_description);
-  o.publish_markers = Param(pnh, "publish_markers", o.publish_markers);
-  o.path_length = Param(pnh, "path_length", o.path_length);
-  o.marker_rate = Param(pnh, "marker_rate", o.marker_rate);
+  o.maze = SimParam(pnh, "maze", o.maze);
+  o.max_episode_steps = SimParam(pnh, "max_episode_steps", o.max_episode_steps);
+  o.initial_task = SimParam(pnh, "initial_task", o.initial_task);
+  o.seed = SimParam(pnh, "seed", o.seed);
+  o.auto_reset = SimParam(pnh, "auto_reset", o.auto_reset);
+  o.episode_length = SimParam(pnh, "episode_length", o.episode_length);
+  o.num_episodes = SimParam(pnh, "num_episodes", o.num_episodes);
+  o.val_episodes = SimParam(pnh, "val_episodes", o.val_episodes);
+  o.shutdown_when_done = SimParam(pnh, "shutdown_when_done", o.shutdown_when_done);
+  o.wait_for_subscribers = SimParam(pnh, "wait_for_subscribers", o.wait_for_subscribers);
+  o.world_frame = SimParam(pnh, "world_frame", o.world_frame);
+  o.agent_frame = SimParam(pnh, "agent_frame", o.agent_frame);
+  o.robot_description = SimParam(pnh, "robot_description", o.robot_description);
+  o.publish_markers = SimParam(pnh, "publish_markers", o.publish_markers);
+  o.path_length = SimParam(pnh, "path_length", o.path_length);
+  o.marker_rate = SimParam(pnh, "marker_rate", o.marker_rate);
   // Every parameter is checked before the node starts: a bad one is fatal (exit 1).
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
     std::ostringstream s;

@@ -11,12 +11,11 @@
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
-#include "ros_params.h"
 
 namespace msspr::ros_bridge {
 
 void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* o) {
-  auto param = [&](const std::string& name, const auto& def) { return LoggedParam(pnh, name, def, "msspr_sim"); };
+  auto param = [&](const std::string& name, const auto& def) { return SimParam(pnh, name, def); };
   o->observation_mode = param("observation_mode", o->observation_mode);
   o->image_size = param("image_size", o->image_size);
   o->stepping = param("stepping", o->stepping);

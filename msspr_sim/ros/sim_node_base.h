@@ -21,6 +21,7 @@
 #include "msspr/Pause.h"
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
+#include "ros_params.h"
 
 namespace msspr::ros_bridge {
 
@@ -34,6 +35,12 @@ struct SimNodeCommonOptions {
   double republish_timeout = 1.0;          // s; lockstep re-sends an unanswered observation
   bool publish_clock = true;
 };
+
+// A ~param of a sim node, logged under "msspr_sim".
+template <typename T>
+T SimParam(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
+  return LoggedParam(pnh, name, def, "msspr_sim");
+}
 
 // Reads the common ~params into `o` (its values are the defaults), logging
 // each; throws std::invalid_argument naming a bad one.
