@@ -1,5 +1,8 @@
 #include "cube_goal_oracle.h"
 
+#include <cmath>
+#include <random>
+
 #include "cube_sim_node.h"
 
 namespace msspr::ros_bridge {
@@ -25,7 +28,22 @@ void CubeGoalOracle::Pose(const float* obs, const float* goal) {
   mirror_->SetArmJoints(q);
   mirror_->SetOpening(obs[17] / 3.0);
   mirror_->SetCube(CubePositionFromObservation(obs), CubeYawFromObservation(obs));
-  mirror_->SetGoal(CubePositionFromObservation(goal), CubeYawFromObservation(goal));
+  if (goal != nullptr) mirror_->SetGoal(CubePositionFromObservation(goal), CubeYawFromObservation(goal));
+}
+
+sim::CubeEnv::Action CubeGoalOracle::ActPlay(const float* obs) {
+  Pose(obs, nullptr);
+  if (!oracle_) {
+    std::mt19937_64 rng(seed_);
+    const auto& o = mirror_->options();
+    std::uniform_real_distribution<double> x(o.object_low.x(), o.object_high.x()),
+        y(o.object_low.y(), o.object_high.y()), yaw(0.0, 2 * M_PI);
+    const double gx = x(rng), gy = y(rng);
+    mirror_->SetGoal(Eigen::Vector3d(gx, gy, 0.02), yaw(rng));
+    oracle_ = std::make_unique<sim::CubePlayOracle>(seed_++, options_);
+    ++plans_;
+  }
+  return oracle_->Act(*mirror_);
 }
 
 sim::CubeEnv::Action CubeGoalOracle::Act(const float* obs, const float* goal) {

@@ -33,10 +33,14 @@ class CubeGoalOracle {
   void Reset(uint64_t seed);
   // The action in [-1, 1] for observation `obs` toward goal observation `goal` (28 floats each).
   sim::CubeEnv::Action Act(const float* obs, const float* goal);
+  // Play (data collection, no goal): the oracle's own cycles, as
+  // msspr_collect's; the first target is drawn in the object box from the
+  // episode's seed (the sim does not send its own), later ones by the oracle.
+  sim::CubeEnv::Action ActPlay(const float* obs);
   int plans() const { return plans_; }
 
  private:
-  void Pose(const float* obs, const float* goal);
+  void Pose(const float* obs, const float* goal);  // goal may be null: the mirror's own stays
   std::unique_ptr<sim::CubeEnv> mirror_;
   sim::CubePlayOracleOptions options_;
   std::unique_ptr<sim::CubePlayOracle> oracle_;

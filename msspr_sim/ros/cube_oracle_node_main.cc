@@ -1,8 +1,13 @@
 // msspr_cube_oracle_node: the cube-single play oracle over ROS (CubeGoalOracle):
 // answers each observation of msspr_sim_node (~env cube-single) with the
-// oracle's action toward the observation's goal, in lockstep. The agent that
-// msspr_eval --env cube-single and the oracle rostest drive (issue 11).
+// oracle's action, in lockstep. ~mode goal (default): toward the
+// observation's goal, noise off; the agent that msspr_eval --env cube-single
+// and the oracle rostest drive (issue 11). ~mode play: OGBench's play
+// oracle (random targets, noise 0.1), the agent of a live collection
+// (launch/collect.launch env:=cube-single, the sim in collection mode).
+#include <cmath>
 #include <memory>
+#include <stdexcept>
 
 #include <ros/ros.h>
 
@@ -18,10 +23,16 @@ class CubeOracleNode {
   CubeOracleNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh) {
     std::string urdf = MSSPR_DEFAULT_ARM_URDF;
     pnh.param<std::string>("urdf", urdf, urdf);
-    double noise = 0.0;
+    std::string mode = "goal";
+    pnh.param<std::string>("mode", mode, mode);
+    if (mode != "goal" && mode != "play") throw std::invalid_argument("~mode must be goal or play, got '" + mode + "'");
+    play_ = mode == "play";
+    double noise = play_ ? msspr::sim::CubePlayOracleOptions().noise_scale : 0.0;
     pnh.param("noise_scale", noise, noise);
+    if (!(noise >= 0 && std::isfinite(noise))) throw std::invalid_argument("~noise_scale must be >= 0");
     pnh.param("seed", seed_, 0);
-    ROS_INFO_STREAM("msspr_cube_oracle_node parameters:\n  urdf: " << urdf << "\n  noise_scale: " << noise
+    ROS_INFO_STREAM("msspr_cube_oracle_node parameters:\n  urdf: " << urdf << "\n  mode: " << mode
+                                                                   << "\n  noise_scale: " << noise
                                                                    << "\n  seed: " << seed_);
     auto opt = msspr::ros_bridge::CubeGoalOracle::NoNoise();
     opt.noise_scale = noise;
@@ -33,13 +44,15 @@ class CubeOracleNode {
 
  private:
   void OnObservation(const msspr::Observation::ConstPtr& obs) {
-    if (obs->state.size() != 28 || obs->goal.size() != 28 || !msspr::ros_bridge::AllFinite(obs->state) ||
+    if (obs->state.size() != 28 || (!play_ && obs->goal.size() != 28) || !msspr::ros_bridge::AllFinite(obs->state) ||
         !msspr::ros_bridge::AllFinite(obs->goal)) {
       ROS_ERROR_THROTTLE(1.0, "msspr_cube_oracle_node: ignoring an observation that is not cube-single's "
-                              "(28-D state and goal)");
+                              "(28-D state%s)", play_ ? "" : " and goal");
       return;
     }
-    if (obs->last || obs->success) return;
+    // Goal mode: the episode is over. Play mode: the last step's action is
+    // recorded too (the collection's next reset follows it).
+    if (!play_ && (obs->last || obs->success)) return;
     if (static_cast<int64_t>(obs->episode_id) != episode_) {  // a new episode: a fresh plan
       episode_ = obs->episode_id;
       step_ = -1;
@@ -48,7 +61,7 @@ class CubeOracleNode {
     // A re-sent observation (the sim's republish: the answer was lost) gets the same action.
     if (static_cast<int64_t>(obs->step) != step_) {
       step_ = obs->step;
-      last_ = oracle_->Act(obs->state.data(), obs->goal.data());
+      last_ = play_ ? oracle_->ActPlay(obs->state.data()) : oracle_->Act(obs->state.data(), obs->goal.data());
     }
     const auto& a = last_;
     msspr::Action m;
@@ -64,6 +77,7 @@ class CubeOracleNode {
   ros::Subscriber obs_sub_;
   std::unique_ptr<msspr::ros_bridge::CubeGoalOracle> oracle_;
   int seed_ = 0;
+  bool play_ = false;
   int64_t episode_ = -1, step_ = -1;
   msspr::sim::CubeEnv::Action last_{};
 };

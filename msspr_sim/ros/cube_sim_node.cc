@@ -56,7 +56,6 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   LoadSimNodeCommonOptions(pnh, &o);
   o.max_episode_steps = SimParam(pnh, "max_episode_steps", o.max_episode_steps);
   o.initial_task = SimParam(pnh, "initial_task", o.initial_task);
-  o.seed = SimParam(pnh, "seed", o.seed);
   o.world_frame = SimParam(pnh, "world_frame", o.world_frame);
   o.cube_frame = SimParam(pnh, "cube_frame", o.cube_frame);
   o.goal_frame = SimParam(pnh, "goal_frame", o.goal_frame);
@@ -70,7 +69,6 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   if (o.initial_task != -1 && (o.initial_task < 1 || o.initial_task > 5))
     bad("initial_task", "-1 (none) or 1..5", o.initial_task);
   if (o.max_episode_steps < 1) bad("max_episode_steps", ">= 1", o.max_episode_steps);
-  if (o.seed < 0) bad("seed", ">= 0", o.seed);
   if (o.world_frame.empty() || o.cube_frame.empty() || o.goal_frame.empty())
     bad("world_frame/~cube_frame/~goal_frame", "non-empty", "''");
   return o;
@@ -230,8 +228,9 @@ msspr::Observation CubeSimNode::MakeObservation() const {
   const sim::CubeEnv::Observation s = env_->GetObservation();
   o.state.assign(s.begin(), s.end());
   o.goal = goal_;
-  o.success = env_->Success();
-  o.last = env_->episode_steps() >= options_.max_episode_steps;
+  o.success = !options_.auto_reset && env_->Success();  // play data: no goal
+  o.last = options_.auto_reset ? CollectionEpisodeFull(env_->episode_steps())
+                               : env_->episode_steps() >= options_.max_episode_steps;
   return o;
 }
 
@@ -245,10 +244,14 @@ void CubeSimNode::Publish() {
   }
   obs_pub_.publish(o);
   MarkPublished();
-  if (o.last) active_ = false;  // wait for a reset
+  if (o.last && !options_.auto_reset) active_ = false;  // wait for a reset
 }
 
 void CubeSimNode::DoStep(const std::vector<double>& action) {
+  if (CollectionEpisodeFull(env_->episode_steps())) {
+    NextAutoEpisode();  // the last action of the episode is recorded; start the next
+    return;
+  }
   sim::CubeEnv::Action a;
   std::copy(action.begin(), action.end(), a.begin());
   env_->Step(a);
@@ -257,9 +260,31 @@ void CubeSimNode::DoStep(const std::vector<double>& action) {
   Publish();
 }
 
-void CubeSimNode::TryStart() {
-  started_ = true;
+void CubeSimNode::StartInitialEpisode() {
   if (options_.initial_task >= 1) StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed));
+}
+
+// Collection mode: OGBench's play resets (a random arm pose, the cube at a
+// random place); play data has no goal, as msspr_collect --env cube-single
+// writes it (the env's goal marker is the oracle's first target, not sent).
+void CubeSimNode::StartCollectionEpisode(uint64_t seed, const std::string& split) {
+  ++episode_id_;
+  ++tick_;
+  const sim::CubeEnv::Observation o = env_->ResetForCollection(seed);
+  goal_.clear();
+  active_ = true;
+  ForgetAction();
+  ++counters_.episodes;
+  msspr::EpisodeInfo info;
+  info.header.stamp = Now();
+  info.episode_id = static_cast<uint32_t>(episode_id_);
+  info.env = "cube-single";
+  info.split = split;
+  info.task_id = 0;
+  info.seed = seed;
+  info.start.assign(o.begin(), o.end());
+  episode_pub_.publish(info);
+  Publish();
 }
 
 bool CubeSimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) {

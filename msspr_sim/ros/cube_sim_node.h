@@ -32,7 +32,8 @@ struct CubeSimNodeOptions : SimNodeCommonOptions {
   CubeSimNodeOptions() { control_rate = 20.0; }  // Hz, real-time stepping (1 / 0.05 s: real time)
   int max_episode_steps = 200;             // OGBench's cube-single episodes
   int initial_task = -1;                   // -1: wait for reset; 1..5: task
-  int seed = 0;
+  // Collection mode (SimNodeCommonOptions): play resets, msspr_cube_oracle_node
+  // in play mode driving.
   std::string world_frame = "world";       // the URDF's root link
   std::string cube_frame = "cube";
   std::string goal_frame = "cube_goal";
@@ -62,7 +63,8 @@ class CubeSimNode : public SimNodeBase {
   void Publish() override;
   bool Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) override;
   bool SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) override;
-  void TryStart() override;  // initial_task
+  void StartCollectionEpisode(uint64_t seed, const std::string& split) override;
+  void StartInitialEpisode() override;
 
   void StartEpisode(int task_id, uint64_t seed);
   msspr::Observation MakeObservation() const;

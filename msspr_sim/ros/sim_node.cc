@@ -22,13 +22,6 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   o.maze = SimParam(pnh, "maze", o.maze);
   o.max_episode_steps = SimParam(pnh, "max_episode_steps", o.max_episode_steps);
   o.initial_task = SimParam(pnh, "initial_task", o.initial_task);
-  o.seed = SimParam(pnh, "seed", o.seed);
-  o.auto_reset = SimParam(pnh, "auto_reset", o.auto_reset);
-  o.episode_length = SimParam(pnh, "episode_length", o.episode_length);
-  o.num_episodes = SimParam(pnh, "num_episodes", o.num_episodes);
-  o.val_episodes = SimParam(pnh, "val_episodes", o.val_episodes);
-  o.shutdown_when_done = SimParam(pnh, "shutdown_when_done", o.shutdown_when_done);
-  o.wait_for_subscribers = SimParam(pnh, "wait_for_subscribers", o.wait_for_subscribers);
   o.world_frame = SimParam(pnh, "world_frame", o.world_frame);
   o.agent_frame = SimParam(pnh, "agent_frame", o.agent_frame);
   o.robot_description = SimParam(pnh, "robot_description", o.robot_description);
@@ -47,12 +40,7 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
     bad("maze", "arena, medium, large or giant", "'" + o.maze + "'");
   }
   if (o.initial_task < -1 || o.initial_task > 5) bad("initial_task", "-1 (none), 0 (random) or 1..5", o.initial_task);
-  if (o.episode_length < 2) bad("episode_length", ">= 2", o.episode_length);
   if (o.max_episode_steps < 1) bad("max_episode_steps", ">= 1", o.max_episode_steps);
-  if (o.num_episodes < 0) bad("num_episodes", ">= 0 (0: unbounded)", o.num_episodes);
-  if (o.val_episodes < 0) bad("val_episodes", ">= 0", o.val_episodes);
-  if (o.wait_for_subscribers < 0) bad("wait_for_subscribers", ">= 0", o.wait_for_subscribers);
-  if (o.seed < 0) bad("seed", ">= 0", o.seed);
   if (o.path_length < 2) bad("path_length", ">= 2", o.path_length);
   if (!(o.marker_rate > 0 && std::isfinite(o.marker_rate))) bad("marker_rate", "> 0 (Hz)", o.marker_rate);
   if (o.world_frame.empty() || o.agent_frame.empty() || o.world_frame == o.agent_frame)
@@ -87,7 +75,6 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
   }
   if (options_.publish_markers)
     marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
-  wait_since_ = ros::WallTime::now();
   StartRos();
 }
 
@@ -124,24 +111,6 @@ void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
   Publish();
 }
 
-bool SimNode::NextAutoEpisode() {
-  const int64_t next = episode_id_ + 1;
-  const int64_t total = static_cast<int64_t>(options_.num_episodes) + options_.val_episodes;
-  if (options_.num_episodes > 0 && next >= total) {
-    active_ = false;
-    done_ = true;
-    ROS_INFO_STREAM_NAMED("msspr_sim", "collection complete: " << total << " episodes of "
-                                                               << options_.episode_length << " steps");
-    if (options_.shutdown_when_done) ros::shutdown();
-    return false;
-  }
-  const std::string split =
-      options_.num_episodes > 0 && next >= options_.num_episodes ? "val" : "train";
-  StartEpisode(0, sim::EpisodeSeed(static_cast<uint64_t>(options_.seed), static_cast<uint64_t>(next)),
-               split);
-  return true;
-}
-
 msspr::Observation SimNode::MakeObservation() const {
   msspr::Observation o;
   o.header.stamp = Now();
@@ -151,8 +120,7 @@ msspr::Observation SimNode::MakeObservation() const {
   o.state = ToFloatVector(env_->state());
   o.goal = ToFloatVector(env_->goal());
   o.success = env_->success();
-  o.last = options_.auto_reset ? env_->steps() >= options_.episode_length - 1
-                               : env_->steps() >= options_.max_episode_steps;
+  o.last = options_.auto_reset ? CollectionEpisodeFull(env_->steps()) : env_->steps() >= options_.max_episode_steps;
   return o;
 }
 
@@ -278,7 +246,7 @@ void SimNode::PublishMarkers(const ros::Time& stamp) {
 }
 
 void SimNode::DoStep(const std::vector<double>& action) {
-  if (options_.auto_reset && env_->steps() >= options_.episode_length - 1) {
+  if (CollectionEpisodeFull(env_->steps())) {
     NextAutoEpisode();  // the last action of the episode is recorded; start the next
     return;
   }
@@ -288,22 +256,8 @@ void SimNode::DoStep(const std::vector<double>& action) {
   Publish();
 }
 
-void SimNode::TryStart() {
-  const bool subs_ok = obs_pub_.getNumSubscribers() >= static_cast<uint32_t>(options_.wait_for_subscribers);
-  const bool agent_ok = !options_.auto_reset || action_sub_.getNumPublishers() > 0;
-  if (!subs_ok || !agent_ok) {
-    wait_since_ = ros::WallTime::now();
-    ROS_INFO_THROTTLE_NAMED(5.0, "msspr_sim", "waiting for %d observation subscriber(s)%s",
-                            options_.wait_for_subscribers, options_.auto_reset ? " and an action publisher" : "");
-    return;
-  }
-  // Let every new subscriber finish connecting to the other topics too.
-  if (options_.wait_for_subscribers > 0 && (ros::WallTime::now() - wait_since_).toSec() < 0.5) return;
-  started_ = true;
-  if (options_.auto_reset)
-    NextAutoEpisode();
-  else if (options_.initial_task >= 0)
-    StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed), "");
+void SimNode::StartInitialEpisode() {
+  if (options_.initial_task >= 0) StartEpisode(options_.initial_task, static_cast<uint64_t>(options_.seed), "");
 }
 
 bool SimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) {

@@ -29,15 +29,8 @@ struct SimNodeOptions : SimNodeCommonOptions {  // control_rate 10 Hz: real time
   std::string maze = "medium";
   int max_episode_steps = 1000;
   int initial_task = -1;                   // -1: wait for reset; 0: random; 1..5: task
-  int seed = 0;
-  // Collection mode: random resets with EpisodeSeed(seed, k), episodes of
-  // episode_length steps, the last one's action triggering the next reset.
-  bool auto_reset = false;
-  int episode_length = 1001;
-  int num_episodes = 0;                    // 0: unbounded
-  int val_episodes = 0;                    // extra episodes tagged split "val"
-  bool shutdown_when_done = true;
-  int wait_for_subscribers = 0;            // observation subscribers before starting
+  // Collection mode (SimNodeCommonOptions): random resets (ResetRandom) with
+  // the navigate or stitch expert node driving.
   std::string world_frame = "world";
   std::string agent_frame = "agent";
   // The robot description to check against the simulation and to follow in
@@ -62,7 +55,10 @@ class SimNode : public SimNodeBase {
   void Publish() override;
   bool Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) override;
   bool SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) override;
-  void TryStart() override;  // wait_for_subscribers; collection mode or initial_task
+  void StartCollectionEpisode(uint64_t seed, const std::string& split) override {
+    StartEpisode(0, seed, split);
+  }
+  void StartInitialEpisode() override;
   void OnWatchdogTick() override { MaybePublishMarkers(false); }
 
   // Starts the next episode: task 1..5 or 0 random.
@@ -75,7 +71,6 @@ class SimNode : public SimNodeBase {
   // Publishes the markers when they changed and 1 / marker_rate s of wall time
   // have passed since the last time (or now_anyway).
   void MaybePublishMarkers(bool now_anyway);
-  bool NextAutoEpisode();  // false when the collection is complete
 
   SimNodeOptions options_;
   std::unique_ptr<sim::PointMaze> env_;
@@ -87,9 +82,7 @@ class SimNode : public SimNodeBase {
   ros::WallTime last_marker_time_;
   tf2_ros::TransformBroadcaster tf_;
 
-  bool done_ = false;
   std::string env_name_;
-  ros::WallTime wait_since_;
 };
 
 }  // namespace msspr::ros_bridge

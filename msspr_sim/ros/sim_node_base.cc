@@ -11,6 +11,7 @@
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
+#include "msspr_sim/expert.h"  // sim::EpisodeSeed
 
 namespace msspr::ros_bridge {
 
@@ -23,6 +24,13 @@ void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* 
   o->action_timeout = param("action_timeout", o->action_timeout);
   o->republish_timeout = param("republish_timeout", o->republish_timeout);
   o->publish_clock = param("publish_clock", o->publish_clock);
+  o->auto_reset = param("auto_reset", o->auto_reset);
+  o->episode_length = param("episode_length", o->episode_length);
+  o->num_episodes = param("num_episodes", o->num_episodes);
+  o->val_episodes = param("val_episodes", o->val_episodes);
+  o->shutdown_when_done = param("shutdown_when_done", o->shutdown_when_done);
+  o->wait_for_subscribers = param("wait_for_subscribers", o->wait_for_subscribers);
+  o->seed = param("seed", o->seed);
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
     std::ostringstream s;
     s << "~" << name << " must be " << rule << ", got " << v;
@@ -38,6 +46,11 @@ void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* 
   if (!(o->republish_timeout > 0 && std::isfinite(o->republish_timeout)))
     bad("republish_timeout", "> 0 (s)", o->republish_timeout);
   if (o->image_size < 8 || o->image_size > 1024) bad("image_size", "in 8..1024", o->image_size);
+  if (o->episode_length < 2) bad("episode_length", ">= 2", o->episode_length);
+  if (o->num_episodes < 0) bad("num_episodes", ">= 0 (0: unbounded)", o->num_episodes);
+  if (o->val_episodes < 0) bad("val_episodes", ">= 0", o->val_episodes);
+  if (o->wait_for_subscribers < 0) bad("wait_for_subscribers", ">= 0", o->wait_for_subscribers);
+  if (o->seed < 0) bad("seed", ">= 0", o->seed);
 }
 
 SimNodeBase::SimNodeBase(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeCommonOptions& common,
@@ -70,6 +83,7 @@ void SimNodeBase::StartRos() {
         nh_.createWallTimer(ros::WallDuration(1.0 / common_.control_rate), &SimNodeBase::OnRealtimeTick, this);
   watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &SimNodeBase::OnWatchdog, this);
   diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &SimNodeBase::OnDiagnostics, this);
+  wait_since_ = ros::WallTime::now();
   PublishClock(TickToTime(0, control_dt_));  // time 0 until the first step
   ROS_INFO_STREAM_NAMED("msspr_sim", "msspr_sim_node serving " << env_name_ << " (" << common_.stepping << ", "
                                                                 << common_.observation_mode << ")");
@@ -106,10 +120,43 @@ void SimNodeBase::OnRealtimeTick(const ros::WallTimerEvent&) {
   DoStep(a);
 }
 
+bool SimNodeBase::ReadyToStart() {
+  const bool subs_ok = obs_pub_.getNumSubscribers() >= static_cast<uint32_t>(common_.wait_for_subscribers);
+  const bool agent_ok = !common_.auto_reset || action_sub_.getNumPublishers() > 0;
+  if (!subs_ok || !agent_ok) {
+    wait_since_ = ros::WallTime::now();
+    ROS_INFO_THROTTLE_NAMED(5.0, "msspr_sim", "waiting for %d observation subscriber(s)%s",
+                            common_.wait_for_subscribers, common_.auto_reset ? " and an action publisher" : "");
+    return false;
+  }
+  // Let every new subscriber finish connecting to the other topics too.
+  return common_.wait_for_subscribers == 0 || (ros::WallTime::now() - wait_since_).toSec() >= 0.5;
+}
+
+bool SimNodeBase::NextAutoEpisode() {
+  const int64_t next = episode_id_ + 1;
+  const int64_t total = static_cast<int64_t>(common_.num_episodes) + common_.val_episodes;
+  if (common_.num_episodes > 0 && next >= total) {
+    active_ = false;
+    ROS_INFO_STREAM_NAMED("msspr_sim", "collection complete: " << total << " episodes of "
+                                                               << common_.episode_length << " steps");
+    if (common_.shutdown_when_done) ros::shutdown();
+    return false;
+  }
+  const std::string split = common_.num_episodes > 0 && next >= common_.num_episodes ? "val" : "train";
+  StartCollectionEpisode(sim::EpisodeSeed(static_cast<uint64_t>(common_.seed), static_cast<uint64_t>(next)), split);
+  return true;
+}
+
 void SimNodeBase::OnWatchdog(const ros::WallTimerEvent&) {
   OnWatchdogTick();
   if (!started_) {
-    TryStart();
+    if (!ReadyToStart()) return;
+    started_ = true;
+    if (common_.auto_reset)
+      NextAutoEpisode();
+    else
+      StartInitialEpisode();
     return;
   }
   if (!realtime() && active_ && !paused_ &&

@@ -34,6 +34,17 @@ struct SimNodeCommonOptions {
   double action_timeout = 0.5;             // s; an older action becomes zero (real time)
   double republish_timeout = 1.0;          // s; lockstep re-sends an unanswered observation
   bool publish_clock = true;
+  // Collection mode: episodes of episode_length steps from the env's random
+  // collection resets (seeds sim::EpisodeSeed(seed, k)), the last step's
+  // action triggering the next reset; an agent drives them (expert or oracle
+  // node) and rosbag record writes the dataset (launch/collect.launch).
+  bool auto_reset = false;
+  int episode_length = 1001;
+  int num_episodes = 0;                    // 0: unbounded
+  int val_episodes = 0;                    // extra episodes tagged split "val"
+  bool shutdown_when_done = true;
+  int wait_for_subscribers = 0;            // observation subscribers before starting
+  int seed = 0;
 };
 
 // A ~param of a sim node, logged under "msspr_sim".
@@ -70,9 +81,12 @@ class SimNodeBase {
   virtual void Publish() = 0;
   virtual bool Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) = 0;
   virtual bool SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) = 0;
-  // Called every watchdog tick (20 Hz) until started_ is set: start the first
-  // episode when the node is ready (or leave it to a reset).
-  virtual void TryStart() = 0;
+  // Collection mode: starts episode episode_id_ + 1 from a collection reset
+  // with `seed`, tagged `split` (episode_id_ and tick_ to advance, as resets do).
+  virtual void StartCollectionEpisode(uint64_t seed, const std::string& split) = 0;
+  // Without collection mode: the episode to start once the node is ready
+  // (initial_task), or none (left to a reset).
+  virtual void StartInitialEpisode() = 0;
   // Called first at every watchdog tick.
   virtual void OnWatchdogTick() {}
 
@@ -84,6 +98,13 @@ class SimNodeBase {
   void ForgetAction() { have_action_ = false; }
   // After publishing an observation (for lockstep's republish timeout).
   void MarkPublished() { last_publish_time_ = ros::WallTime::now(); }
+  // Collection mode: whether an episode at `steps` has reached its last step.
+  bool CollectionEpisodeFull(int steps) const {
+    return common_.auto_reset && steps >= common_.episode_length - 1;
+  }
+  // Collection mode: the next episode, or false (and shutdown_when_done) when
+  // num_episodes + val_episodes are done.
+  bool NextAutoEpisode();
 
   SimNodeCommonOptions common_;
   ros::NodeHandle nh_, pnh_;
@@ -106,13 +127,15 @@ class SimNodeBase {
   void OnRealtimeTick(const ros::WallTimerEvent&);
   void OnWatchdog(const ros::WallTimerEvent&);
   void OnDiagnostics(const ros::WallTimerEvent&);
+  // Whether the subscribers (and in collection mode, the agent) are connected.
+  bool ReadyToStart();
 
   size_t action_dim_;
   double control_dt_;
   std::string env_name_;
   std::vector<double> latest_action_;
   bool have_action_ = false;
-  ros::WallTime latest_action_time_, last_publish_time_;
+  ros::WallTime latest_action_time_, last_publish_time_, wait_since_;
   ros::ServiceServer reset_srv_, goal_srv_, pause_srv_;
   ros::WallTimer realtime_timer_, watchdog_timer_, diag_timer_;
 };

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -25,7 +26,9 @@
 #include "msspr/Pause.h"
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
+#include "dataset_bag.h"
 #include "msspr_sim/arm_model.h"
+#include "msspr_sim/cube_dataset.h"
 #include "ros_test_helper.h"
 
 namespace msspr::testing {
@@ -219,6 +222,71 @@ TEST(CubeEvalOracle, FiveTasks) {
   }
   EXPECT_EQ(tasks, 5) << j;
   std::remove(json.c_str());
+}
+
+// Live collection (the sim's collection mode + msspr_cube_oracle_node in play
+// mode, recorded by rosbag record) writes msspr_collect --env cube-single's
+// layout: the same resets (seeds, splits, first observations), no goal, a
+// recorded action for every step, and play that moves the cube. The numbers
+// after the first step differ from the direct writer's: the ROS oracle plans
+// on a mirror posed from float32 observations and draws its own first target.
+TEST(CubeLiveRecording, PlayDataInTheCollectLayout) {
+  const char* dir = std::getenv("ROS_LOG_DIR");
+  const std::string bag = std::string(dir ? dir : "/tmp") + "/msspr_cube_live_" + std::to_string(getpid()) + ".bag";
+  const pid_t rec = fork();
+  if (rec == 0) {
+    execlp("rosbag", "rosbag", "record", "-O", bag.c_str(), "/msspr/observation", "/msspr/action",
+           "/msspr/episode", "__name:=msspr_cube_test_recorder", (char*)nullptr);
+    _exit(127);
+  }
+  ASSERT_GT(rec, 0);
+  RosTestHelper h;  // with the recorder and the oracle: 3 observation subscribers start the sim
+  const int kEpisodes = 3, kLength = 150;
+  const bool done = h.WaitFor([&] {
+    return h.latest() && h.latest()->episode_id == kEpisodes - 1 && h.latest()->step == kLength - 1;
+  }, 120.0);
+  ros::WallDuration(1.0).sleep();  // the last action reaches the recorder
+  kill(rec, SIGINT);
+  int status = 0;
+  waitpid(rec, &status, 0);
+  ASSERT_TRUE(done) << "live collection did not finish";
+
+  sim::CubeEnvOptions eo;
+  eo.urdf_path = MSSPR_DEFAULT_ARM_URDF;
+  sim::CubeEnv env(eo);
+  sim::CubeCollectOptions co;
+  co.episode_length = 2;  // the reset and one step suffice for the comparison
+  co.seed = 11;
+  ros_bridge::DatasetBagReader reader(bag);
+  int k = 0;
+  double moved = 0;  // the largest cube displacement in an episode (m)
+  reader.ForEachEpisode([&](ros_bridge::BagEpisode&& ep) {
+    ASSERT_LT(k, kEpisodes);
+    const sim::CubeEpisode direct = sim::CollectCubeEpisode(env, co, static_cast<uint64_t>(k));
+    EXPECT_TRUE(ep.complete()) << (ep.problems.empty() ? "" : ep.problems[0]);
+    EXPECT_EQ(ep.meta.env, "cube-single");
+    EXPECT_EQ(ep.meta.split, k == kEpisodes - 1 ? "val" : "train");
+    EXPECT_EQ(ep.meta.seed, direct.seed);
+    EXPECT_TRUE(ep.meta.goal.empty()) << "play data has no goal";
+    ASSERT_EQ(ep.num_steps, kLength);
+    ASSERT_EQ(ep.obs_dim, 28);
+    ASSERT_EQ(ep.act_dim, 5);
+    for (int i = 0; i < 28; ++i) EXPECT_EQ(ep.observations[i], direct.observations[i]) << "episode " << k << " [" << i << "]";
+    for (float a : ep.actions) {
+      EXPECT_GE(a, -1.0f);
+      EXPECT_LE(a, 1.0f);
+    }
+    const Eigen::Vector3d c0 = sim::CubePositionFromObservation(ep.observations.data());
+    for (int t = 1; t < ep.num_steps; ++t)
+      moved = std::max(moved, (sim::CubePositionFromObservation(&ep.observations[t * 28]) - c0).norm());
+    ++k;
+  });
+  EXPECT_EQ(k, kEpisodes);
+  EXPECT_GT(moved, 0.03) << "the play oracle never moved the cube";
+  if (::testing::Test::HasFailure())
+    std::cerr << "live recording kept for inspection: " << bag << "\n";
+  else
+    std::remove(bag.c_str());
 }
 
 }  // namespace
