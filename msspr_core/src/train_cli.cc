@@ -48,6 +48,8 @@ const char kUsage[] =
     "  --steps N          training steps (overrides trainer.steps)\n"
     "  --batch N          batch size (overrides trainer.batch_size)\n"
     "  --device DEV       cpu | cuda | cuda:N (default cpu)\n"
+    "  --precision P      fp32 | bf16: the update's matrix products (overrides\n"
+    "                     trainer.precision; may change on --resume)\n"
     "  --seed S           random seed (default 0)\n"
     "  --eval-every N     validation period in steps (0: never)\n"
     "  --checkpoint-every N  checkpoint period in steps (0: only at the end)\n"
@@ -57,8 +59,8 @@ const char kUsage[] =
     "                     checkpoint and export); 0: none\n"
     "  --resume           continue the run in DIR (its data, flags and checkpoint.ckpt); only\n"
     "                     --steps, --time-limit, --eval-every, --checkpoint-every, --log-every,\n"
-    "                     --threads, --quiet and the --eval-* flags may differ from the saved\n"
-    "                     run (DIR/run.yaml)\n"
+    "                     --threads, --precision, --quiet and the --eval-* flags may differ\n"
+    "                     from the saved run (DIR/run.yaml)\n"
     "  --print-options    print the resolved options as YAML and exit\n"
     "  --threads N        torch CPU threads (default: torch's choice; 1 is often fastest\n"
     "                     on shared cores)\n"
@@ -91,14 +93,16 @@ std::string Usage(const TrainCliExtensions& ext) {
 // Flags that may differ from the saved run on --resume; any other flag given
 // with --resume must repeat the saved value (README "Resuming").
 // Neither changes what is learned: the run's length and schedule of side
-// work, threads, output, and the in-simulator evaluation (ROS msspr_train).
+// work, threads, output, the in-simulator evaluation (ROS msspr_train), and
+// the precision of the update's matrix products (its objective stays; the
+// weights and optimiser state are fp32 either way).
 const std::set<std::string> kResumeMayChange = {
     "steps",     "time-limit", "eval-every",    "checkpoint-every", "export-every", "log-every",
-    "threads",   "quiet",      "eval-episodes", "eval-tasks",       "eval-seed",
+    "threads",   "precision",  "quiet",         "eval-episodes",    "eval-tasks",   "eval-seed",
     "eval-maze", "eval-max-steps", "rank",          "master",           "dist-timeout"};
 const char kResumeRule[] =
     "; on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, --log-every, "
-    "--threads, --quiet and the --eval-* flags may change";
+    "--threads, --precision, --quiet and the --eval-* flags may change";
 
 std::string Absolute(const std::string& list) {  // each of "a,b,c", made absolute
   std::string out, item;
@@ -156,7 +160,7 @@ void WriteRunRecord(const std::string& path, const RunRecord& r) {
 
 int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   static const std::set<std::string> kValued = {"data", "val", "out", "preset", "agent", "scale", "obs-mode", "steps",
-                                                "batch", "device", "seed", "eval-every", "checkpoint-every", "export-every",
+                                                "batch", "device", "precision", "seed", "eval-every", "checkpoint-every", "export-every",
                                                 "log-every", "time-limit", "threads", "world-size", "rank",
                                                 "master", "dist-timeout"};
   RunRecord given;
@@ -278,7 +282,9 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     return usage_error(e.what());
   }
   const std::string data_path = flag("data"), val_path = flag("val"), device = flag("device"),
-                    obs_mode = flag("obs-mode");
+                    obs_mode = flag("obs-mode"), precision = flag("precision");
+  if (!precision.empty() && precision != "fp32" && precision != "bf16")
+    return usage_error("--precision must be fp32 or bf16, got '" + precision + "'");
   std::map<std::string, std::string> extra;
   for (const auto& k : ext.extra_options)
     if (run.flags.count(k)) extra[k] = run.flags.at(k);
@@ -311,6 +317,7 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     if (steps >= 0) options.trainer.steps = steps;
     if (batch > 0) options.trainer.batch_size = static_cast<int>(batch);
     if (!device.empty()) options.trainer.device = device;
+    if (!precision.empty()) options.trainer.precision = precision;
     if (seed >= 0 && !from_checkpoint) options.trainer.seed = static_cast<uint64_t>(seed);
     if (eval_every >= 0) options.trainer.eval_every = static_cast<int>(eval_every);
     if (ckpt_every >= 0) options.trainer.checkpoint_every = static_cast<int>(ckpt_every);

@@ -468,6 +468,12 @@ TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
   EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "45", "--quiet"}, out + ".more"), 0)
       << ReadAll(out + ".more");
   EXPECT_EQ(LossRows(out + "/metrics.csv").size(), 46u);
+  // Another: bf16 from here on (recorded, so a plain --resume keeps it).
+  EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "48", "--precision", "bf16", "--quiet"}, out + ".bf16"), 0)
+      << ReadAll(out + ".bf16");
+  EXPECT_EQ(LossRows(out + "/metrics.csv").size(), 49u);
+  EXPECT_NE(ReadAll(out + "/run.yaml").find("precision: \"bf16\""), std::string::npos) << ReadAll(out + "/run.yaml");
+  EXPECT_NE(ReadAll(out + "/options.yaml").find("precision: bf16"), std::string::npos);
   // A second run while one holds the directory's lock.
   const int fd = open((out + "/.lock").c_str(), O_RDWR);
   ASSERT_GE(fd, 0);
