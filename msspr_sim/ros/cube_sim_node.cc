@@ -196,10 +196,16 @@ void CubeSimNode::PublishRobot(const ros::Time& stamp) {
 }
 
 void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {
-  ++episode_id_;
-  ++tick_;
   const sim::CubeEnv::Observation o = env_->ResetToTask(task_id, seed);
   goal_.assign(env_->goal_observation().begin(), env_->goal_observation().end());
+  BeginEpisode(task_id, seed, "", o);
+}
+
+// After a reset: the episode counters, its EpisodeInfo, the goal image, the first observation.
+void CubeSimNode::BeginEpisode(int task_id, uint64_t seed, const std::string& split,
+                               const sim::CubeEnv::Observation& start) {
+  ++episode_id_;
+  ++tick_;
   active_ = true;
   ForgetAction();
   ++counters_.episodes;
@@ -207,13 +213,13 @@ void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {
   info.header.stamp = Now();
   info.episode_id = static_cast<uint32_t>(episode_id_);
   info.env = "cube-single";
-  info.split = "";
+  info.split = split;
   info.task_id = task_id;
   info.seed = seed;
-  info.start.assign(o.begin(), o.end());
+  info.start.assign(start.begin(), start.end());
   info.goal = goal_;
   episode_pub_.publish(info);
-  if (pixels())
+  if (pixels() && !goal_.empty())
     goal_image_pub_.publish(ToImageMsg(env_->goal_image().data(), options_.image_size, info.header.stamp,
                                        kCameraFrame));
   Publish();
@@ -268,23 +274,9 @@ void CubeSimNode::StartInitialEpisode() {
 // random place); play data has no goal, as msspr_collect --env cube-single
 // writes it (the env's goal marker is the oracle's first target, not sent).
 void CubeSimNode::StartCollectionEpisode(uint64_t seed, const std::string& split) {
-  ++episode_id_;
-  ++tick_;
   const sim::CubeEnv::Observation o = env_->ResetForCollection(seed);
   goal_.clear();
-  active_ = true;
-  ForgetAction();
-  ++counters_.episodes;
-  msspr::EpisodeInfo info;
-  info.header.stamp = Now();
-  info.episode_id = static_cast<uint32_t>(episode_id_);
-  info.env = "cube-single";
-  info.split = split;
-  info.task_id = 0;
-  info.seed = seed;
-  info.start.assign(o.begin(), o.end());
-  episode_pub_.publish(info);
-  Publish();
+  BeginEpisode(0, seed, split, o);
 }
 
 bool CubeSimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) {

@@ -67,6 +67,7 @@ class CubeSimNode : public SimNodeBase {
   void StartInitialEpisode() override;
 
   void StartEpisode(int task_id, uint64_t seed);
+  void BeginEpisode(int task_id, uint64_t seed, const std::string& split, const sim::CubeEnv::Observation& start);
   msspr::Observation MakeObservation() const;
   void PublishRobot(const ros::Time& stamp);
   void PublishStaticFrames();

@@ -231,25 +231,12 @@ TEST(CubeEvalOracle, FiveTasks) {
 // after the first step differ from the direct writer's: the ROS oracle plans
 // on a mirror posed from float32 observations and draws its own first target.
 TEST(CubeLiveRecording, PlayDataInTheCollectLayout) {
-  const char* dir = std::getenv("ROS_LOG_DIR");
-  const std::string bag = std::string(dir ? dir : "/tmp") + "/msspr_cube_live_" + std::to_string(getpid()) + ".bag";
-  const pid_t rec = fork();
-  if (rec == 0) {
-    execlp("rosbag", "rosbag", "record", "-O", bag.c_str(), "/msspr/observation", "/msspr/action",
-           "/msspr/episode", "__name:=msspr_cube_test_recorder", (char*)nullptr);
-    _exit(127);
-  }
-  ASSERT_GT(rec, 0);
+  LiveRecording rec("msspr_cube_live");
+  ASSERT_TRUE(rec.started());
   RosTestHelper h;  // with the recorder and the oracle: 3 observation subscribers start the sim
   const int kEpisodes = 3, kLength = 150;
-  const bool done = h.WaitFor([&] {
-    return h.latest() && h.latest()->episode_id == kEpisodes - 1 && h.latest()->step == kLength - 1;
-  }, 120.0);
-  ros::WallDuration(1.0).sleep();  // the last action reaches the recorder
-  kill(rec, SIGINT);
-  int status = 0;
-  waitpid(rec, &status, 0);
-  ASSERT_TRUE(done) << "live collection did not finish";
+  ASSERT_TRUE(rec.Finish(h, kEpisodes, kLength)) << "live collection did not finish";
+  const std::string& bag = rec.bag();
 
   sim::CubeEnvOptions eo;
   eo.urdf_path = MSSPR_DEFAULT_ARM_URDF;
@@ -283,10 +270,7 @@ TEST(CubeLiveRecording, PlayDataInTheCollectLayout) {
   });
   EXPECT_EQ(k, kEpisodes);
   EXPECT_GT(moved, 0.03) << "the play oracle never moved the cube";
-  if (::testing::Test::HasFailure())
-    std::cerr << "live recording kept for inspection: " << bag << "\n";
-  else
-    std::remove(bag.c_str());
+  rec.Cleanup();
 }
 
 }  // namespace

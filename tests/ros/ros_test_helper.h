@@ -2,8 +2,15 @@
 // with timeouts, and reads the sim's diagnostics counters.
 #pragma once
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <functional>
+#include <iostream>
 #include <map>
 #include <string>
 
@@ -110,6 +117,56 @@ class RosTestHelper {
   uint64_t observations_ = 0;
   std::map<std::string, uint64_t> counters_;
   std::map<std::string, std::map<std::string, std::string>> statuses_;  // status name -> key -> value
+};
+
+// A live collection recorded by `rosbag record` (the dataset topics of
+// namespace /msspr, plus `extra_topic` when not empty) into a bag under
+// $ROS_LOG_DIR; the collection's sim starts once the recorder, the agent and
+// the test's helper subscribe. Finish() waits for episode `episodes` - 1 to
+// reach step `length` - 1, stops the recorder and returns whether it got there.
+class LiveRecording {
+ public:
+  LiveRecording(const std::string& name, const std::string& extra_topic = "") {
+    const char* dir = std::getenv("ROS_LOG_DIR");
+    bag_ = std::string(dir ? dir : "/tmp") + "/" + name + "_" + std::to_string(getpid()) + ".bag";
+    pid_ = fork();
+    if (pid_ == 0) {
+      const std::string node = "__name:=" + name + "_recorder";
+      if (extra_topic.empty())
+        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation", "/msspr/action",
+               "/msspr/episode", node.c_str(), (char*)nullptr);
+      else
+        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation", "/msspr/action",
+               "/msspr/episode", extra_topic.c_str(), node.c_str(), (char*)nullptr);
+      _exit(127);
+    }
+  }
+  bool Finish(RosTestHelper& h, int episodes, int length, double timeout_s = 120.0) {
+    const bool done = h.WaitFor([&] {
+      return h.latest() && h.latest()->episode_id == static_cast<uint32_t>(episodes - 1) &&
+             h.latest()->step == static_cast<uint32_t>(length - 1);
+    }, timeout_s);
+    ros::WallDuration(1.0).sleep();  // the last action reaches the recorder
+    if (pid_ > 0) {
+      kill(pid_, SIGINT);
+      int status = 0;
+      waitpid(pid_, &status, 0);
+    }
+    return done;
+  }
+  bool started() const { return pid_ > 0; }
+  const std::string& bag() const { return bag_; }
+  // Removes the bag after a passing test; keeps it (and says where) otherwise.
+  void Cleanup() const {
+    if (::testing::Test::HasFailure())
+      std::cerr << "live recording kept for inspection: " << bag_ << "\n";
+    else
+      std::remove(bag_.c_str());
+  }
+
+ private:
+  std::string bag_;
+  pid_t pid_ = -1;
 };
 
 }  // namespace msspr::testing

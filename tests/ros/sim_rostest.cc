@@ -227,25 +227,12 @@ TEST(SimRobotAndMarkers, AgreeWithTheMaze) {
 
 // A live recording (rosbag record of sim + navigate expert) equals msspr_collect's writer.
 TEST(LiveRecording, EqualsDirectWriter) {
-  const char* dir = std::getenv("ROS_LOG_DIR");
-  const std::string bag = std::string(dir ? dir : "/tmp") + "/msspr_live_" + std::to_string(getpid()) + ".bag";
-  const pid_t rec = fork();
-  if (rec == 0) {
-    execlp("rosbag", "rosbag", "record", "-O", bag.c_str(), "/msspr/observation", "/msspr/action",
-           "/msspr/episode", "/msspr/camera/image", "__name:=msspr_test_recorder", (char*)nullptr);
-    _exit(127);
-  }
-  ASSERT_GT(rec, 0);
+  LiveRecording rec("msspr_live", "/msspr/camera/image");
+  ASSERT_TRUE(rec.started());
   RosTestHelper h;  // with the recorder and the expert: 3 observation subscribers start the sim
   const int kEpisodes = 4, kLength = 40;
-  const bool done = h.WaitFor([&] {
-    return h.latest() && h.latest()->episode_id == kEpisodes - 1 && h.latest()->step == kLength - 1;
-  }, 120.0);
-  ros::WallDuration(1.0).sleep();  // the last action reaches the recorder
-  kill(rec, SIGINT);
-  int status = 0;
-  waitpid(rec, &status, 0);
-  ASSERT_TRUE(done) << "live collection did not finish";
+  ASSERT_TRUE(rec.Finish(h, kEpisodes, kLength)) << "live collection did not finish";
+  const std::string& bag = rec.bag();
 
   sim::PointMazeOptions eo;
   eo.enable_rendering = true;
@@ -283,10 +270,7 @@ TEST(LiveRecording, EqualsDirectWriter) {
     ++k;
   });
   EXPECT_EQ(k, kEpisodes);
-  if (::testing::Test::HasFailure())
-    std::cerr << "live recording kept for inspection: " << bag << "\n";
-  else
-    std::remove(bag.c_str());
+  rec.Cleanup();
 }
 
 }  // namespace
