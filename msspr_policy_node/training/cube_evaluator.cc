@@ -9,7 +9,6 @@
 
 #include "msspr_core/policy.h"
 #include "msspr_sim/cube_env.h"
-#include "msspr_sim/maze_map.h"
 
 namespace msspr::agent {
 
@@ -118,9 +117,7 @@ sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalO
 
 void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options, const std::string& agent,
                           const std::string& path) {
-  // The maze map only names cells of tasks without starts and goals: none here.
-  sim::WriteTextFile(path, sim::EvalReportJson(sim::MazeMap::FromName("medium"),
-                                               MakeCubeEvalReport(result, options, agent)));
+  sim::WriteTextFile(path, sim::EvalReportJson(MakeCubeEvalReport(result, options, agent)));
 }
 
 }  // namespace msspr::agent

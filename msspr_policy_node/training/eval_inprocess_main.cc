@@ -105,7 +105,7 @@ int main(int argc, char** argv) {
                 << " episodes on cube-single ...\n";
       const auto result = msspr::agent::EvaluateOnCube(policy, co);
       const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, co, agent);
-      std::cout << sim::EvalReportTable(sim::MazeMap::FromName("medium"), report);  // (no cells named)
+      std::cout << sim::EvalReportTable(report);
       if (!out.empty()) msspr::agent::WriteCubeResultsJson(result, co, agent, out);
       std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in " << result.seconds << " s\n";
       return 0;

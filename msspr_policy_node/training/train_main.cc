@@ -41,6 +41,21 @@ bool AllBags(const std::string& list) {
 
 std::string g_env;  // env of the training bags, for the default evaluation maze
 
+// An evaluation's eval.csv rows: success_<kind><id> per task and mean_success<suffix>.
+void AddSuccessRows(const msspr::agent::TaskSuccessResult& result, const std::string& kind, const std::string& suffix,
+                    msspr::core::EvalResult* r) {
+  for (size_t i = 0; i < result.tasks.size(); ++i)
+    r->emplace_back("success_" + kind + std::to_string(result.tasks[i]), result.success[i]);
+  r->emplace_back("mean_success" + suffix, result.mean_success);
+}
+
+// DIR/eval/step_<N><suffix>.json, the results JSON of the evaluation at step N.
+std::string StepJsonPath(const std::string& out_dir, int64_t step, const std::string& suffix) {
+  char name[64];
+  std::snprintf(name, sizeof name, "/eval/step_%08lld", static_cast<long long>(step));
+  return out_dir + name + suffix + ".json";
+}
+
 std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list, const std::string& split,
                                                      const msspr::core::MsprOptions& options) {
   BagLoadOptions lo;
@@ -144,16 +159,12 @@ int main(int argc, char** argv) {
       return [co, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
         const auto result = msspr::agent::EvaluateOnCube(policy, co);
         msspr::core::EvalResult r;
-        for (size_t i = 0; i < result.tasks.size(); ++i)
-          r.emplace_back("success_task" + std::to_string(result.tasks[i]), result.success[i]);
-        r.emplace_back("mean_success", result.mean_success);
+        AddSuccessRows(result, "task", "", &r);
         r.emplace_back("eval_s", result.seconds);
         r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-        if (!out_dir.empty()) {
-          char name[64];
-          std::snprintf(name, sizeof name, "/eval/step_%08lld.json", static_cast<long long>(step));
-          msspr::agent::WriteCubeResultsJson(result, co, "msspr step " + std::to_string(step), out_dir + name);
-        }
+        if (!out_dir.empty())
+          msspr::agent::WriteCubeResultsJson(result, co, "msspr step " + std::to_string(step),
+                                             StepJsonPath(out_dir, step, ""));
         return r;
       };
     }
@@ -174,29 +185,20 @@ int main(int argc, char** argv) {
     return [eo, custom, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
       const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
       msspr::core::EvalResult r;
-      for (size_t i = 0; i < result.tasks.size(); ++i)
-        r.emplace_back("success_task" + std::to_string(result.tasks[i]), result.success[i]);
-      r.emplace_back("mean_success", result.mean_success);
+      AddSuccessRows(result, "task", "", &r);
       double eval_s = result.seconds;
       if (!custom.custom_tasks.empty()) {
         const auto cr = msspr::agent::EvaluateOnMaze(policy, custom);
-        for (size_t i = 0; i < cr.tasks.size(); ++i)
-          r.emplace_back("success_custom" + std::to_string(cr.tasks[i]), cr.success[i]);
-        r.emplace_back("mean_success_custom", cr.mean_success);
+        AddSuccessRows(cr, "custom", "_custom", &r);
         eval_s += cr.seconds;
-        if (!out_dir.empty()) {
-          char name[64];
-          std::snprintf(name, sizeof name, "/eval/step_%08lld_custom.json", static_cast<long long>(step));
-          msspr::agent::WriteResultsJson(cr, custom, "msspr step " + std::to_string(step), out_dir + name);
-        }
+        if (!out_dir.empty())
+          msspr::agent::WriteResultsJson(cr, custom, "msspr step " + std::to_string(step),
+                                         StepJsonPath(out_dir, step, "_custom"));
       }
       r.emplace_back("eval_s", eval_s);
       r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-      if (!out_dir.empty()) {
-        char name[64];
-        std::snprintf(name, sizeof name, "/eval/step_%08lld.json", static_cast<long long>(step));
-        msspr::agent::WriteResultsJson(result, eo, "msspr step " + std::to_string(step), out_dir + name);
-      }
+      if (!out_dir.empty())
+        msspr::agent::WriteResultsJson(result, eo, "msspr step " + std::to_string(step), StepJsonPath(out_dir, step, ""));
       return r;
     };
   };

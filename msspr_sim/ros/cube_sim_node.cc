@@ -235,8 +235,7 @@ msspr::Observation CubeSimNode::MakeObservation() const {
   o.state.assign(s.begin(), s.end());
   o.goal = goal_;
   o.success = !options_.auto_reset && env_->Success();  // play data: no goal
-  o.last = options_.auto_reset ? CollectionEpisodeFull(env_->episode_steps())
-                               : env_->episode_steps() >= options_.max_episode_steps;
+  o.last = IsLastStep(env_->episode_steps(), options_.max_episode_steps);
   return o;
 }
 
@@ -249,15 +248,10 @@ void CubeSimNode::Publish() {
     image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
   }
   obs_pub_.publish(o);
-  MarkPublished();
-  if (o.last && !options_.auto_reset) active_ = false;  // wait for a reset
+  MarkPublished(o.last);
 }
 
 void CubeSimNode::DoStep(const std::vector<double>& action) {
-  if (CollectionEpisodeFull(env_->episode_steps())) {
-    NextAutoEpisode();  // the last action of the episode is recorded; start the next
-    return;
-  }
   sim::CubeEnv::Action a;
   std::copy(action.begin(), action.end(), a.begin());
   env_->Step(a);

@@ -120,7 +120,7 @@ msspr::Observation SimNode::MakeObservation() const {
   o.state = ToFloatVector(env_->state());
   o.goal = ToFloatVector(env_->goal());
   o.success = env_->success();
-  o.last = options_.auto_reset ? CollectionEpisodeFull(env_->steps()) : env_->steps() >= options_.max_episode_steps;
+  o.last = IsLastStep(env_->steps(), options_.max_episode_steps);
   return o;
 }
 
@@ -171,8 +171,7 @@ void SimNode::Publish() {
     image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
   }
   obs_pub_.publish(o);
-  MarkPublished();
-  if (o.last && !options_.auto_reset) active_ = false;  // wait for a reset
+  MarkPublished(o.last);
 }
 
 void SimNode::MaybePublishMarkers(bool now_anyway) {
@@ -246,10 +245,6 @@ void SimNode::PublishMarkers(const ros::Time& stamp) {
 }
 
 void SimNode::DoStep(const std::vector<double>& action) {
-  if (CollectionEpisodeFull(env_->steps())) {
-    NextAutoEpisode();  // the last action of the episode is recorded; start the next
-    return;
-  }
   env_->Step(Eigen::Vector2d(action[0], action[1]));
   ++tick_;
   ++counters_.steps;

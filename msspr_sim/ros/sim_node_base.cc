@@ -107,7 +107,14 @@ void SimNodeBase::OnAction(const msspr::Action::ConstPtr& msg) {
     have_action_ = true;
     return;
   }
-  DoStep(a);
+  StepOrNextEpisode(a);
+}
+
+void SimNodeBase::StepOrNextEpisode(const std::vector<double>& action) {
+  if (common_.auto_reset && static_cast<int64_t>(EpisodeStep()) >= common_.episode_length - 1)
+    NextAutoEpisode();  // the last action of the episode is recorded; start the next
+  else
+    DoStep(action);
 }
 
 void SimNodeBase::OnRealtimeTick(const ros::WallTimerEvent&) {
@@ -117,7 +124,7 @@ void SimNodeBase::OnRealtimeTick(const ros::WallTimerEvent&) {
     a = latest_action_;
   else if (have_action_)
     ++counters_.timeouts;
-  DoStep(a);
+  StepOrNextEpisode(a);
 }
 
 bool SimNodeBase::ReadyToStart() {

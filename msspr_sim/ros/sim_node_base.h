@@ -73,6 +73,8 @@ class SimNodeBase {
 
   // --- hooks ---
   // One control step with a checked, clipped action; publishes what follows.
+  // (In collection mode, the action answering an episode's last step starts
+  // the next episode instead: the base does that.)
   virtual void DoStep(const std::vector<double>& action) = 0;
   // The current observation's step (for matching lockstep actions).
   virtual uint32_t EpisodeStep() const = 0;
@@ -96,15 +98,18 @@ class SimNodeBase {
   void PublishClock(const ros::Time& stamp);
   // An episode starts: no held action from the previous one.
   void ForgetAction() { have_action_ = false; }
-  // After publishing an observation (for lockstep's republish timeout).
-  void MarkPublished() { last_publish_time_ = ros::WallTime::now(); }
-  // Collection mode: whether an episode at `steps` has reached its last step.
-  bool CollectionEpisodeFull(int steps) const {
-    return common_.auto_reset && steps >= common_.episode_length - 1;
+  // Whether an episode at `steps` is at its last step: episode_length - 1 in
+  // collection mode, else max_episode_steps.
+  bool IsLastStep(int steps, int max_episode_steps) const {
+    return common_.auto_reset ? steps >= common_.episode_length - 1 : steps >= max_episode_steps;
   }
-  // Collection mode: the next episode, or false (and shutdown_when_done) when
-  // num_episodes + val_episodes are done.
-  bool NextAutoEpisode();
+  // After publishing an observation (for lockstep's republish timeout); a
+  // last one ends the episode (but in collection mode, whose next action
+  // starts the next one).
+  void MarkPublished(bool last) {
+    last_publish_time_ = ros::WallTime::now();
+    if (last && !common_.auto_reset) active_ = false;  // wait for a reset
+  }
 
   SimNodeCommonOptions common_;
   ros::NodeHandle nh_, pnh_;
@@ -129,6 +134,11 @@ class SimNodeBase {
   void OnDiagnostics(const ros::WallTimerEvent&);
   // Whether the subscribers (and in collection mode, the agent) are connected.
   bool ReadyToStart();
+  // DoStep, or in collection mode after an episode's last step the next episode.
+  void StepOrNextEpisode(const std::vector<double>& action);
+  // Collection mode: the next episode, or false (and shutdown_when_done) when
+  // num_episodes + val_episodes are done.
+  bool NextAutoEpisode();
 
   size_t action_dim_;
   double control_dt_;

@@ -39,7 +39,10 @@ void FinalizeReport(EvalReport* report) {
   report->mean_success = report->tasks.empty() ? 0.0 : sum / report->tasks.size();
 }
 
-std::string EvalReportJson(const MazeMap& map, const EvalReport& r) {
+namespace {
+
+// map: names the cells of maze tasks without starts and goals (null: none).
+std::string ReportJson(const MazeMap* map, const EvalReport& r) {
   std::ostringstream j;
   j << std::fixed << std::setprecision(4);
   j << "{\n  \"env\": \"" << Escape(r.env) << "\",\n  \"agent\": \"" << Escape(r.agent)
@@ -51,8 +54,8 @@ std::string EvalReportJson(const MazeMap& map, const EvalReport& r) {
     if (t.start.size() == 2 && t.goal.size() == 2) {
       j << ", \"start\": [" << t.start[0] << ", " << t.start[1] << "], \"goal\": [" << t.goal[0] << ", "
         << t.goal[1] << "]";
-    } else if (t.task_id >= 1 && t.task_id <= static_cast<int>(map.Tasks().size())) {
-      const auto& task = map.Tasks()[static_cast<size_t>(t.task_id - 1)];
+    } else if (map != nullptr && t.task_id >= 1 && t.task_id <= static_cast<int>(map->Tasks().size())) {
+      const auto& task = map->Tasks()[static_cast<size_t>(t.task_id - 1)];
       j << ", \"start_cell\": [" << task.start.i << ", " << task.start.j << "], \"goal_cell\": ["
         << task.goal.i << ", " << task.goal.j << "]";
     }
@@ -65,7 +68,7 @@ std::string EvalReportJson(const MazeMap& map, const EvalReport& r) {
   return j.str();
 }
 
-std::string EvalReportTable(const MazeMap& map, const EvalReport& r) {
+std::string ReportTable(const MazeMap* map, const EvalReport& r) {
   std::ostringstream t;
   t << "\n  " << r.env << " / " << r.agent << ": " << r.episodes_per_task << " episodes per task, "
     << r.max_steps << " steps at most\n  task  start -> goal     success   mean steps to goal\n";
@@ -75,8 +78,8 @@ std::string EvalReportTable(const MazeMap& map, const EvalReport& r) {
     if (x.start.size() == 2 && x.goal.size() == 2) {
       std::snprintf(line, sizeof line, "(%.2f,%.2f)->(%.2f,%.2f)", x.start[0], x.start[1], x.goal[0], x.goal[1]);
       cells = line;
-    } else if (x.task_id >= 1 && x.task_id <= static_cast<int>(map.Tasks().size())) {
-      const auto& task = map.Tasks()[static_cast<size_t>(x.task_id - 1)];
+    } else if (map != nullptr && x.task_id >= 1 && x.task_id <= static_cast<int>(map->Tasks().size())) {
+      const auto& task = map->Tasks()[static_cast<size_t>(x.task_id - 1)];
       std::snprintf(line, sizeof line, "(%d,%d) -> (%d,%d)", task.start.i, task.start.j, task.goal.i,
                     task.goal.j);
       cells = line;
@@ -89,6 +92,13 @@ std::string EvalReportTable(const MazeMap& map, const EvalReport& r) {
   t << line;
   return t.str();
 }
+
+}  // namespace
+
+std::string EvalReportJson(const MazeMap& map, const EvalReport& r) { return ReportJson(&map, r); }
+std::string EvalReportJson(const EvalReport& r) { return ReportJson(nullptr, r); }
+std::string EvalReportTable(const MazeMap& map, const EvalReport& r) { return ReportTable(&map, r); }
+std::string EvalReportTable(const EvalReport& r) { return ReportTable(nullptr, r); }
 
 void WriteTextFile(const std::string& path, const std::string& text) {
   MakeParentDirs(path);

@@ -43,8 +43,11 @@ void FinalizeReport(EvalReport* report);
 // The results JSON ({env, agent, ..., tasks: [{task_id, start_cell, goal_cell, success, ...}],
 // mean_success}); task cells come from `map`.
 std::string EvalReportJson(const MazeMap& map, const EvalReport& report);
-// A per-task table for terminals.
+// The same for reports whose tasks all carry their start and goal (cube-single).
+std::string EvalReportJson(const EvalReport& report);
+// A per-task table for terminals (with and without a map, as above).
 std::string EvalReportTable(const MazeMap& map, const EvalReport& report);
+std::string EvalReportTable(const EvalReport& report);
 // Writes text to path, creating parent directories; throws std::runtime_error naming the path.
 void WriteTextFile(const std::string& path, const std::string& text);
 // Bar chart of success per task (PNG, OpenCV); throws std::runtime_error naming the path.
