@@ -66,6 +66,33 @@ struct Progress {
   }
 };
 
+// Writes episodes 0 .. episodes + val - 1 into `writer` (the first `episodes`
+// split "train", the rest "val"; images for the first image_episodes) with
+// write_one(k, split, images), which returns the episode's length; then the
+// progress line's end and a summary naming `what` (e.g. "pointmaze-medium").
+template <typename WriteOne>
+void WriteAllEpisodes(const msspr::ros_bridge::CliArgs& args, msspr::ros_bridge::DatasetBagWriter& writer,
+                      long episodes, long val, long image_episodes, int episode_length, const std::string& what,
+                      WriteOne write_one) {
+  const long total = episodes + val;
+  Progress progress{args.Has("quiet"), isatty(STDERR_FILENO) != 0, total};
+  uint64_t transitions = 0;
+  for (long k = 0; k < total; ++k) {
+    transitions += static_cast<uint64_t>(write_one(k, k < episodes ? "train" : "val", k < image_episodes));
+    progress.Update(k + 1, transitions);
+  }
+  writer.Close();
+  const double s = progress.Elapsed();
+  if (progress.quiet) return;
+  if (progress.tty) std::fprintf(stderr, "\n");
+  std::fprintf(stderr,
+               "[msspr_collect] wrote %s: %s, %ld train + %ld val episodes of %d steps "
+               "(%lu transitions, %ld with images) in %.1f s (%.0f steps/s)\n",
+               args.Get("out", "").c_str(), what.c_str(), episodes, val, episode_length,
+               static_cast<unsigned long>(transitions), std::min(image_episodes, total), s,
+               transitions / std::max(s, 1e-9));
+}
+
 // cube-single-play: CollectCubeEpisode per episode, state-only or with images.
 int CollectCube(const msspr::ros_bridge::CliArgs& args) {
   using namespace msspr;
@@ -92,37 +119,25 @@ int CollectCube(const msspr::ros_bridge::CliArgs& args) {
   const std::string env_name = "cube-single";
   const double control_dt = env_opt.scene.timestep * env_opt.substeps;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
-  const long total = episodes + val;
-  Progress progress{args.Has("quiet"), isatty(STDERR_FILENO) != 0, total};
-  uint64_t transitions = 0;
-  for (long k = 0; k < total; ++k) {
-    sim::CubeCollectOptions o = opt;
-    o.images = k < image_episodes;
-    const sim::CubeEpisode ep = sim::CollectCubeEpisode(env, o, static_cast<uint64_t>(k));
-    ros_bridge::EpisodeMeta meta;
-    meta.episode_id = static_cast<uint64_t>(k);
-    meta.env = env_name;
-    meta.split = k < episodes ? "train" : "val";
-    meta.seed = ep.seed;
-    meta.start.assign(ep.observations.begin(), ep.observations.begin() + sim::CubeEnv::kObservationSize);
-    // play data has no goal: meta.goal stays empty, so no step is marked success
-    writer.WriteEpisode(meta, ep.length, sim::CubeEnv::kObservationSize, sim::CubeEnv::kActionSize,
-                        ep.observations.data(), ep.actions.data(), o.images ? ep.images.data() : nullptr,
-                        env_opt.image_size, env_opt.success_distance);
-    transitions += static_cast<uint64_t>(ep.length);
-    progress.Update(k + 1, transitions);
-  }
-  writer.Close();
-  const double s = progress.Elapsed();
-  if (!progress.quiet) {
-    if (progress.tty) std::fprintf(stderr, "\n");
-    std::fprintf(stderr,
-                 "[msspr_collect] wrote %s: %s-play, %ld train + %ld val episodes of %d steps "
-                 "(%lu transitions, %ld with images) in %.1f s (%.0f steps/s)\n",
-                 args.Get("out", "").c_str(), env_name.c_str(), episodes, val, opt.episode_length,
-                 static_cast<unsigned long>(transitions), std::min(image_episodes, total), s,
-                 transitions / std::max(s, 1e-9));
-  }
+  WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name + "-play",
+                   [&](long k, const std::string& split, bool images) {
+                     sim::CubeCollectOptions o = opt;
+                     o.images = images;
+                     const sim::CubeEpisode ep = sim::CollectCubeEpisode(env, o, static_cast<uint64_t>(k));
+                     ros_bridge::EpisodeMeta meta;
+                     meta.episode_id = static_cast<uint64_t>(k);
+                     meta.env = env_name;
+                     meta.split = split;
+                     meta.seed = ep.seed;
+                     meta.start.assign(ep.observations.begin(),
+                                       ep.observations.begin() + sim::CubeEnv::kObservationSize);
+                     // play data has no goal: meta.goal stays empty, so no step is marked success
+                     writer.WriteEpisode(meta, ep.length, sim::CubeEnv::kObservationSize, sim::CubeEnv::kActionSize,
+                                         ep.observations.data(), ep.actions.data(),
+                                         images ? ep.images.data() : nullptr, env_opt.image_size,
+                                         env_opt.success_distance);
+                     return ep.length;
+                   });
   return 0;
 }
 
@@ -178,9 +193,6 @@ int main(int argc, char** argv) {
       return 2;
     }
     ros::Time::init();
-    const bool quiet = args.Has("quiet");
-    const bool tty = isatty(STDERR_FILENO);
-
     sim::PointMazeOptions env_opt;
     env_opt.maze = opt.maze;
     env_opt.enable_rendering = image_episodes > 0;
@@ -188,47 +200,24 @@ int main(int argc, char** argv) {
     const std::string env_name = "pointmaze-" + opt.maze;
     const double control_dt = 0.02 * sim::PointMaze::kFrameSkip;
     ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
-
-    const long total = episodes + val;
-    const auto t0 = std::chrono::steady_clock::now();
-    auto last_print = t0;
-    uint64_t transitions = 0;
-    for (long k = 0; k < total; ++k) {
-      sim::CollectOptions o = opt;
-      o.images = k < image_episodes;
-      const sim::Episode ep = sim::CollectEpisode(env, o, static_cast<uint64_t>(k));
-      ros_bridge::EpisodeMeta meta;
-      meta.episode_id = static_cast<uint64_t>(k);
-      meta.env = env_name;
-      meta.split = k < episodes ? "train" : "val";
-      meta.seed = ep.seed;
-      meta.start = {static_cast<float>(ep.start.x()), static_cast<float>(ep.start.y())};
-      meta.goal = {static_cast<float>(ep.goal.x()), static_cast<float>(ep.goal.y())};
-      writer.WriteEpisode(meta, ep.length, sim::PointMaze::kObsDim, sim::PointMaze::kActionDim,
-                          ep.observations.data(), ep.actions.data(),
-                          o.images ? ep.images.data() : nullptr, env_opt.image_size,
-                          env_opt.success_radius);
-      transitions += static_cast<uint64_t>(ep.length);
-      const auto now = std::chrono::steady_clock::now();
-      if (!quiet && (now - last_print > std::chrono::milliseconds(tty ? 200 : 5000) || k + 1 == total)) {
-        last_print = now;
-        const double s = std::chrono::duration<double>(now - t0).count();
-        const double rate = transitions / std::max(s, 1e-9);
-        const double eta = (total - k - 1) * (s / (k + 1));
-        std::fprintf(stderr, "%s[msspr_collect] %ld/%ld episodes  %.0f transitions/s  %.0fs elapsed  ETA %.0fs%s",
-                     tty ? "\r" : "", k + 1, total, rate, s, eta, tty ? "   " : "\n");
-      }
-    }
-    writer.Close();
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!quiet) {
-      if (tty) std::fprintf(stderr, "\n");
-      std::fprintf(stderr,
-                   "[msspr_collect] wrote %s: %s, %ld train + %ld val episodes of %d steps "
-                   "(%lu transitions, %ld with images) in %.1f s\n",
-                   args.Get("out", "").c_str(), env_name.c_str(), episodes, val, opt.episode_length,
-                   static_cast<unsigned long>(transitions), std::min(image_episodes, total), s);
-    }
+    WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name,
+                     [&](long k, const std::string& split, bool images) {
+                       sim::CollectOptions o = opt;
+                       o.images = images;
+                       const sim::Episode ep = sim::CollectEpisode(env, o, static_cast<uint64_t>(k));
+                       ros_bridge::EpisodeMeta meta;
+                       meta.episode_id = static_cast<uint64_t>(k);
+                       meta.env = env_name;
+                       meta.split = split;
+                       meta.seed = ep.seed;
+                       meta.start = {static_cast<float>(ep.start.x()), static_cast<float>(ep.start.y())};
+                       meta.goal = {static_cast<float>(ep.goal.x()), static_cast<float>(ep.goal.y())};
+                       writer.WriteEpisode(meta, ep.length, sim::PointMaze::kObsDim, sim::PointMaze::kActionDim,
+                                           ep.observations.data(), ep.actions.data(),
+                                           images ? ep.images.data() : nullptr, env_opt.image_size,
+                                           env_opt.success_radius);
+                       return ep.length;
+                     });
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "msspr_collect: error: " << e.what() << "\n";

@@ -201,28 +201,12 @@ void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {
   BeginEpisode(task_id, seed, "", o);
 }
 
-// After a reset: the episode counters, its EpisodeInfo, the goal image, the first observation.
+// After a reset: the episode's EpisodeInfo, its goal image (none without a goal), the first observation.
 void CubeSimNode::BeginEpisode(int task_id, uint64_t seed, const std::string& split,
                                const sim::CubeEnv::Observation& start) {
-  ++episode_id_;
-  ++tick_;
-  active_ = true;
-  ForgetAction();
-  ++counters_.episodes;
-  msspr::EpisodeInfo info;
-  info.header.stamp = Now();
-  info.episode_id = static_cast<uint32_t>(episode_id_);
-  info.env = "cube-single";
-  info.split = split;
-  info.task_id = task_id;
-  info.seed = seed;
-  info.start.assign(start.begin(), start.end());
-  info.goal = goal_;
-  episode_pub_.publish(info);
-  if (pixels() && !goal_.empty())
-    goal_image_pub_.publish(ToImageMsg(env_->goal_image().data(), options_.image_size, info.header.stamp,
-                                       kCameraFrame));
-  Publish();
+  std::function<std::vector<uint8_t>()> render_goal;
+  if (!goal_.empty()) render_goal = [this] { return env_->goal_image(); };
+  AnnounceEpisode(task_id, seed, split, std::vector<float>(start.begin(), start.end()), goal_, render_goal);
 }
 
 msspr::Observation CubeSimNode::MakeObservation() const {

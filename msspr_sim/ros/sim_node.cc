@@ -58,7 +58,6 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
   env_opt.image_size = options_.image_size;
   env_opt.max_episode_steps = options_.max_episode_steps;
   env_ = std::make_unique<sim::PointMaze>(env_opt);
-  env_name_ = "pointmaze-" + options_.maze;
   // The robot description, when one is loaded: checked against the MuJoCo model
   // (a mismatch is fatal), then joint_states and tf2 along its joints.
   std::string key, xml;
@@ -80,35 +79,16 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
 
 void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
                            const Eigen::Vector2d* start, const Eigen::Vector2d& goal) {
-  ++episode_id_;
-  ++tick_;
   if (start != nullptr)
     env_->Reset(*start, goal);
   else if (task_id == 0)
     env_->ResetRandom(seed);
   else
     env_->ResetToTask(task_id, seed);
-  active_ = true;
-  ForgetAction();
   path_.clear();
   markers_due_ = true;
-  ++counters_.episodes;
-  msspr::EpisodeInfo info;
-  info.header.stamp = Now();
-  info.episode_id = static_cast<uint32_t>(episode_id_);
-  info.env = env_name_;
-  info.split = split;
-  info.task_id = task_id;
-  info.seed = seed;
-  info.start = ToFloatVector(env_->state());
-  info.goal = ToFloatVector(env_->goal());
-  episode_pub_.publish(info);
-  if (pixels()) {
-    const auto goal_img = env_->RenderGoal();
-    goal_image_pub_.publish(ToImageMsg(goal_img.data(), options_.image_size, info.header.stamp,
-                                       kCameraFrame));
-  }
-  Publish();
+  AnnounceEpisode(task_id, seed, split, ToFloatVector(env_->state()), ToFloatVector(env_->goal()),
+                  [this] { return env_->RenderGoal(); });
 }
 
 msspr::Observation SimNode::MakeObservation() const {

@@ -81,8 +81,6 @@ class SimNode : public SimNodeBase {
   ros::Time markers_stamp_;
   ros::WallTime last_marker_time_;
   tf2_ros::TransformBroadcaster tf_;
-
-  std::string env_name_;
 };
 
 }  // namespace msspr::ros_bridge

@@ -8,6 +8,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/Image.h>
 
+#include "dataset_bag.h"  // kCameraFrame
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
@@ -94,6 +95,31 @@ void SimNodeBase::PublishClock(const ros::Time& stamp) {
   rosgraph_msgs::Clock c;
   c.clock = stamp;
   clock_pub_.publish(c);
+}
+
+void SimNodeBase::AnnounceEpisode(int task_id, uint64_t seed, const std::string& split, std::vector<float> start,
+                                  std::vector<float> goal,
+                                  const std::function<std::vector<uint8_t>()>& render_goal) {
+  ++episode_id_;
+  ++tick_;
+  active_ = true;
+  ForgetAction();
+  ++counters_.episodes;
+  msspr::EpisodeInfo info;
+  info.header.stamp = Now();
+  info.episode_id = static_cast<uint32_t>(episode_id_);
+  info.env = env_name_;
+  info.split = split;
+  info.task_id = task_id;
+  info.seed = seed;
+  info.start = std::move(start);
+  info.goal = std::move(goal);
+  episode_pub_.publish(info);
+  if (pixels() && render_goal) {
+    const std::vector<uint8_t> img = render_goal();
+    goal_image_pub_.publish(ToImageMsg(img.data(), common_.image_size, info.header.stamp, kCameraFrame));
+  }
+  Publish();
 }
 
 void SimNodeBase::OnAction(const msspr::Action::ConstPtr& msg) {

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -103,6 +104,13 @@ class SimNodeBase {
   bool IsLastStep(int steps, int max_episode_steps) const {
     return common_.auto_reset ? steps >= common_.episode_length - 1 : steps >= max_episode_steps;
   }
+  // The environment has just been reset for a new episode: advances
+  // episode_id_ and the clock, counts the episode, publishes its EpisodeInfo
+  // (env, split, task, seed, start and goal) and, in pixels mode, the goal's
+  // image from render_goal (latched on goal_image; none when render_goal is
+  // empty), then the first observation (Publish()).
+  void AnnounceEpisode(int task_id, uint64_t seed, const std::string& split, std::vector<float> start,
+                       std::vector<float> goal, const std::function<std::vector<uint8_t>()>& render_goal);
   // After publishing an observation (for lockstep's republish timeout); a
   // last one ends the episode (but in collection mode, whose next action
   // starts the next one).
