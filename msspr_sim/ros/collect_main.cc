@@ -68,17 +68,22 @@ struct Progress {
 
 // Writes episodes 0 .. episodes + val - 1 into `writer` (the first `episodes`
 // split "train", the rest "val"; images for the first image_episodes) with
-// write_one(k, split, images), which returns the episode's length; then the
-// progress line's end and a summary naming `what` (e.g. "pointmaze-medium").
+// write_one(k, meta, images), which collects episode k, fills the rest of
+// `meta` (episode id, env and split set), writes it and returns its length;
+// then the progress line's end and a summary naming `what`.
 template <typename WriteOne>
 void WriteAllEpisodes(const msspr::ros_bridge::CliArgs& args, msspr::ros_bridge::DatasetBagWriter& writer,
-                      long episodes, long val, long image_episodes, int episode_length, const std::string& what,
-                      WriteOne write_one) {
+                      long episodes, long val, long image_episodes, int episode_length, const std::string& env,
+                      const std::string& what, WriteOne write_one) {
   const long total = episodes + val;
   Progress progress{args.Has("quiet"), isatty(STDERR_FILENO) != 0, total};
   uint64_t transitions = 0;
   for (long k = 0; k < total; ++k) {
-    transitions += static_cast<uint64_t>(write_one(k, k < episodes ? "train" : "val", k < image_episodes));
+    msspr::ros_bridge::EpisodeMeta meta;
+    meta.episode_id = static_cast<uint64_t>(k);
+    meta.env = env;
+    meta.split = k < episodes ? "train" : "val";
+    transitions += static_cast<uint64_t>(write_one(k, meta, k < image_episodes));
     progress.Update(k + 1, transitions);
   }
   writer.Close();
@@ -119,15 +124,11 @@ int CollectCube(const msspr::ros_bridge::CliArgs& args) {
   const std::string env_name = "cube-single";
   const double control_dt = env_opt.scene.timestep * env_opt.substeps;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
-  WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name + "-play",
-                   [&](long k, const std::string& split, bool images) {
+  WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name,
+                   env_name + "-play", [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
                      sim::CubeCollectOptions o = opt;
                      o.images = images;
                      const sim::CubeEpisode ep = sim::CollectCubeEpisode(env, o, static_cast<uint64_t>(k));
-                     ros_bridge::EpisodeMeta meta;
-                     meta.episode_id = static_cast<uint64_t>(k);
-                     meta.env = env_name;
-                     meta.split = split;
                      meta.seed = ep.seed;
                      meta.start.assign(ep.observations.begin(),
                                        ep.observations.begin() + sim::CubeEnv::kObservationSize);
@@ -201,14 +202,10 @@ int main(int argc, char** argv) {
     const double control_dt = 0.02 * sim::PointMaze::kFrameSkip;
     ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
     WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name,
-                     [&](long k, const std::string& split, bool images) {
+                     env_name, [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
                        sim::CollectOptions o = opt;
                        o.images = images;
                        const sim::Episode ep = sim::CollectEpisode(env, o, static_cast<uint64_t>(k));
-                       ros_bridge::EpisodeMeta meta;
-                       meta.episode_id = static_cast<uint64_t>(k);
-                       meta.env = env_name;
-                       meta.split = split;
                        meta.seed = ep.seed;
                        meta.start = {static_cast<float>(ep.start.x()), static_cast<float>(ep.start.y())};
                        meta.goal = {static_cast<float>(ep.goal.x()), static_cast<float>(ep.goal.y())};
