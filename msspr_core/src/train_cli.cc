@@ -1,9 +1,11 @@
 #include "msspr_core/train_cli.h"
 
+#include <signal.h>
 #include <sys/stat.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <climits>
 #include <cstdio>
@@ -58,9 +60,9 @@ const char kUsage[] =
     "  --time-limit S     stop after S seconds of wall time (then the final evaluation,\n"
     "                     checkpoint and export); 0: none\n"
     "  --resume           continue the run in DIR (its data, flags and checkpoint.ckpt); only\n"
-    "                     --steps, --time-limit, --eval-every, --checkpoint-every, --log-every,\n"
-    "                     --threads, --precision, --quiet and the --eval-* flags may differ\n"
-    "                     from the saved run (DIR/run.yaml)\n"
+    "                     --steps, --time-limit, --eval-every, --checkpoint-every,\n"
+    "                     --export-every, --log-every, --threads, --precision, --quiet and the\n"
+    "                     --eval-* flags may differ from the saved run (DIR/run.yaml)\n"
     "  --print-options    print the resolved options as YAML and exit\n"
     "  --threads N        torch CPU threads (default: torch's choice; 1 is often fastest\n"
     "                     on shared cores)\n"
@@ -72,7 +74,56 @@ const char kUsage[] =
     "  --master HOST:PORT rendezvous of the group, rank 0 listens there (default\n"
     "                     $MASTER_ADDR:$MASTER_PORT or 127.0.0.1:29500)\n"
     "  --dist-timeout S   seconds before a missing peer or a stuck collective is an error (1800)\n"
-    "  --help             this text\n";
+    "  --help             this text\n"
+    "\n"
+    "SIGINT (Ctrl-C) or SIGTERM while training: the run stops after the current step, writes\n"
+    "DIR/checkpoint.ckpt and DIR/policy.pt (no final evaluation) and exits with 128 + the\n"
+    "signal number (130, 143); --resume continues from that step. A second signal ends the\n"
+    "process at once (the last periodic checkpoint stays good). A SIGINT the shell ignores\n"
+    "(a background job) stays ignored.\n";
+
+// SIGINT / SIGTERM during Train(): set a flag the loop polls, so that the run
+// stops at a step boundary with its checkpoint written. SA_RESETHAND: a second
+// signal gets the default action and ends the process at once.
+static_assert(std::atomic<bool>::is_always_lock_free, "the stop flag is set from a signal handler");
+std::atomic<bool> g_stop_requested{false};
+volatile sig_atomic_t g_stop_signal = 0;
+
+extern "C" void OnStopSignal(int sig) {
+  g_stop_signal = sig;
+  g_stop_requested.store(true);
+}
+
+class StopOnSignals {
+ public:
+  StopOnSignals() {
+    g_stop_requested.store(false);
+    g_stop_signal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = OnStopSignal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND;
+    for (int i = 0; i < 2; ++i) {
+      sigaction(kSignals[i], nullptr, &old_[i]);
+      // A shell starts background jobs with SIGINT ignored: keep it so.
+      installed_[i] = !(kSignals[i] == SIGINT && old_[i].sa_handler == SIG_IGN);
+      if (installed_[i]) sigaction(kSignals[i], &sa, nullptr);
+    }
+  }
+  ~StopOnSignals() {
+    for (int i = 0; i < 2; ++i)
+      if (installed_[i]) sigaction(kSignals[i], &old_[i], nullptr);
+  }
+  StopOnSignals(const StopOnSignals&) = delete;
+  StopOnSignals& operator=(const StopOnSignals&) = delete;
+  const std::atomic<bool>* flag() const { return &g_stop_requested; }
+  int signal() const { return g_stop_signal; }
+
+ private:
+  static constexpr int kSignals[2] = {SIGINT, SIGTERM};
+  struct sigaction old_[2];
+  bool installed_[2] = {false, false};
+};
 
 bool FileExists(const std::string& p) {
   struct stat st;
@@ -102,7 +153,7 @@ const std::set<std::string> kResumeMayChange = {
     "eval-maze", "eval-max-steps", "rank",          "master",           "dist-timeout"};
 const char kResumeRule[] =
     "; on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, --log-every, "
-    "--threads, --precision, --quiet and the --eval-* flags may change";
+    "--export-every, --threads, --precision, --quiet and the --eval-* flags may change";
 
 std::string Absolute(const std::string& list) {  // each of "a,b,c", made absolute
   std::string out, item;
@@ -400,7 +451,16 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     loop.out_dir = out_dir;
     loop.quiet = quiet;
     if (ext.after_eval) loop.on_eval_written = [&ext, out_dir] { ext.after_eval(out_dir); };
-    trainer.Train(loop, evaluator);
+    StopOnSignals signals;
+    loop.stop_requested = signals.flag();
+    if (trainer.Train(loop, evaluator) == TrainEnd::kStopRequested) {
+      const int sig = signals.signal();
+      std::cerr << ext.program << ": " << (sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal")
+                << ": stopped at step " << trainer.step() << "; "
+                << (follower ? "" : "wrote " + out_dir + "/checkpoint.ckpt and " + out_dir + "/policy.pt; ")
+                << "continue with --resume --out " << out_dir << "\n";
+      return 128 + (sig > 0 ? sig : SIGTERM);
+    }
     if (follower)
       std::cerr << ext.program << ": rank " << dist_options.rank << " done at step " << trainer.step() << "\n";
     else

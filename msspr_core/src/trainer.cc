@@ -883,7 +883,7 @@ Policy Trainer::MakePolicy() {
   return Policy(options_, repr_, actor_, critic_, device_);
 }
 
-void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
+TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
   const TrainerOptions& t = options_.trainer;
   const int64_t total = t.steps;
   std::unique_ptr<CsvWriter> metrics_csv, eval_csv;
@@ -924,11 +924,26 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     // Every rank stops at the same step: as soon as one is out of time.
     return (dist_ && t.time_limit_s > 0) ? dist_->Any(mine) : mine;
   };
+  auto stop_requested = [&]() {
+    if (!loop.stop_requested) return false;
+    // Data-parallel ranks poll on the same steps, so that they stop together.
+    if (!dist_) return loop.stop_requested->load();
+    return step_ % 16 == 0 && dist_->Any(loop.stop_requested->load());
+  };
+  TrainEnd end = TrainEnd::kSteps;
   while (step_ < total) {
     if (out_of_time()) {
       if (!quiet)
         bar.Message("time limit of " + std::to_string(static_cast<int>(t.time_limit_s)) +
                     " s reached at step " + std::to_string(step_) + ": stopping");
+      end = TrainEnd::kTimeLimit;
+      break;
+    }
+    if (stop_requested()) {
+      if (!quiet)
+        bar.Message("stop requested at step " + std::to_string(step_) +
+                    ": writing the checkpoint and the policy (no final evaluation)");
+      end = TrainEnd::kStopRequested;
       break;
     }
     // Losses are read back (a device sync) only on logged steps and the
@@ -979,7 +994,8 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
     }
   }
   if (!quiet) bar.Finish();
-  if (evaluator && (t.eval_every <= 0 || step_ % t.eval_every != 0)) run_eval();
+  if (evaluator && end != TrainEnd::kStopRequested && (t.eval_every <= 0 || step_ % t.eval_every != 0))
+    run_eval();
   if (!loop.out_dir.empty()) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
     if (writer) ExportPolicy(loop.out_dir + "/policy.pt");
@@ -992,6 +1008,7 @@ void Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator) {
                  1e3 * st.seconds / steps, st.bytes / steps / 1e6, dist_->backend().c_str(),
                  static_cast<long long>(st.allreduces));
   }
+  return end;
 }
 
 namespace {

@@ -9,9 +9,11 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
-#include <filesystem>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -420,6 +422,49 @@ TEST(TrainCli, KilledAtRandomPointsResumesBitExact) {
   EXPECT_EQ(ref_rows.size(), 41u);  // header + 40 steps, no duplicates
   EXPECT_EQ(run_rows, ref_rows);
   EXPECT_EQ(ReadAll(run + "/eval.csv"), ReadAll(ref + "/eval.csv"));
+}
+
+// SIGTERM: the run stops at a step boundary with its checkpoint and policy
+// written at that step (not at the last periodic checkpoint), exits 143, and
+// --resume finishes it equal to an uninterrupted run.
+TEST(TrainCli, SigtermStopsAtAStepAndResumesBitExact) {
+  TinyRun tiny("sigterm");
+  const std::string ref = tiny.dir + "/ref", run = tiny.dir + "/run";
+  auto args = [&](const std::string& out) {
+    std::vector<std::string> a = tiny.Args(out);
+    a[std::find(a.begin(), a.end(), "--steps") - a.begin() + 1] = "300";
+    a[std::find(a.begin(), a.end(), "--checkpoint-every") - a.begin() + 1] = "1000";  // only at the end
+    a[std::find(a.begin(), a.end(), "--eval-every") - a.begin() + 1] = "50";
+    return a;
+  };
+  ASSERT_EQ(Wait(StartTrain(args(ref), ref + ".log")), 0) << ReadAll(ref + ".log");
+
+  const pid_t pid = StartTrain(args(run), run + ".log");
+  // Signal once a few steps are logged.
+  for (int i = 0; i < 6000 && LossRows(run + "/metrics.csv").size() < 8; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  kill(pid, SIGTERM);
+  const int st = Wait(pid);
+  const std::string log = ReadAll(run + ".log");
+  ASSERT_TRUE(WIFEXITED(st)) << log;
+  ASSERT_EQ(WEXITSTATUS(st), 128 + SIGTERM) << log;
+  const size_t at = log.find("SIGTERM: stopped at step ");
+  ASSERT_NE(at, std::string::npos) << log;
+  const int stopped = std::atoi(log.c_str() + at + std::strlen("SIGTERM: stopped at step "));
+  EXPECT_GE(stopped, 7);
+  ASSERT_LT(stopped, 300) << "the run ended before the signal";
+  EXPECT_TRUE(Exists(run + "/checkpoint.ckpt"));
+  EXPECT_TRUE(Exists(run + "/policy.pt"));
+  EXPECT_EQ(LossRows(run + "/metrics.csv").size(), static_cast<size_t>(stopped) + 1);
+
+  ASSERT_EQ(Wait(StartTrain({"--resume", "--out", run, "--quiet"}, run + ".resume")), 0) << ReadAll(run + ".resume");
+  EXPECT_NE(ReadAll(run + ".resume").find("at step " + std::to_string(stopped)), std::string::npos)
+      << ReadAll(run + ".resume");
+  auto a = core::Policy::Load(ref + "/policy.pt"), b = core::Policy::Load(run + "/policy.pt");
+  const auto pa = a.actor()->parameters(), pb = b.actor()->parameters();
+  ASSERT_EQ(pa.size(), pb.size());
+  for (size_t i = 0; i < pa.size(); ++i) EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "actor parameter " << i;
+  EXPECT_EQ(LossRows(run + "/metrics.csv"), LossRows(ref + "/metrics.csv"));
 }
 
 TEST(TrainCli, EvaluatesCustomTasksBesideTheOfficialOnes) {

@@ -5,6 +5,7 @@
 
 #include <torch/torch.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -77,7 +78,15 @@ struct TrainLoopOptions {
   // the final checkpoint (e.g. to draw the learning curve); its exceptions
   // are reported as warnings, and training goes on.
   std::function<void()> on_eval_written;
+  // Polled before every step (every 16th step when data-parallel, so that all
+  // ranks agree): once it reads true, Train stops as at a time limit, but
+  // skips the final evaluation, and still writes the checkpoint and the
+  // policy. msspr_train points it at a flag its SIGINT / SIGTERM handler sets.
+  const std::atomic<bool>* stop_requested = nullptr;
 };
+
+// Why Train returned.
+enum class TrainEnd { kSteps, kTimeLimit, kStopRequested };
 
 // Trains Ms.PR, or the baseline agent named by options.baseline.agent
 // (baselines.h): then Step() is one Adam step on the agent's summed losses
@@ -116,8 +125,9 @@ class Trainer {
   void Sync();
 
   // Runs Step() until options().trainer.steps with progress, CSV and the
-  // evaluator every trainer.eval_every steps (and at the end).
-  void Train(const TrainLoopOptions& loop, const Evaluator& evaluator = nullptr);
+  // evaluator every trainer.eval_every steps (and at the end), or until the
+  // time limit or loop.stop_requested.
+  TrainEnd Train(const TrainLoopOptions& loop, const Evaluator& evaluator = nullptr);
 
   // Batches drawn with the trainer's sampler RNG.
   TransitionBatch SampleTransitions();
