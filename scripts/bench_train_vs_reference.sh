@@ -21,7 +21,7 @@ representation: {weight_rew: 0.5, augment_prob: 0.0}
 agent: {bc_weight: 0.01}
 trainer: {batch_size: 32, precision: fp32}
 YAML
-echo "[bench] CPU-scale pixel steps (1 thread; the shipped preset also at 2, pipelined)"
+echo "[bench] CPU-scale pixel steps (1 thread; the shipped preset also at 2)"
 pix_rows=()
 for run in "config/pointmaze_pixels_cpu.yaml 1" "config/pointmaze_pixels_cpu.yaml 2" \
            "config/pointmaze_pixels_cpu.yaml,$OUT/pixels_impala_b32.yaml 1"; do
