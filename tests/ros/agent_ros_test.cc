@@ -17,8 +17,11 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
@@ -367,10 +370,19 @@ struct TinyRun {
     std::ofstream(config) << core::OptionsToYaml(o);
   }
   ~TinyRun() { std::filesystem::remove_all(dir); }
-  std::vector<std::string> Args(const std::string& out) const {
-    return {"--data", data, "--val", data, "--config", config, "--steps", "40", "--batch", "16",
-            "--checkpoint-every", "3", "--log-every", "1", "--eval-every", "5", "--threads", "1",
-            "--seed", "3", "--quiet", "--out", out};
+  // The run's flags; `set` replaces the values of flags in that list (a flag
+  // not in it is a test bug and throws).
+  std::vector<std::string> Args(const std::string& out,
+                                const std::vector<std::pair<std::string, std::string>>& set = {}) const {
+    std::vector<std::string> a = {"--data", data, "--val", data, "--config", config, "--steps", "40", "--batch", "16",
+                                  "--checkpoint-every", "3", "--log-every", "1", "--eval-every", "5", "--threads", "1",
+                                  "--seed", "3", "--quiet", "--out", out};
+    for (const auto& [flag, value] : set) {
+      const auto it = std::find(a.begin(), a.end(), flag);
+      if (it == a.end() || it + 1 == a.end()) throw std::invalid_argument("TinyRun::Args: no flag " + flag);
+      *(it + 1) = value;
+    }
+    return a;
   }
 };
 
@@ -431,11 +443,8 @@ TEST(TrainCli, SigtermStopsAtAStepAndResumesBitExact) {
   TinyRun tiny("sigterm");
   const std::string ref = tiny.dir + "/ref", run = tiny.dir + "/run";
   auto args = [&](const std::string& out) {
-    std::vector<std::string> a = tiny.Args(out);
-    a[std::find(a.begin(), a.end(), "--steps") - a.begin() + 1] = "300";
-    a[std::find(a.begin(), a.end(), "--checkpoint-every") - a.begin() + 1] = "1000";  // only at the end
-    a[std::find(a.begin(), a.end(), "--eval-every") - a.begin() + 1] = "50";
-    return a;
+    // --checkpoint-every 1000: only at the end.
+    return tiny.Args(out, {{"--steps", "300"}, {"--checkpoint-every", "1000"}, {"--eval-every", "50"}});
   };
   ASSERT_EQ(Wait(StartTrain(args(ref), ref + ".log")), 0) << ReadAll(ref + ".log");
 
@@ -533,8 +542,7 @@ TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
 // TinyRun's arguments for one of two ranks, with `steps` steps.
 std::vector<std::string> RankArgs(const TinyRun& tiny, const std::string& out, int rank, int port,
                                   const std::string& steps) {
-  std::vector<std::string> a = tiny.Args(out);
-  a[std::find(a.begin(), a.end(), "--steps") - a.begin() + 1] = steps;
+  std::vector<std::string> a = tiny.Args(out, {{"--steps", steps}});
   for (const std::string& extra : {std::string("--world-size"), std::string("2"), std::string("--rank"),
                                    std::to_string(rank), std::string("--master"),
                                    "127.0.0.1:" + std::to_string(port), std::string("--dist-timeout"),
