@@ -365,6 +365,8 @@ void ValidateOptions(const MsprOptions& o) {
           "trainer.precision must be 'fp32' or 'bf16', got '" + o.trainer.precision + "'");
   Require(o.trainer.pipeline == "auto" || o.trainer.pipeline == "on" || o.trainer.pipeline == "off",
           "trainer.pipeline must be 'auto', 'on' or 'off', got '" + o.trainer.pipeline + "'");
+  Require(o.trainer.policy_ema >= 0 && o.trainer.policy_ema < 1,
+          "trainer.policy_ema must be in [0, 1) (0 = off), got " + std::to_string(o.trainer.policy_ema));
   const BaselineOptions& b = o.baseline;
   const std::vector<std::string> agents = AgentNames();
   Require(std::find(agents.begin(), agents.end(), b.agent) != agents.end(),
@@ -375,6 +377,8 @@ void ValidateOptions(const MsprOptions& o) {
                                        "'state'), got '" + n.obs_mode + "'");
     Require(o.trainer.precision == "fp32",
             "baseline.agent '" + b.agent + "': trainer.precision must be 'fp32' for the baselines");
+    Require(o.trainer.policy_ema == 0,
+            "baseline.agent '" + b.agent + "': trainer.policy_ema applies to the mspr agent only");
     Require(b.hidden > 0 && b.layers >= 1, "baseline.hidden must be > 0 and baseline.layers >= 1");
     Require(b.lr > 0, "baseline.lr must be > 0");
     Require(b.tau > 0 && b.tau <= 1, "baseline.tau must be in (0, 1]");

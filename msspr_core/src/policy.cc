@@ -51,9 +51,13 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(file.payload.data(), file.payload.size(), device);
-    ReadModule(archive, "repr", *repr);
-    ReadModule(archive, "actor", *actor);
-    ReadModule(archive, "critic", *critic);
+    // A trainer checkpoint of a run with trainer.policy_ema holds the moving
+    // average beside the raw weights: the policy is the average, as in the
+    // run's exports.
+    const std::string prefix = file.kind == "trainer" && options.trainer.policy_ema > 0 ? "ema_" : "";
+    ReadModule(archive, prefix + "repr", *repr);
+    ReadModule(archive, prefix + "actor", *actor);
+    ReadModule(archive, prefix + "critic", *critic);
   } catch (const c10::Error& e) {
     throw CheckpointError(path + ": cannot read networks: " + e.what_without_backtrace());
   }

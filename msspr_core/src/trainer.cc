@@ -290,6 +290,18 @@ Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data
   SetRequiresGrad(*target_repr_, false);
   SetRequiresGrad(*target_critic_, false);
   SetRequiresGrad(*target_actor_, false);
+  if (options_.trainer.policy_ema > 0) {
+    ema_repr_ = Representation(n);
+    ema_critic_ = Critic(n);
+    ema_actor_ = Actor(n);
+    for (torch::nn::Module* m : std::vector<torch::nn::Module*>{ema_repr_.get(), ema_critic_.get(), ema_actor_.get()}) {
+      m->to(device_);
+      SetRequiresGrad(*m, false);
+    }
+    HardUpdate(*ema_repr_, *repr_);
+    HardUpdate(*ema_critic_, *critic_);
+    HardUpdate(*ema_actor_, *actor_);
+  }
   const RepresentationOptions& r = options_.representation;
   const AgentOptions& a = options_.agent;
   // Multi-tensor AdamW: the same maths and state as torch::optim::AdamW.
@@ -482,12 +494,18 @@ LossInfo Trainer::EmptyLossInfo() const {
 
 std::vector<std::pair<std::string, torch::nn::Module*>> Trainer::CheckpointModules() {
   if (agent_) return {{"agent", agent_.get()}};
-  return {{"repr", repr_.get()},
-          {"critic", critic_.get()},
-          {"actor", actor_.get()},
-          {"target_repr", target_repr_.get()},
-          {"target_critic", target_critic_.get()},
-          {"target_actor", target_actor_.get()}};
+  std::vector<std::pair<std::string, torch::nn::Module*>> modules{{"repr", repr_.get()},
+                                                                  {"critic", critic_.get()},
+                                                                  {"actor", actor_.get()},
+                                                                  {"target_repr", target_repr_.get()},
+                                                                  {"target_critic", target_critic_.get()},
+                                                                  {"target_actor", target_actor_.get()}};
+  if (ema_repr_) {
+    modules.emplace_back("ema_repr", ema_repr_.get());
+    modules.emplace_back("ema_critic", ema_critic_.get());
+    modules.emplace_back("ema_actor", ema_actor_.get());
+  }
+  return modules;
 }
 
 TransitionBatch Trainer::SampleTransitions() {
@@ -781,6 +799,29 @@ void Trainer::UpdateTargets() {
   HardUpdate(*target_actor_, *actor_);
 }
 
+void Trainer::UpdatePolicyAverage() {
+  if (!ema_repr_) return;
+  // Warm-up: the plain mean of the weights of steps 0..t until that window is
+  // longer than the average's (t > decay / (1 - decay)), so the start's
+  // random weights do not linger in it.
+  const double t = static_cast<double>(step_);
+  const double decay = std::min(options_.trainer.policy_ema, t / (t + 1.0));
+  torch::NoGradGuard no_grad;
+  std::vector<torch::Tensor> avg, raw;
+  const std::vector<std::pair<torch::nn::Module*, torch::nn::Module*>> pairs{
+      {ema_repr_.get(), repr_.get()}, {ema_critic_.get(), critic_.get()}, {ema_actor_.get(), actor_.get()}};
+  for (const auto& [e, o] : pairs) {
+    for (const auto& p : e->parameters()) avg.push_back(p);
+    for (const auto& p : o->parameters()) raw.push_back(p.detach());
+    const auto eb = e->buffers();
+    const auto ob = o->buffers();
+    for (size_t i = 0; i < eb.size(); ++i) eb[i].copy_(ob[i]);
+  }
+  TORCH_CHECK(avg.size() == raw.size(), "UpdatePolicyAverage: parameter count mismatch");
+  torch::_foreach_mul_(avg, decay);
+  torch::_foreach_add_(avg, raw, 1.0 - decay);
+}
+
 bool Trainer::pipelined() const {
   const std::string& p = options_.trainer.pipeline;
   if (p == "off" || !device_.is_cpu() || options_.agent.critic_grad_to_encoder || agent_ || dist_) return false;
@@ -828,6 +869,9 @@ LossInfo Trainer::Step(bool collect_info) {
   TransitionBatch batch = SampleTransitions();
   torch::Tensor noise = torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
   Sync();
+  // Every update so far is done (this step's representation update, the
+  // previous step's actor and critic): the average takes them in.
+  UpdatePolicyAverage();
   if (options_.agent.critic_grad_to_encoder) {
     // The critic update changes the encoders: the actor re-encodes.
     UpdateCritic(batch, noise, out);
@@ -880,6 +924,7 @@ LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed
 Policy Trainer::MakePolicy() {
   Sync();
   if (agent_) return Policy(options_, agent_, device_);
+  if (ema_repr_) return Policy(options_, ema_repr_, ema_actor_, ema_critic_, device_);
   return Policy(options_, repr_, actor_, critic_, device_);
 }
 
@@ -991,6 +1036,7 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
     }
     if (writer && !loop.out_dir.empty() && t.export_every > 0 && step_ % t.export_every == 0) {
       ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + ".pt");
+      if (ema_repr_) ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + "_raw.pt", true);
     }
   }
   if (!quiet) bar.Finish();
@@ -999,6 +1045,7 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
   if (!loop.out_dir.empty()) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
     if (writer) ExportPolicy(loop.out_dir + "/policy.pt");
+    if (writer && ema_repr_) ExportPolicy(loop.out_dir + "/policy_raw.pt", true);
   }
   if (writer) NotifyEvalWritten(loop);
   if (dist_ && step_ > first_step) {
@@ -1092,6 +1139,11 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
                           header.options.baseline.agent + "' in the file, '" + options_.baseline.agent +
                           "' here)");
   }
+  if ((header.options.trainer.policy_ema > 0) != (options_.trainer.policy_ema > 0)) {
+    throw CheckpointError(path + ": trainer.policy_ema is " + std::to_string(header.options.trainer.policy_ema) +
+                          " in the file and " + std::to_string(options_.trainer.policy_ema) +
+                          " here (a run keeps or lacks the policy's moving average from its start)");
+  }
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(file.payload.data(), file.payload.size(), device_);
@@ -1133,10 +1185,13 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
   repr_credit_ = header.repr_credit;
 }
 
-void Trainer::ExportPolicy(const std::string& path) {
+void Trainer::ExportPolicy(const std::string& path, bool raw) {
   Sync();
+  const bool average = ema_repr_ && !raw;
   if (agent_) {
     CheckFiniteWeights({agent_.get()}, step_, "policy export " + path);
+  } else if (average) {
+    CheckFiniteWeights({ema_repr_.get(), ema_actor_.get(), ema_critic_.get()}, step_, "policy export " + path);
   } else {
     CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export " + path);
   }
@@ -1151,9 +1206,10 @@ void Trainer::ExportPolicy(const std::string& path) {
   if (agent_) {
     WriteModule(archive, "agent", *agent_);
   } else {
-    WriteModule(archive, "repr", *repr_);
-    WriteModule(archive, "actor", *actor_);
-    WriteModule(archive, "critic", *critic_);
+    // The moving average when there is one: what MakePolicy() evaluates.
+    WriteModule(archive, "repr", average ? *ema_repr_ : *repr_);
+    WriteModule(archive, "actor", average ? *ema_actor_ : *actor_);
+    WriteModule(archive, "critic", average ? *ema_critic_ : *critic_);
   }
   std::ostringstream payload;
   archive.save_to(payload);

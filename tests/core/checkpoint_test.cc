@@ -75,6 +75,53 @@ TEST(CheckpointTest, ResumedRunEqualsUninterruptedRun) {
   ExpectSameState(straight, resumed);
 }
 
+TEST(CheckpointTest, PolicyAverageResumesExactlyAndIsWhatTheExportsHold) {
+  TempDir dir;
+  auto data = RandomStateDataset();
+  MsprOptions o = ResumeOptions();
+  o.trainer.policy_ema = 0.9;
+  Trainer straight(o, data);
+  for (int i = 0; i < 8; ++i) straight.Step();
+  {
+    Trainer first(o, data);
+    for (int i = 0; i < 5; ++i) first.Step();
+    first.SaveCheckpoint(dir.File("half.ckpt"));
+  }
+  Trainer resumed(o, data);
+  resumed.LoadCheckpoint(dir.File("half.ckpt"));
+  for (int i = 0; i < 3; ++i) resumed.Step();
+  ExpectSameState(straight, resumed);
+  EXPECT_TRUE(torch::equal(Flat(*straight.ema_repr()), Flat(*resumed.ema_repr())));
+  EXPECT_TRUE(torch::equal(Flat(*straight.ema_critic()), Flat(*resumed.ema_critic())));
+  EXPECT_TRUE(torch::equal(Flat(*straight.ema_actor()), Flat(*resumed.ema_actor())));
+
+  // The export, the live policy and the trainer checkpoint's policy are the
+  // average; the raw export is the online networks.
+  resumed.ExportPolicy(dir.File("avg.pt"));
+  resumed.ExportPolicy(dir.File("raw.pt"), /*raw=*/true);
+  resumed.SaveCheckpoint(dir.File("end.ckpt"));
+  torch::manual_seed(3);
+  const torch::Tensor obs = torch::randn({6, 3}), goal = torch::randn({6, 3});
+  Policy live = resumed.MakePolicy();
+  const torch::Tensor a = live.Act(obs, goal);
+  EXPECT_TRUE(torch::equal(Policy::Load(dir.File("avg.pt")).Act(obs, goal), a));
+  EXPECT_TRUE(torch::equal(Policy::Load(dir.File("end.ckpt")).Act(obs, goal), a));
+  Policy raw = Policy::Load(dir.File("raw.pt"));
+  EXPECT_FALSE(torch::allclose(raw.Act(obs, goal), a, 1e-4, 1e-6));
+  Policy online(o, resumed.repr(), resumed.actor(), resumed.critic(), torch::kCPU);
+  EXPECT_TRUE(torch::equal(raw.Act(obs, goal), online.Act(obs, goal)));
+
+  // A run keeps its average or its lack of one: resuming across the switch is refused.
+  Trainer without(ResumeOptions(), data);
+  try {
+    without.LoadCheckpoint(dir.File("end.ckpt"));
+    FAIL() << "an averaged run's checkpoint loaded into a trainer without the average";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("policy_ema"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(dir.File("end.ckpt")), std::string::npos) << e.what();
+  }
+}
+
 void ExpectErrorNamesFile(const std::string& path, const std::function<void()>& load) {
   try {
     load();

@@ -236,6 +236,20 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
   bad = o;
   bad.agent.gamma = 1.0;
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad = o;
+  bad.trainer.policy_ema = 1.0;
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad.trainer.policy_ema = -0.1;
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad.trainer.policy_ema = 0.999;
+  EXPECT_NO_THROW(ValidateOptions(bad));
+  bad.baseline.agent = "gcbc";  // the average is Ms.PR's
+  try {
+    ValidateOptions(bad);
+    FAIL() << "policy_ema accepted for a baseline";
+  } catch (const OptionsError& e) {
+    EXPECT_NE(std::string(e.what()).find("policy_ema"), std::string::npos) << e.what();
+  }
 }
 
 TEST(OptionsTest, EveryShippedConfigLoads) {

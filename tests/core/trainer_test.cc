@@ -562,6 +562,38 @@ TEST(TrainerTest, ForeachAdamWEqualsAdamW) {
   EXPECT_EQ(restored.state().size(), multi.state().size());
 }
 
+TEST(TrainerTest, PolicyAverageIsTheRunningMeanThenAnEma) {
+  MsprOptions o = TinyOptions();
+  o.trainer.policy_ema = 0.8;  // t / (t + 1) < 0.8 up to step 3: a plain mean, then the EMA
+  Trainer t(o, RandomStateDataset());
+  ASSERT_TRUE(t.ema_actor());
+  const torch::Tensor a0 = Flat(*t.actor()).clone();
+  EXPECT_TRUE(torch::equal(Flat(*t.ema_actor()), a0));  // starts at the initial weights
+  // The average at step s takes in the actor of step s - 1 (the one before the step's update).
+  std::vector<torch::Tensor> seen{a0};
+  torch::Tensor expected = a0.to(torch::kFloat64);
+  for (int s = 1; s <= 7; ++s) {
+    const torch::Tensor raw = Flat(*t.actor()).clone();
+    seen.push_back(raw);
+    t.Step();
+    EXPECT_FALSE(torch::equal(Flat(*t.actor()), raw)) << "step " << s << " did not train the actor";
+    const double d = std::min(0.8, s / (s + 1.0));
+    expected = d * expected + (1 - d) * raw.to(torch::kFloat64);
+    EXPECT_TRUE(torch::allclose(Flat(*t.ema_actor()).to(torch::kFloat64), expected, 1e-5, 1e-7)) << "step " << s;
+    if (s == 3) {
+      // The plain mean of the initial copy and the actors of steps 0, 1, 2.
+      const torch::Tensor mean = torch::stack(seen).mean(0);
+      EXPECT_TRUE(torch::allclose(Flat(*t.ema_actor()), mean, 1e-5, 1e-7));
+    }
+  }
+  EXPECT_FALSE(torch::allclose(Flat(*t.ema_actor()), Flat(*t.actor()), 1e-4, 1e-6));
+  EXPECT_FALSE(torch::allclose(Flat(*t.ema_critic()), Flat(*t.critic()), 1e-4, 1e-6));
+  EXPECT_FALSE(torch::allclose(Flat(*t.ema_repr()), Flat(*t.repr()), 1e-4, 1e-6));
+  // No average without the option.
+  Trainer plain(TinyOptions(), RandomStateDataset());
+  EXPECT_FALSE(plain.ema_actor());
+}
+
 TEST(TrainerTest, TrainLoopWritesCsvAndCallsEvaluator) {
   MsprOptions o = TinyOptions();
   o.trainer.steps = 6;

@@ -195,6 +195,13 @@ struct TrainerOptions {
   // result equals the sequential schedule's. "auto": on for the CPU with 2 or
   // more torch threads (and without agent.critic_grad_to_encoder).
   std::string pipeline = "auto";
+  // Ms.PR only. > 0: the trainer keeps an exponential moving average of the
+  // policy's networks (encoders and goal head, actor, critic) with this decay
+  // per step (warm-up: min(decay, (1 + t) / (10 + t)) at step t), and the
+  // exports (policy.pt, policy_step<N>.pt) and in-training evaluations use the
+  // average instead of the raw weights. 0.9999 averages over about the last
+  // 10k steps. 0 = off: the raw weights.
+  double policy_ema = 0.0;
 
   template <class V>
   void Visit(V& v) {
@@ -209,6 +216,7 @@ struct TrainerOptions {
     v("time_limit_s", time_limit_s);
     v("precision", precision);
     v("pipeline", pipeline);
+    v("policy_ema", policy_ema);
   }
 };
 

@@ -29,7 +29,8 @@ class Policy {
   Policy(const MsprOptions& options, std::shared_ptr<GcAgentImpl> agent, torch::Device device);
 
   // Loads an inference export (Trainer::ExportPolicy) or a full trainer
-  // checkpoint onto `device`. Throws CheckpointError naming the file.
+  // checkpoint onto `device` (of a run with trainer.policy_ema: its moving
+  // average, as the run's exports). Throws CheckpointError naming the file.
   static Policy Load(const std::string& path, torch::Device device = torch::kCPU);
 
   // Action for observations and goals. State mode: obs, goal [B, obs_dim] or

@@ -166,6 +166,8 @@ class Trainer {
   void UpdateActor(const TransitionBatch& batch, LossInfo* info = nullptr);
   // Hard copy online -> target for encoders, critic and actor.
   void UpdateTargets();
+  // One step of the policy's moving average (trainer.policy_ema > 0).
+  void UpdatePolicyAverage();
 
   // Networks (online and target).
   Representation& repr() {
@@ -193,7 +195,23 @@ class Trainer {
     return target_actor_;
   }
 
-  // A Policy sharing the online networks (no copy).
+  // The moving average of the policy's networks (trainer.policy_ema > 0),
+  // else null holders.
+  Representation& ema_repr() {
+    Sync();
+    return ema_repr_;
+  }
+  Critic& ema_critic() {
+    Sync();
+    return ema_critic_;
+  }
+  Actor& ema_actor() {
+    Sync();
+    return ema_actor_;
+  }
+
+  // A Policy sharing the networks the exports write (no copy): the online
+  // ones, or their moving average when trainer.policy_ema > 0.
   Policy MakePolicy();
 
   // Data-parallel training (distributed.h): this trainer becomes one rank of
@@ -230,7 +248,9 @@ class Trainer {
   void LoadCheckpoint(const std::string& path);
   // Inference export (encoders, goal head, actor, critic) for Policy::Load.
   // Throws std::runtime_error, writing nothing, when a weight is NaN or Inf.
-  void ExportPolicy(const std::string& path);
+  // With trainer.policy_ema > 0 it writes the moving average, or the raw
+  // online weights when raw is true.
+  void ExportPolicy(const std::string& path, bool raw = false);
 
  private:
   torch::Tensor GatherObs(const Dataset& data, const std::vector<int64_t>& idx) const;
@@ -280,6 +300,10 @@ class Trainer {
   Representation repr_{nullptr}, target_repr_{nullptr};
   Critic critic_{nullptr}, target_critic_{nullptr};
   Actor actor_{nullptr}, target_actor_{nullptr};
+  // trainer.policy_ema > 0: the exported moving average (else null).
+  Representation ema_repr_{nullptr};
+  Critic ema_critic_{nullptr};
+  Actor ema_actor_{nullptr};
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
   std::shared_ptr<GcAgentImpl> agent_;           // baseline agent, or null (Ms.PR)
   std::unique_ptr<torch::optim::Adam> agent_opt_;
