@@ -70,6 +70,58 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
   return Policy(options, repr, actor, critic, device);
 }
 
+void AveragePolicies(const std::vector<std::string>& inputs, const std::string& out) {
+  if (inputs.empty()) throw std::invalid_argument("AveragePolicies: no input policies");
+  auto network_yaml = [](const MsprOptions& options) {
+    MsprOptions o;
+    o.network = options.network;
+    return OptionsToYaml(o);
+  };
+  std::vector<Policy> policies;
+  int64_t step = 0;
+  for (const std::string& path : inputs) {
+    policies.push_back(Policy::Load(path));
+    const Policy& p = policies.back();
+    if (p.agent_name() != "mspr") {
+      throw CheckpointError(path + ": a " + p.agent_name() + " agent's policy; only Ms.PR policies are averaged");
+    }
+    if (network_yaml(p.options()) != network_yaml(policies.front().options())) {
+      throw CheckpointError(path + ": network options differ from those of " + inputs.front() +
+                            " (only exports of one network shape are averaged)");
+    }
+    step = std::max(step, ParseCheckpointHeader(ReadCheckpointFile(path).header, path).step);
+  }
+  Policy& first = policies.front();
+  torch::NoGradGuard no_grad;
+  auto average = [&](auto module_of) {
+    auto dst = module_of(first)->parameters();
+    for (size_t k = 1; k < policies.size(); ++k) {
+      const auto src = module_of(policies[k])->parameters();
+      for (size_t i = 0; i < dst.size(); ++i) dst[i].add_(src[i]);
+    }
+    for (auto& t : dst) t.div_(static_cast<double>(policies.size()));
+  };
+  average([](Policy& p) { return p.repr().ptr(); });
+  average([](Policy& p) { return p.actor().ptr(); });
+  average([](Policy& p) { return p.critic().ptr(); });
+  CheckpointHeader header;
+  header.options = first.options();
+  header.options.trainer.device = "cpu";
+  header.step = step;
+  CheckpointFile file;
+  file.kind = "policy";
+  file.version = kCheckpointFormatVersion;
+  file.header = CheckpointHeaderToYaml(header);
+  torch::serialize::OutputArchive archive;
+  WriteModule(archive, "repr", *first.repr());
+  WriteModule(archive, "actor", *first.actor());
+  WriteModule(archive, "critic", *first.critic());
+  std::ostringstream payload;
+  archive.save_to(payload);
+  file.payload = payload.str();
+  WriteCheckpointFile(out, file);
+}
+
 bool Policy::Batch(torch::Tensor* obs) const {
   const int64_t single_dim = pixels() ? 3 : 1;
   if (obs->dim() == single_dim) {

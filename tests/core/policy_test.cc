@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
+#include "msspr_core/checkpoint.h"
+
 #include "msspr_core/trainer.h"
 #include "test_util.h"
 #include "torch_test_util.h"
@@ -64,6 +68,46 @@ TEST(PolicyTest, ExportLoadsAndActsTheSame) {
   const torch::Tensor a = torch::zeros({5, 2});
   EXPECT_TRUE(same(live.Q(obs, a, goal), loaded.Q(obs, a, goal)));
   EXPECT_EQ(loaded.options().network.obs_mode, "state");
+}
+
+TEST(PolicyTest, AveragePoliciesIsTheMeanOfTheWeights) {
+  TempDir dir;
+  Trainer t(TinyOptions(), RandomStateDataset());
+  std::vector<torch::Tensor> repr, actor, critic;
+  for (int k = 1; k <= 3; ++k) {
+    for (int i = 0; i < 2; ++i) t.Step();
+    t.ExportPolicy(dir.File("p" + std::to_string(k) + ".pt"));
+    repr.push_back(testing_util::Flat(*t.repr()));
+    actor.push_back(testing_util::Flat(*t.actor()));
+    critic.push_back(testing_util::Flat(*t.critic()));
+  }
+  AveragePolicies({dir.File("p1.pt"), dir.File("p2.pt"), dir.File("p3.pt")}, dir.File("avg.pt"));
+  Policy avg = Policy::Load(dir.File("avg.pt"));
+  EXPECT_TRUE(torch::allclose(testing_util::Flat(*avg.repr()), torch::stack(repr).mean(0), 1e-5, 1e-7));
+  EXPECT_TRUE(torch::allclose(testing_util::Flat(*avg.actor()), torch::stack(actor).mean(0), 1e-5, 1e-7));
+  EXPECT_TRUE(torch::allclose(testing_util::Flat(*avg.critic()), torch::stack(critic).mean(0), 1e-5, 1e-7));
+  EXPECT_FALSE(torch::allclose(testing_util::Flat(*avg.actor()), actor.back(), 1e-4, 1e-6));
+  const MsprOptions stored = ReadCheckpointOptions(dir.File("avg.pt"));
+  EXPECT_EQ(stored.network.obs_dim, 3);
+  // One input: the same weights.
+  AveragePolicies({dir.File("p2.pt")}, dir.File("one.pt"));
+  EXPECT_TRUE(torch::equal(testing_util::Flat(*Policy::Load(dir.File("one.pt")).actor()), actor[1]));
+
+  // Another network shape, a missing file: errors naming the input.
+  MsprOptions wider = TinyOptions();
+  wider.network.actor_hidden = 40;
+  Trainer w(wider, RandomStateDataset());
+  w.ExportPolicy(dir.File("wide.pt"));
+  for (const std::string& bad : {dir.File("wide.pt"), dir.File("missing.pt")}) {
+    try {
+      AveragePolicies({dir.File("p1.pt"), bad}, dir.File("bad.pt"));
+      FAIL() << "averaged " << bad;
+    } catch (const CheckpointError& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.File("bad.pt")));
+  EXPECT_THROW(AveragePolicies({}, dir.File("bad.pt")), std::invalid_argument);
 }
 
 TEST(PolicyTest, PixelActSingleAndBatch) {

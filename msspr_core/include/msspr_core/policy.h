@@ -20,6 +20,15 @@
 namespace msspr {
 namespace core {
 
+// Writes to `out` a Ms.PR policy export whose weights (encoders and goal
+// head, actor, critic) are the element-wise mean of the given exports' or
+// checkpoints' (Policy::Load), e.g. one run's last few policy_step<N>.pt:
+// averaging the weights of late exports of a run smooths the swings between
+// them. Its header holds the first input's options and the largest step.
+// Throws CheckpointError naming the input that cannot be read, is a baseline
+// agent's, or has other network options than the first.
+void AveragePolicies(const std::vector<std::string>& inputs, const std::string& out);
+
 class Policy {
  public:
   // Shares the given networks (no copy); they must be on `device`.
