@@ -2,9 +2,14 @@
 // names are the checkpoint's (repr, critic, actor, target_*); keep them stable.
 #pragma once
 
+#include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <torch/torch.h>
+
+#include "msspr_core/checkpoint.h"
 
 namespace msspr {
 namespace core {
@@ -21,6 +26,26 @@ inline void ReadModule(torch::serialize::InputArchive& archive, const std::strin
   torch::serialize::InputArchive sub;
   archive.read(key, sub);
   module.load(sub);
+}
+
+// Writes an inference export (kind "policy"): a header with `options` and
+// `step`, then each (key, module): "repr", "actor", "critic" for Ms.PR,
+// "agent" for a baseline. Atomic (WriteCheckpointFile).
+inline void WritePolicyExport(const std::string& path, const MsprOptions& options, int64_t step,
+                              const std::vector<std::pair<std::string, const torch::nn::Module*>>& modules) {
+  CheckpointHeader header;
+  header.options = options;
+  header.step = step;
+  CheckpointFile file;
+  file.kind = "policy";
+  file.version = kCheckpointFormatVersion;
+  file.header = CheckpointHeaderToYaml(header);
+  torch::serialize::OutputArchive archive;
+  for (const auto& [key, module] : modules) WriteModule(archive, key, *module);
+  std::ostringstream payload;
+  archive.save_to(payload);
+  file.payload = payload.str();
+  WriteCheckpointFile(path, file);
 }
 
 }  // namespace core

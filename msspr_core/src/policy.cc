@@ -104,22 +104,10 @@ void AveragePolicies(const std::vector<std::string>& inputs, const std::string& 
   average([](Policy& p) { return p.repr().ptr(); });
   average([](Policy& p) { return p.actor().ptr(); });
   average([](Policy& p) { return p.critic().ptr(); });
-  CheckpointHeader header;
-  header.options = first.options();
-  header.options.trainer.device = "cpu";
-  header.step = step;
-  CheckpointFile file;
-  file.kind = "policy";
-  file.version = kCheckpointFormatVersion;
-  file.header = CheckpointHeaderToYaml(header);
-  torch::serialize::OutputArchive archive;
-  WriteModule(archive, "repr", *first.repr());
-  WriteModule(archive, "actor", *first.actor());
-  WriteModule(archive, "critic", *first.critic());
-  std::ostringstream payload;
-  archive.save_to(payload);
-  file.payload = payload.str();
-  WriteCheckpointFile(out, file);
+  MsprOptions options = first.options();
+  options.trainer.device = "cpu";
+  WritePolicyExport(out, options, step,
+                    {{"repr", first.repr().get()}, {"actor", first.actor().get()}, {"critic", first.critic().get()}});
 }
 
 bool Policy::Batch(torch::Tensor* obs) const {

@@ -1195,26 +1195,15 @@ void Trainer::ExportPolicy(const std::string& path, bool raw) {
   } else {
     CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export " + path);
   }
-  CheckpointHeader header;
-  header.options = options_;
-  header.step = step_;
-  CheckpointFile file;
-  file.kind = "policy";
-  file.version = kCheckpointFormatVersion;
-  file.header = CheckpointHeaderToYaml(header);
-  torch::serialize::OutputArchive archive;
   if (agent_) {
-    WriteModule(archive, "agent", *agent_);
-  } else {
-    // The moving average when there is one: what MakePolicy() evaluates.
-    WriteModule(archive, "repr", average ? *ema_repr_ : *repr_);
-    WriteModule(archive, "actor", average ? *ema_actor_ : *actor_);
-    WriteModule(archive, "critic", average ? *ema_critic_ : *critic_);
+    WritePolicyExport(path, options_, step_, {{"agent", agent_.get()}});
+    return;
   }
-  std::ostringstream payload;
-  archive.save_to(payload);
-  file.payload = payload.str();
-  WriteCheckpointFile(path, file);
+  // The moving average when there is one: what MakePolicy() evaluates.
+  WritePolicyExport(path, options_, step_,
+                    {{"repr", average ? ema_repr_.get() : repr_.get()},
+                     {"actor", average ? ema_actor_.get() : actor_.get()},
+                     {"critic", average ? ema_critic_.get() : critic_.get()}});
 }
 
 MsprOptions ReadCheckpointOptions(const std::string& newest) {
