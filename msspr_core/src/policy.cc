@@ -43,7 +43,9 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
     }
     agent->to(device);
     agent->eval();
-    return Policy(options, agent, device);
+    Policy policy(options, agent, device);
+    policy.step_ = header.step;
+    return policy;
   }
   Representation repr(options.network);
   Actor actor(options.network);
@@ -67,7 +69,9 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
   repr->eval();
   actor->eval();
   critic->eval();
-  return Policy(options, repr, actor, critic, device);
+  Policy policy(options, repr, actor, critic, device);
+  policy.step_ = header.step;
+  return policy;
 }
 
 void AveragePolicies(const std::vector<std::string>& inputs, const std::string& out) {
@@ -89,7 +93,7 @@ void AveragePolicies(const std::vector<std::string>& inputs, const std::string& 
       throw CheckpointError(path + ": network options differ from those of " + inputs.front() +
                             " (only exports of one network shape are averaged)");
     }
-    step = std::max(step, ParseCheckpointHeader(ReadCheckpointFile(path).header, path).step);
+    step = std::max(step, p.step());
   }
   Policy& first = policies.front();
   torch::NoGradGuard no_grad;

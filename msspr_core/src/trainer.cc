@@ -1187,23 +1187,18 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
 
 void Trainer::ExportPolicy(const std::string& path, bool raw) {
   Sync();
-  const bool average = ema_repr_ && !raw;
   if (agent_) {
     CheckFiniteWeights({agent_.get()}, step_, "policy export " + path);
-  } else if (average) {
-    CheckFiniteWeights({ema_repr_.get(), ema_actor_.get(), ema_critic_.get()}, step_, "policy export " + path);
-  } else {
-    CheckFiniteWeights({repr_.get(), actor_.get(), critic_.get()}, step_, "policy export " + path);
-  }
-  if (agent_) {
     WritePolicyExport(path, options_, step_, {{"agent", agent_.get()}});
     return;
   }
   // The moving average when there is one: what MakePolicy() evaluates.
-  WritePolicyExport(path, options_, step_,
-                    {{"repr", average ? ema_repr_.get() : repr_.get()},
-                     {"actor", average ? ema_actor_.get() : actor_.get()},
-                     {"critic", average ? ema_critic_.get() : critic_.get()}});
+  const bool average = ema_repr_ && !raw;
+  torch::nn::Module* repr = average ? ema_repr_.get() : repr_.get();
+  torch::nn::Module* actor = average ? ema_actor_.get() : actor_.get();
+  torch::nn::Module* critic = average ? ema_critic_.get() : critic_.get();
+  CheckFiniteWeights({repr, actor, critic}, step_, "policy export " + path);
+  WritePolicyExport(path, options_, step_, {{"repr", repr}, {"actor", actor}, {"critic", critic}});
 }
 
 MsprOptions ReadCheckpointOptions(const std::string& newest) {

@@ -197,10 +197,11 @@ struct TrainerOptions {
   std::string pipeline = "auto";
   // Ms.PR only. > 0: the trainer keeps an exponential moving average of the
   // policy's networks (encoders and goal head, actor, critic) with this decay
-  // per step (warm-up: min(decay, (1 + t) / (10 + t)) at step t), and the
-  // exports (policy.pt, policy_step<N>.pt) and in-training evaluations use the
-  // average instead of the raw weights. 0.9999 averages over about the last
-  // 10k steps. 0 = off: the raw weights.
+  // per step (warm-up: min(decay, t / (t + 1)) at step t, the plain mean of
+  // every step's weights until t = decay / (1 - decay)), and the exports
+  // (policy.pt, policy_step<N>.pt) and in-training evaluations use the average
+  // instead of the raw weights. 0.99995: a plain mean up to 20k steps, then
+  // an average over about the last 20k. 0 = off: the raw weights.
   double policy_ema = 0.0;
 
   template <class V>

@@ -65,6 +65,9 @@ class Policy {
   int obs_dim() const { return options_.network.obs_dim; }
   int action_dim() const { return options_.network.action_dim; }
   torch::Device device() const { return device_; }
+  // The training step of the file Load read (its header); 0 for a Policy
+  // built on live networks.
+  int64_t step() const { return step_; }
 
   // Ms.PR's networks (empty modules for a baseline agent).
   Representation& repr() { return repr_; }
@@ -83,6 +86,7 @@ class Policy {
   Critic critic_;
   std::shared_ptr<GcAgentImpl> agent_;
   torch::Device device_;
+  int64_t step_ = 0;
 };
 
 }  // namespace core
