@@ -45,6 +45,13 @@ if [ -x "$BIN/msspr_bench_core" ]; then
   "$BIN/msspr_bench_core" --out "$OUT/core.json"
   echo "[bench] trainer against the eager PyTorch reference"
   scripts/bench_train_vs_reference.sh "$OUT" "$BIN/msspr_bench_core"
+  # The arm's preset: the critic's gradient reaches the encoders, so 2 threads
+  # pipeline only the actor update and the TD target (trainer.pipeline).
+  for n in 1 2; do
+    echo "[bench] cube-single state step (manipulation_cgrad_cpu.yaml, bf16), $n thread(s)"
+    "$BIN/msspr_bench_core" --config config/manipulation_cgrad_cpu.yaml --obs-dim 28 --action-dim 5 \
+      --episodes 50 --threads $n --out "$OUT/train_cube_cgrad_t$n.json"
+  done
 fi
 if [ -x "$BIN/msspr_train" ]; then
   echo "[bench] data-parallel msspr_train: 1 and 2 ranks (Gloo, loopback)"

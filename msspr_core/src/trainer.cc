@@ -652,24 +652,32 @@ torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Ten
   return CriticLoss(batch, &lat, noise, info);
 }
 
-torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
-                                  const torch::Tensor& noise, LossInfo* info) {
+torch::Tensor Trainer::CriticTarget(const TransitionBatch& batch, const torch::Tensor& noise) {
   const AgentOptions& a = options_.agent;
   const int64_t b = batch.obs.size(0);
-  torch::Tensor y;  // [B] TD target
-  {
-    torch::NoGradGuard no_grad;
-    const torch::Tensor z = target_repr_->state_encoder->forward(torch::cat({batch.next_obs, batch.value_goal}, 0));
-    const torch::Tensor zs_next = z.narrow(0, 0, b), zg = z.narrow(0, b, b);
-    const torch::Tensor grep_next = target_repr_->goal_head->forward(zs_next, zg);
-    const torch::Tensor eps =
-        (noise.to(device_) * a.target_noise).clamp(-a.target_noise_clip, a.target_noise_clip);
-    const torch::Tensor a_next = (F32(target_actor_->forward(zs_next, grep_next)) + eps).clamp(-1.0, 1.0);
-    const torch::Tensor q_next = std::get<0>(
-        F32(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next)).min(-1));
-    y = batch.ret + batch.discount * q_next;
-    if (a.clip_target) y = y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
-  }
+  torch::NoGradGuard no_grad;
+  const torch::Tensor z = target_repr_->state_encoder->forward(torch::cat({batch.next_obs, batch.value_goal}, 0));
+  const torch::Tensor zs_next = z.narrow(0, 0, b), zg = z.narrow(0, b, b);
+  const torch::Tensor grep_next = target_repr_->goal_head->forward(zs_next, zg);
+  const torch::Tensor eps =
+      (noise.to(device_) * a.target_noise).clamp(-a.target_noise_clip, a.target_noise_clip);
+  const torch::Tensor a_next = (F32(target_actor_->forward(zs_next, grep_next)) + eps).clamp(-1.0, 1.0);
+  const torch::Tensor q_next = std::get<0>(
+      F32(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next)).min(-1));
+  torch::Tensor y = batch.ret + batch.discount * q_next;  // [B]
+  if (a.clip_target) y = y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
+  return y;
+}
+
+torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
+                                  const torch::Tensor& noise, LossInfo* info) {
+  return CriticLossFromTarget(batch, lat, CriticTarget(batch, noise), info);
+}
+
+torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
+                                            const torch::Tensor& y, LossInfo* info) {
+  const AgentOptions& a = options_.agent;
+  const int64_t b = batch.obs.size(0);
   torch::Tensor zsa, grep;
   if (lat) {
     torch::NoGradGuard no_grad;
@@ -749,13 +757,23 @@ void Trainer::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& no
 
 void Trainer::UpdateCritic(const TransitionBatch& batch, const TransitionLatents* lat,
                            const torch::Tensor& noise, LossInfo* info) {
+  torch::Tensor y;
+  {
+    PrecisionScope precision(bf16(), device_);
+    y = CriticTarget(batch, noise);
+  }
+  UpdateCriticFromTarget(batch, lat, y, info);
+}
+
+void Trainer::UpdateCriticFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
+                                     const torch::Tensor& y, LossInfo* info) {
   ClearGrads(*critic_);
   const bool through = lat == nullptr;
   if (through) ClearGrads(*repr_);
   torch::Tensor loss;
   {
     PrecisionScope precision(bf16(), device_);
-    loss = CriticLoss(batch, lat, noise, info);
+    loss = CriticLossFromTarget(batch, lat, y, info);
   }
   loss.backward();
   ReduceGrads(*critic_);
@@ -824,12 +842,24 @@ void Trainer::UpdatePolicyAverage() {
 
 bool Trainer::pipelined() const {
   const std::string& p = options_.trainer.pipeline;
-  if (p == "off" || !device_.is_cpu() || options_.agent.critic_grad_to_encoder || agent_ || dist_) return false;
+  if (p == "off" || !device_.is_cpu() || agent_ || dist_) return false;
   return p == "on" || at::get_num_threads() >= 2;
 }
 
 void Trainer::Sync() {
-  if (worker_) worker_->Wait();
+  if (!worker_) return;
+  worker_->Wait();
+  if (!pending_actor_) return;
+  // A deferred actor update (pipelined, critic_grad_to_encoder): run now, on
+  // the worker with its thread count, as the next step would have.
+  TransitionBatch batch = std::move(*pending_actor_);
+  pending_actor_.reset();
+  worker_->Run([this, b = std::move(batch), n = pending_threads_] {
+    at::internal::lazy_init_num_threads();
+    const ThreadCountScope scope(n);
+    UpdateActor(b, EncodeTransitionsForUpdate(b), nullptr);
+  });
+  worker_->Wait();
 }
 
 Trainer::~Trainer() {
@@ -851,6 +881,7 @@ LossInfo Trainer::Step(bool collect_info) {
   const int threads = at::get_num_threads();
   const int worker_threads = std::max(1, threads / 2);
   const ThreadCountScope main_threads(pipe ? std::max(1, threads - threads / 2) : 0);
+  if (pipe && options_.agent.critic_grad_to_encoder) return CriticGradPipelinedStep(collect_info, worker_threads);
   ++step_;
   if (step_ % options_.agent.target_update_every == 0) {
     Sync();
@@ -897,6 +928,58 @@ LossInfo Trainer::Step(bool collect_info) {
     return info;
   }
   actor_critic(batch, noise, out);
+  return info;
+}
+
+// Pipelined with the critic's gradient into the encoders. The critic update
+// writes the encoders, so it cannot overlap the representation update (as it
+// does without that gradient); what can: the last step's actor update (it
+// reads the encoders and the critic, writes only the actor) and this step's
+// TD target (target networks only). The worker runs both beside the
+// representation update; the representation optimiser waits for them. The
+// random draws come in the sequential order (chunks, transitions, noise), so
+// the weights are the sequential schedule's bit for bit.
+LossInfo Trainer::CriticGradPipelinedStep(bool collect_info, int worker_threads) {
+  LossInfo info;
+  LossInfo* out = collect_info ? &info : nullptr;
+  if (!worker_) worker_ = std::make_unique<AsyncWorker>();
+  ++step_;
+  if (step_ % options_.agent.target_update_every == 0) {
+    Sync();  // runs a deferred actor update first
+    UpdateTargets();
+  }
+  repr_credit_ += options_.representation.updates_per_step;
+  std::vector<ChunkBatch> chunks;
+  for (double credit = repr_credit_; credit >= 1.0 - 1e-9; credit -= 1.0) chunks.push_back(SampleChunks());
+  TransitionBatch batch = SampleTransitions();
+  torch::Tensor noise = torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+  std::optional<TransitionBatch> actor_batch = std::move(pending_actor_);
+  pending_actor_.reset();
+  worker_->Run([this, actor_batch = std::move(actor_batch), batch, noise, worker_threads] {
+    at::internal::lazy_init_num_threads();
+    const ThreadCountScope scope(worker_threads);
+    if (actor_batch) UpdateActor(*actor_batch, EncodeTransitionsForUpdate(*actor_batch), nullptr);
+    PrecisionScope precision(bf16(), device_);
+    worker_target_ = CriticTarget(batch, noise);
+  });
+  for (const ChunkBatch& c : chunks) {
+    RepresentationBackward(c, out);
+    worker_->Wait();  // the actor update read the encoders
+    ReduceGrads(*repr_);
+    repr_opt_->step();
+    repr_credit_ -= 1.0;
+  }
+  worker_->Wait();
+  const torch::Tensor y = std::move(worker_target_);
+  worker_target_ = torch::Tensor();
+  UpdatePolicyAverage();
+  UpdateCriticFromTarget(batch, nullptr, y, out);
+  if (collect_info) {
+    UpdateActor(batch, EncodeTransitionsForUpdate(batch), out);
+  } else {
+    pending_actor_ = std::move(batch);
+    pending_threads_ = worker_threads;
+  }
   return info;
 }
 

@@ -463,18 +463,23 @@ torch::Tensor AllWeights(Trainer& t) {
 }
 
 // The pipelined schedule (actor-critic update of step i on a worker thread,
-// beside the representation update of step i + 1) gives the sequential
-// schedule's weights bit for bit: each of its two threads runs with one
-// torch thread, as the sequential trainer does here.
+// beside the representation update of step i + 1; with the critic's gradient
+// into the encoders, the actor update of step i and the TD target of step
+// i + 1) gives the sequential schedule's weights bit for bit: each of its two
+// threads runs with one torch thread, as the sequential trainer does here.
 TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
   if (!torch::Device(TinyOptions().trainer.device).is_cpu()) GTEST_SKIP() << "CPU only";
   ThreadCountGuard guard;
+  for (bool through : {false, true})
   for (const char* precision : {"fp32", "bf16"}) {
-    for (double updates : {1.0, 0.5}) {
+    for (double updates : {1.0, 0.5, 2.0}) {
       for (bool pixels : {false, true}) {
+        if (updates == 2.0 && (pixels || !through)) continue;
         MsprOptions o = pixels ? PixelOptions(0.5) : TinyOptions();
         o.trainer.precision = precision;
         o.representation.updates_per_step = updates;
+        o.agent.critic_grad_to_encoder = through;
+        o.trainer.policy_ema = through ? 0.9 : 0.0;
         o.agent.target_update_every = 4;  // target copies inside the run
         auto data = pixels ? testing_util::RandomImageDataset() : RandomStateDataset();
         // 10 steps, losses read back on every third; the trainer and those losses.
@@ -492,8 +497,13 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
         Trainer& sequential = *seq_trainer;
         Trainer& pipelined = *pipe_trainer;
         const std::string what = std::string(precision) + " updates_per_step " + std::to_string(updates) +
-                                 (pixels ? " pixels" : " state");
+                                 (pixels ? " pixels" : " state") + (through ? " critic_grad_to_encoder" : "");
         EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
+        if (through) {
+          // The moving average took in the same weights at the same points.
+          EXPECT_TRUE(torch::equal(Flat(*sequential.ema_actor()), Flat(*pipelined.ema_actor())))
+              << what;
+        }
         for (int i = 2; i < 10; i += 3) {
           EXPECT_TRUE(std::isfinite(pipe_info[i].critic)) << what;
           EXPECT_EQ(seq_info[i].critic, pipe_info[i].critic) << what << " step " << i;
@@ -502,8 +512,11 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
         // Steps without losses return before their actor-critic update is done;
         // the accessors wait for it (and it ran: the critic moved).
         const torch::Tensor before = Flat(*pipelined.critic()).clone();
+        const torch::Tensor actor_before = Flat(*pipelined.actor()).clone();
         pipelined.Step(false);
         EXPECT_FALSE(torch::equal(before, Flat(*pipelined.critic()))) << what;
+        // A deferred actor update (critic_grad_to_encoder) is run by the accessor.
+        EXPECT_FALSE(torch::equal(actor_before, Flat(*pipelined.actor()))) << what;
         // Threads as the user set them, after the step.
         EXPECT_EQ(torch::get_num_threads(), 2);
       }
@@ -519,8 +532,8 @@ TEST(TrainerTest, PipelineIsOffWhereItWouldChangeTheResult) {
   o.trainer.pipeline = "off";
   EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());
   o.trainer.pipeline = "auto";
-  o.agent.critic_grad_to_encoder = true;  // the critic update writes the encoders
-  EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());
+  o.agent.critic_grad_to_encoder = true;  // pipelined too (actor and TD target beside)
+  EXPECT_TRUE(Trainer(o, RandomStateDataset()).pipelined());
   torch::set_num_threads(1);
   o.agent.critic_grad_to_encoder = false;
   EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());

@@ -192,8 +192,10 @@ struct TrainerOptions {
   // second thread beside the next step's representation update (the two read
   // the encoders, only the representation update writes them, after the
   // actor-critic update is done), each with half of torch's threads. The
-  // result equals the sequential schedule's. "auto": on for the CPU with 2 or
-  // more torch threads (and without agent.critic_grad_to_encoder).
+  // result equals the sequential schedule's. With agent.critic_grad_to_encoder
+  // the critic update writes the encoders, so only the actor update and the
+  // next step's TD target run beside the representation update. "auto": on for
+  // the CPU with 2 or more torch threads.
   std::string pipeline = "auto";
   // Ms.PR only. > 0: the trainer keeps an exponential moving average of the
   // policy's networks (encoders and goal head, actor, critic) with this decay

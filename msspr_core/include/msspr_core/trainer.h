@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
@@ -114,14 +115,18 @@ class Trainer {
   // With trainer.pipeline active and collect_info false, the step's
   // actor-critic update may still run on the worker thread when Step
   // returns: it overlaps the next step's representation update, and every
-  // other member function (and the destructor) waits for it first. The
-  // results are those of the sequential schedule.
+  // other member function (and the destructor) waits for it first. With
+  // agent.critic_grad_to_encoder the critic update is done when Step returns
+  // and the actor update is deferred to the next step's worker (Sync() runs
+  // it when anything else comes first). The results are those of the
+  // sequential schedule.
   LossInfo Step(bool collect_info = true);
   // Whether Step runs pipelined (trainer.pipeline, the device, the thread
   // count: see TrainerOptions::pipeline).
   bool pipelined() const;
-  // Waits for a pipelined actor-critic update still running (rethrows its
-  // exception). Called by every member function that reads the networks.
+  // Waits for a pipelined actor-critic update still running, and runs a
+  // deferred actor update (rethrows their exception). Called by every member
+  // function that reads the networks.
   void Sync();
 
   // Runs Step() until options().trainer.steps with progress, CSV and the
@@ -270,9 +275,20 @@ class Trainer {
   // lat null: the critic's gradient reaches the encoders.
   torch::Tensor CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
                            const torch::Tensor& noise, LossInfo* info);
+  // The TD target y [B] (target networks only, no gradient), and the critic
+  // loss against a given y.
+  torch::Tensor CriticTarget(const TransitionBatch& batch, const torch::Tensor& noise);
+  torch::Tensor CriticLossFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
+                                     const torch::Tensor& y, LossInfo* info);
   torch::Tensor ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
   void UpdateCritic(const TransitionBatch& batch, const TransitionLatents* lat,
                     const torch::Tensor& noise, LossInfo* info);
+  // The critic update against a TD target computed beforehand (its
+  // precision scope: trainer.precision).
+  void UpdateCriticFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
+                              const torch::Tensor& y, LossInfo* info);
+  // The pipelined step when the critic's gradient reaches the encoders.
+  LossInfo CriticGradPipelinedStep(bool collect_info, int worker_threads);
   void UpdateActor(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
   torch::Tensor ToDevice(const torch::Tensor& cpu) const;
   // The baseline agent's step (Step when agent_ is set).
@@ -308,6 +324,12 @@ class Trainer {
   std::shared_ptr<GcAgentImpl> agent_;           // baseline agent, or null (Ms.PR)
   std::unique_ptr<torch::optim::Adam> agent_opt_;
   std::shared_ptr<Distributed> dist_;            // data-parallel group, or null
+  // Pipelined with agent.critic_grad_to_encoder: the actor update of the
+  // last step, deferred so that the worker runs it beside the next step's
+  // representation update; Sync() runs it when anything else comes first.
+  std::optional<TransitionBatch> pending_actor_;
+  int pending_threads_ = 1;  // the worker's torch threads for it
+  torch::Tensor worker_target_;  // the TD target the worker computed
   // The pipelined actor-critic update's thread (trainer.pipeline); created
   // on first use. Last member: destroyed (and joined) first.
   std::unique_ptr<AsyncWorker> worker_;
