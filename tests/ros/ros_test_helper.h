@@ -151,6 +151,12 @@ class LiveRecording {
       kill(pid_, SIGINT);
       int status = 0;
       waitpid(pid_, &status, 0);
+      // `rosbag record` (a Python wrapper) can exit before its recorder child has
+      // closed the bag and renamed NAME.bag.active to NAME.bag (seen on a loaded
+      // machine): wait for the rename.
+      const std::string active = bag_ + ".active";
+      for (int i = 0; i < 200 && (access(bag_.c_str(), F_OK) != 0 || access(active.c_str(), F_OK) == 0); ++i)
+        ros::WallDuration(0.05).sleep();
     }
     return done;
   }
