@@ -520,8 +520,13 @@ ChunkBatch Trainer::SampleChunks() {
 
 bool Trainer::bf16() const { return options_.trainer.precision == "bf16"; }
 
+namespace {
+// Whether an accumulated representation credit calls for an update.
+bool CreditDue(double credit) { return credit >= 1.0 - 1e-9; }
+}  // namespace
+
 bool Trainer::ReprUpdateDue(double extra_credit) const {
-  return repr_credit_ + extra_credit >= 1.0 - 1e-9;
+  return CreditDue(repr_credit_ + extra_credit);
 }
 
 torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
@@ -854,12 +859,19 @@ void Trainer::Sync() {
   // the worker with its thread count, as the next step would have.
   TransitionBatch batch = std::move(*pending_actor_);
   pending_actor_.reset();
-  worker_->Run([this, b = std::move(batch), n = pending_threads_] {
-    at::internal::lazy_init_num_threads();
-    const ThreadCountScope scope(n);
-    UpdateActor(b, EncodeTransitionsForUpdate(b), nullptr);
-  });
+  RunOnWorker(pending_threads_, [this, b = std::move(batch)] { UpdateActor(b, EncodeTransitionsForUpdate(b), nullptr); });
   worker_->Wait();
+}
+
+void Trainer::RunOnWorker(int threads, std::function<void()> task) {
+  if (!worker_) worker_ = std::make_unique<AsyncWorker>();
+  worker_->Run([threads, task = std::move(task)] {
+    // Torch's per-thread setup first (it sets the thread's count to the
+    // process-wide one), then this worker's share.
+    at::internal::lazy_init_num_threads();
+    const ThreadCountScope scope(threads);
+    task();
+  });
 }
 
 Trainer::~Trainer() {
@@ -917,14 +929,7 @@ LossInfo Trainer::Step(bool collect_info) {
     UpdateActor(b, lat, o);
   };
   if (pipe && !collect_info) {
-    if (!worker_) worker_ = std::make_unique<AsyncWorker>();
-    worker_->Run([actor_critic, worker_threads, b = std::move(batch), n = std::move(noise)] {
-      // Torch's per-thread setup first (it sets the thread's count to the
-      // process-wide one), then this worker's share.
-      at::internal::lazy_init_num_threads();
-      const ThreadCountScope scope(worker_threads);
-      actor_critic(b, n, nullptr);
-    });
+    RunOnWorker(worker_threads, [actor_critic, b = std::move(batch), n = std::move(noise)] { actor_critic(b, n, nullptr); });
     return info;
   }
   actor_critic(batch, noise, out);
@@ -942,7 +947,6 @@ LossInfo Trainer::Step(bool collect_info) {
 LossInfo Trainer::CriticGradPipelinedStep(bool collect_info, int worker_threads) {
   LossInfo info;
   LossInfo* out = collect_info ? &info : nullptr;
-  if (!worker_) worker_ = std::make_unique<AsyncWorker>();
   ++step_;
   if (step_ % options_.agent.target_update_every == 0) {
     Sync();  // runs a deferred actor update first
@@ -950,14 +954,12 @@ LossInfo Trainer::CriticGradPipelinedStep(bool collect_info, int worker_threads)
   }
   repr_credit_ += options_.representation.updates_per_step;
   std::vector<ChunkBatch> chunks;
-  for (double credit = repr_credit_; credit >= 1.0 - 1e-9; credit -= 1.0) chunks.push_back(SampleChunks());
+  for (double credit = repr_credit_; CreditDue(credit); credit -= 1.0) chunks.push_back(SampleChunks());
   TransitionBatch batch = SampleTransitions();
   torch::Tensor noise = torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
   std::optional<TransitionBatch> actor_batch = std::move(pending_actor_);
   pending_actor_.reset();
-  worker_->Run([this, actor_batch = std::move(actor_batch), batch, noise, worker_threads] {
-    at::internal::lazy_init_num_threads();
-    const ThreadCountScope scope(worker_threads);
+  RunOnWorker(worker_threads, [this, actor_batch = std::move(actor_batch), batch, noise] {
     if (actor_batch) UpdateActor(*actor_batch, EncodeTransitionsForUpdate(*actor_batch), nullptr);
     PrecisionScope precision(bf16(), device_);
     worker_target_ = CriticTarget(batch, noise);

@@ -287,6 +287,9 @@ class Trainer {
   // precision scope: trainer.precision).
   void UpdateCriticFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
                               const torch::Tensor& y, LossInfo* info);
+  // Starts `task` on the worker thread (created on first use) with `threads`
+  // torch threads; waits for the previous task first.
+  void RunOnWorker(int threads, std::function<void()> task);
   // The pipelined step when the critic's gradient reaches the encoders.
   LossInfo CriticGradPipelinedStep(bool collect_info, int worker_threads);
   void UpdateActor(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
