@@ -104,7 +104,19 @@ void RemoveStaleTemporaries(const std::string& path) {
   }
 }
 
+std::map<std::string, std::string>& ProcessMetadata() {
+  static std::map<std::string, std::string> m;
+  return m;
+}
+
 }  // namespace
+
+void SetCheckpointMetadata(const std::string& key, const std::string& value) {
+  if (value.empty())
+    ProcessMetadata().erase(key);
+  else
+    ProcessMetadata()[key] = value;
+}
 
 std::string CheckpointHeaderToYaml(const CheckpointHeader& h) {
   YAML::Emitter out;
@@ -121,6 +133,13 @@ std::string CheckpointHeaderToYaml(const CheckpointHeader& h) {
     out << YAML::EndSeq;
   }
   out << YAML::Key << "options" << YAML::Value << YAML::Literal << OptionsToYaml(h.options);
+  std::map<std::string, std::string> metadata = ProcessMetadata();
+  for (const auto& [k, v] : h.metadata) metadata[k] = v;
+  if (!metadata.empty()) {
+    out << YAML::Key << "metadata" << YAML::Value << YAML::BeginMap;
+    for (const auto& [k, v] : metadata) out << YAML::Key << k << YAML::Value << YAML::Literal << v;
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }
@@ -134,6 +153,7 @@ CheckpointHeader ParseCheckpointHeader(const std::string& yaml, const std::strin
     h.repr_credit = root["repr_credit"] ? root["repr_credit"].as<double>() : 0.0;
     h.sampler_rng = root["sampler_rng"] ? root["sampler_rng"].as<std::string>() : "";
     if (root["rank_states"]) h.rank_states = root["rank_states"].as<std::vector<std::string>>();
+    if (root["metadata"]) h.metadata = root["metadata"].as<std::map<std::string, std::string>>();
     h.options = ApplyOptionsYaml(root["options"].as<std::string>(), MsprOptions(),
                                  path + " (checkpoint header)");
   } catch (const YAML::Exception& e) {

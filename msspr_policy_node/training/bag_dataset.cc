@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "dataset_bag.h"
+#include "spec_bag.h"
 
 namespace msspr::agent {
 
@@ -37,17 +38,28 @@ core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoad
   // reserves them once. Growing by doubling would need twice the memory of
   // the images at its peak (a 1.1M-frame image dataset is 13.5 GB).
   std::vector<std::unique_ptr<ros_bridge::DatasetBagReader>> readers;
+  std::vector<std::unique_ptr<ros_bridge::SpecBagReader>> spec_readers;
   uint64_t total_observations = 0;
   for (const std::string& path : bags) {
-    readers.push_back(std::make_unique<ros_bridge::DatasetBagReader>(path));
-    total_observations += readers.back()->CountObservations();
+    if (options.robot) {
+      spec_readers.push_back(std::make_unique<ros_bridge::SpecBagReader>(*options.robot, std::vector<std::string>{path}));
+      total_observations += spec_readers.back()->CountObservations();
+    } else {
+      readers.push_back(std::make_unique<ros_bridge::DatasetBagReader>(path));
+      total_observations += readers.back()->CountObservations();
+    }
   }
   for (size_t bag_index = 0; bag_index < bags.size(); ++bag_index) {
     const std::string& path = bags[bag_index];
-    ros_bridge::DatasetBagReader& reader = *readers[bag_index];
     ++r.bags;
-    reader.ForEachEpisode([&](ros_bridge::BagEpisode&& ep) {
+    auto add = [&](ros_bridge::BagEpisode&& ep) {
       ++r.episodes;
+      if (options.robot) {  // ticks without fresh inputs (the dataset reader counts its own)
+        for (int t = 0; t < ep.num_steps; ++t) {
+          r.missing_observations += ep.has_obs[t] ? 0 : 1;
+          r.missing_actions += ep.has_action[t] ? 0 : 1;
+        }
+      }
       if (!options.split.empty() && ep.meta.split != options.split) {
         ++r.episodes_other_split;
         return;
@@ -106,7 +118,17 @@ core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoad
         kept += T;
       }
       r.dropped_steps += static_cast<uint64_t>(ep.num_steps - kept);
-    });
+    };
+    if (options.robot) {
+      ros_bridge::SpecBagReader& reader = *spec_readers[bag_index];
+      reader.ForEachEpisode(add);
+      // Problems of whole topics (out of order, NaN / Inf) are not episode problems.
+      for (const auto& p : reader.report().problems)
+        if (p.find(": episode ") == std::string::npos) r.problems.push_back(p);
+      continue;
+    }
+    ros_bridge::DatasetBagReader& reader = *readers[bag_index];
+    reader.ForEachEpisode(add);
     const auto& rr = reader.report();
     r.missing_observations += rr.missing_observations;
     r.missing_actions += rr.missing_actions;

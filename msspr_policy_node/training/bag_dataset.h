@@ -10,9 +10,16 @@
 
 #include "msspr_core/dataset.h"
 
+namespace msspr::ros_bridge {
+struct RobotSpec;
+}
+
 namespace msspr::agent {
 
 struct BagLoadOptions {
+  // Bags of a robot's standard messages read through this spec (spec_bag.h;
+  // every episode is "train"); nullptr: msspr dataset bags.
+  const ros_bridge::RobotSpec* robot = nullptr;
   std::string split = "train";  // "train", "val", or "" for every episode
   bool images = false;          // load camera images (episodes without them are skipped)
   int min_segment_steps = 2;    // shorter runs (no transition) are dropped

@@ -6,9 +6,13 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
+#include <memory>
+#include <vector>
 #include <sstream>
 
 #include "bag_dataset.h"
+#include "msspr_core/checkpoint.h"
+#include "robot_spec.h"
 #include "cube_evaluator.h"
 #include "maze_evaluator.h"
 #include "msspr_sim/learning_curve.h"
@@ -40,6 +44,31 @@ bool AllBags(const std::string& list) {
 }
 
 std::string g_env;  // env of the training bags, for the default evaluation maze
+// --robot SPEC.yaml: the bags hold the robot's standard messages, read through this spec.
+std::unique_ptr<msspr::ros_bridge::RobotSpec> g_robot;
+
+// Reads --robot (before the core parses the rest) and joins "--data a.bag b.bag"
+// into the core's "--data a.bag,b.bag". Returns the arguments to parse; throws on a bad spec.
+std::vector<std::string> PrepareArgs(int argc, char** argv) {
+  std::vector<std::string> out;
+  for (int i = 0; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--data") {
+      std::string list;
+      while (i + 1 < argc && argv[i + 1][0] != '-') list += (list.empty() ? "" : ",") + std::string(argv[++i]);
+      out.push_back(a);
+      if (!list.empty()) out.push_back(list);
+      continue;
+    }
+    if (a == "--robot" && i + 1 < argc) {
+      g_robot = std::make_unique<msspr::ros_bridge::RobotSpec>(msspr::ros_bridge::LoadRobotSpec(argv[i + 1]));
+      // Every checkpoint and policy export of this run carries the spec.
+      msspr::core::SetCheckpointMetadata(msspr::ros_bridge::kRobotSpecCheckpointKey, g_robot->text);
+    }
+    out.push_back(a);
+  }
+  return out;
+}
 
 // An evaluation's eval.csv rows: success_<kind><id> per task and mean_success<suffix>.
 void AddSuccessRows(const msspr::agent::TaskSuccessResult& result, const std::string& kind, const std::string& suffix,
@@ -61,6 +90,11 @@ std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list, co
   BagLoadOptions lo;
   lo.split = split;
   lo.images = options.network.obs_mode == "pixels";
+  lo.robot = g_robot.get();
+  if (g_robot) {
+    if (lo.images) throw msspr::core::DatasetError("--robot: robot specs have no images yet (use --obs-mode state)");
+    if (split != "train") throw msspr::core::DatasetError("--robot: a robot's bags have no \"val\" split");
+  }
   BagLoadReport report;
   auto data = std::make_shared<const msspr::core::Dataset>(
       msspr::agent::LoadBagDataset(SplitList(list), lo, &report));
@@ -79,9 +113,16 @@ int main(int argc, char** argv) {
   msspr::core::ReexecWithPassiveOpenMpWait(argv);  // see process_env.h: spinning threads on shared cores
   msspr::core::TrainCliExtensions ext;
   ext.program = "msspr_train";
+  std::vector<std::string> args;
+  try {
+    args = PrepareArgs(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_train: --robot: " << e.what() << "\n";
+    return 2;
+  }
   ext.data_help =
-      "msspr dataset bags (a.bag[,b.bag...]; the \"train\" split) or an OGBench .npz";
-  ext.extra_options = {"eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps",
+      "msspr dataset bags (a.bag[,b.bag...] or a.bag b.bag; the \"train\" split) or an OGBench .npz";
+  ext.extra_options = {"robot", "eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps",
                        "eval-tasks-file"};
   ext.extra_usage =
       "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
@@ -96,6 +137,9 @@ int main(int argc, char** argv) {
       "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
       "DIR/eval/step_<N>.json (the msspr_eval results format); with --eval-tasks-file also\n"
       "success_custom<id> and mean_success_custom, and DIR/eval/step_<N>_custom.json.\n"
+      "\nA robot's own bags (issue 28): --robot SPEC.yaml reads --data's bags of standard messages\n"
+      "  (nav_msgs/Odometry, geometry_msgs/Twist, ...) through the robot interface spec (see\n"
+      "  docs/bring_your_own_robot.md); checkpoints and policy.pt store the spec.\n"
       "Example: rosrun msspr msspr_train --data medium-navigate.bag --scale cpu --steps 20000 \\\n"
       "           --eval-every 2000 --out runs/medium\n";
   ext.load_dataset = [](const std::string& path, bool validation, const msspr::core::MsprOptions& options)
@@ -105,7 +149,7 @@ int main(int argc, char** argv) {
   };
   ext.default_validation = [](const std::string& data_path, const msspr::core::MsprOptions& options)
       -> std::shared_ptr<const msspr::core::Dataset> {
-    if (!AllBags(data_path)) return nullptr;
+    if (!AllBags(data_path) || g_robot) return nullptr;
     try {
       return LoadBags(data_path, "val", options);
     } catch (const msspr::core::DatasetError&) {
@@ -202,5 +246,8 @@ int main(int argc, char** argv) {
       return r;
     };
   };
-  return msspr::core::RunTrainCli(argc, argv, ext);
+  std::vector<char*> cargv;
+  for (auto& a : args) cargv.push_back(a.data());
+  cargv.push_back(nullptr);
+  return msspr::core::RunTrainCli(static_cast<int>(args.size()), cargv.data(), ext);
 }

@@ -8,8 +8,10 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "msspr_core/options.h"
 
@@ -41,7 +43,15 @@ struct CheckpointHeader {
   // Data-parallel runs: every rank's random state (sampler RNG and torch
   // generator, as Trainer writes them), index = rank; empty otherwise.
   std::vector<std::string> rank_states;
+  // Free-form text entries the run was started with (e.g. "robot_spec": the
+  // robot interface spec's YAML that msspr_train --robot used); see
+  // SetCheckpointMetadata.
+  std::map<std::string, std::string> metadata;
 };
+// Adds (or, with an empty value, removes) a metadata entry that every header
+// this process writes carries from now on, beside the header's own entries
+// (which win on a clash). Used by front ends whose data the core does not know.
+void SetCheckpointMetadata(const std::string& key, const std::string& value);
 std::string CheckpointHeaderToYaml(const CheckpointHeader& header);
 // Throws CheckpointError naming `path` when the header is not valid.
 CheckpointHeader ParseCheckpointHeader(const std::string& yaml, const std::string& path);

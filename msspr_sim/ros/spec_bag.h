@@ -1,0 +1,68 @@
+// Training data from a robot's own bags through a robot spec (robot_spec.h):
+// the spec's observation, command and episode topics are read, the
+// observation and action are sampled at the spec's control rate
+// (robot_fields.h: SampleObservation / SampleAction), and each episode comes
+// out as a BagEpisode (dataset_bag.h), so that the training adapter treats it
+// as it treats msspr's own dataset bags. Ticks whose inputs are missing or
+// stale are absent and split the episode (never bridged).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "dataset_bag.h"
+#include "robot_spec.h"
+
+namespace msspr::ros_bridge {
+
+// What a spec extracts from a bag, per observation field (the action counts as
+// one more entry, named by its topic) and in total (msspr_bag_info --robot).
+struct SpecFieldReport {
+  std::string name, topic, type;
+  uint64_t messages = 0;          // decoded messages on the topic
+  double first = 0, last = 0;     // stamps, s
+  double rate_hz = 0;             // (messages - 1) / (last - first)
+  uint64_t gaps = 0;              // consecutive stamps further apart than stale_after
+  double max_gap_s = 0;
+  uint64_t ticks = 0, covered_ticks = 0, stale_ticks = 0;  // control ticks of the episodes
+  uint64_t late = 0;              // received more than stale_after after their stamp
+  uint64_t out_of_order = 0;      // stamped before the message received before them (dropped)
+  uint64_t nonfinite = 0;         // NaN / Inf values: message rejected
+  uint64_t unreadable = 0;        // a joint or index the message lacks: message rejected
+  std::string first_problem;      // the first of those, with its stamp
+  double coverage() const { return ticks ? static_cast<double>(covered_ticks) / ticks : 0.0; }
+};
+
+struct SpecBagReport {
+  uint64_t episodes = 0, ticks = 0, complete_ticks = 0;
+  std::vector<SpecFieldReport> fields;  // observation fields, then the command
+  std::vector<std::string> problems;    // "BAG: topic odom (field 'position'): ..."
+};
+
+// Reads bags of standard messages through a spec. One pass per bag; memory
+// holds the decoded numbers of one bag.
+class SpecBagReader {
+ public:
+  SpecBagReader(RobotSpec spec, std::vector<std::string> bags);
+
+  // Calls fn for each episode (split "train", episode ids counting from 0
+  // across the bags). Throws BagError naming the bag, the topic and the field
+  // when a bag cannot be read, lacks a topic of the spec, or holds it with
+  // another message type.
+  void ForEachEpisode(const std::function<void(BagEpisode&&)>& fn);
+  const SpecBagReport& report() const { return report_; }
+  const RobotSpec& spec() const { return spec_; }
+  // Messages on the spec's observation topics in all bags (an upper bound for reserving).
+  uint64_t CountObservations() const;
+
+ private:
+  void ReadBag(const std::string& path, uint64_t* next_id, const std::function<void(BagEpisode&&)>& fn);
+
+  RobotSpec spec_;
+  std::vector<std::string> bags_;
+  SpecBagReport report_;
+};
+
+}  // namespace msspr::ros_bridge

@@ -1,0 +1,159 @@
+// Test helpers for robot interface specs (issue 28): specs as inline YAML, and
+// synthetic bags that hold the same episodes twice, as msspr's own topics
+// (/msspr/episode, /msspr/observation, /msspr/action, as DatasetBagWriter
+// writes them) and as a robot's standard messages (nav_msgs/Odometry on
+// /msspr/odom, geometry_msgs/Twist on /msspr/cmd_vel, geometry_msgs/PoseStamped
+// on /msspr/goal_pose), the way msspr_sim_node publishes both.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/Twist.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+
+#include "msg_conversion.h"
+#include "msspr/Action.h"
+#include "msspr/EpisodeInfo.h"
+#include "msspr/Observation.h"
+
+namespace msspr::test {
+
+inline std::string WriteTextFile(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+  return path;
+}
+
+// One synthetic point-maze episode: states [T, 2], actions [T, 2] in [-1, 1], a goal.
+struct SynthEpisode {
+  std::vector<float> states, actions;
+  float goal[2] = {0, 0};
+  int length = 0;
+};
+
+inline std::vector<SynthEpisode> MakeSynthEpisodes(int episodes, int length, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  std::vector<SynthEpisode> out;
+  for (int e = 0; e < episodes; ++e) {
+    SynthEpisode ep;
+    ep.length = length;
+    float x = 1.f + 3.f * (u(rng) + 1.f), y = 1.f + 3.f * (u(rng) + 1.f);
+    ep.goal[0] = 10.f * u(rng);
+    ep.goal[1] = 10.f * u(rng);
+    for (int t = 0; t < length; ++t) {
+      const float ax = u(rng), ay = u(rng);
+      ep.states.push_back(x);
+      ep.states.push_back(y);
+      ep.actions.push_back(ax);
+      ep.actions.push_back(ay);
+      x += 0.2f * ax;
+      y += 0.2f * ay;
+    }
+    out.push_back(std::move(ep));
+  }
+  return out;
+}
+
+struct SynthBagOptions {
+  bool native = true;            // msspr's own topics
+  bool standard = true;          // Odometry / Twist / PoseStamped
+  int odom_per_step = 1;         // odometry messages per control step (stamped evenly)
+  double drop_odom = 0.0;        // probability of dropping an odometry message (not at a step's stamp 0)
+  std::vector<int> drop_cmd_steps;  // steps (counted over the whole bag) whose command is dropped
+  bool swap_odom_stamps = false;    // write two odometry messages of episode 0 with swapped stamps
+  double dt = 0.1;
+};
+
+// Writes `eps` back to back with the sim's clock: one tick for each reset,
+// one per step (TickToTime), both kinds of topics at the same stamps.
+inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisode>& eps,
+                          const SynthBagOptions& o = {}) {
+  rosbag::Bag bag(path, rosbag::bagmode::Write);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  uint64_t tick = 0;
+  int global_step = 0;
+  for (size_t e = 0; e < eps.size(); ++e) {
+    const SynthEpisode& ep = eps[e];
+    ++tick;
+    const ros::Time t0 = ros_bridge::TickToTime(tick, o.dt);
+    if (o.native) {
+      msspr::EpisodeInfo info;
+      info.header.stamp = t0;
+      info.episode_id = static_cast<uint32_t>(e);
+      info.env = "pointmaze-medium";
+      info.split = "train";
+      info.start = {ep.states[0], ep.states[1]};
+      info.goal = {ep.goal[0], ep.goal[1]};
+      bag.write("/msspr/episode", t0, info);
+    }
+    if (o.standard) {
+      geometry_msgs::PoseStamped g;
+      g.header.stamp = t0;
+      g.header.frame_id = "odom";
+      g.pose.position.x = ep.goal[0];
+      g.pose.position.y = ep.goal[1];
+      g.pose.orientation.w = 1.0;
+      bag.write("/msspr/goal_pose", t0, g);
+    }
+    for (int t = 0; t < ep.length; ++t, ++global_step) {
+      if (t > 0) ++tick;
+      const ros::Time stamp = ros_bridge::TickToTime(tick, o.dt);
+      const float x = ep.states[2 * t], y = ep.states[2 * t + 1];
+      if (o.native) {
+        msspr::Observation obs;
+        obs.header.stamp = stamp;
+        obs.episode_id = static_cast<uint32_t>(e);
+        obs.step = static_cast<uint32_t>(t);
+        obs.state = {x, y};
+        obs.goal = {ep.goal[0], ep.goal[1]};
+        obs.last = t == ep.length - 1;
+        bag.write("/msspr/observation", stamp, obs);
+        msspr::Action act;
+        act.header.stamp = stamp;
+        act.episode_id = obs.episode_id;
+        act.step = obs.step;
+        act.action = {ep.actions[2 * t], ep.actions[2 * t + 1]};
+        bag.write("/msspr/action", stamp, act);
+      }
+      if (o.standard) {
+        // Odometry at the step's stamp, then (odom_per_step > 1) in between at
+        // the next position linearly interpolated.
+        for (int k = 0; k < o.odom_per_step; ++k) {
+          if (k > 0 && u(rng) < o.drop_odom) continue;
+          const double frac = static_cast<double>(k) / o.odom_per_step;
+          nav_msgs::Odometry od;
+          od.header.stamp = stamp + ros::Duration(frac * o.dt);
+          od.header.frame_id = "odom";
+          od.child_frame_id = "base_link";
+          od.pose.pose.position.x = x + frac * 0.2 * ep.actions[2 * t];
+          od.pose.pose.position.y = y + frac * 0.2 * ep.actions[2 * t + 1];
+          od.pose.pose.orientation.w = 1.0;
+          if (k == 0) {
+            od.pose.pose.position.x = x;
+            od.pose.pose.position.y = y;
+          }
+          ros::Time rec = od.header.stamp;
+          if (o.swap_odom_stamps && e == 0 && t == 3 && k == 0) od.header.stamp = stamp - ros::Duration(2 * o.dt);
+          bag.write("/msspr/odom", rec, od);
+        }
+        if (std::find(o.drop_cmd_steps.begin(), o.drop_cmd_steps.end(), global_step) == o.drop_cmd_steps.end()) {
+          geometry_msgs::Twist tw;
+          tw.linear.x = 2.0 * ep.actions[2 * t];
+          tw.linear.y = 2.0 * ep.actions[2 * t + 1];
+          bag.write("/msspr/cmd_vel", stamp, tw);
+        }
+      }
+    }
+  }
+  bag.close();
+}
+
+}  // namespace msspr::test
