@@ -6,6 +6,7 @@
 #include <memory>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <geometry_msgs/Twist.h>
 #include <ros/ros.h>
 
 #include "msg_conversion.h"
@@ -27,16 +28,26 @@ class ExpertNode {
     pnh.param<std::string>("mode", mode_, "goal");
     pnh.param("noise_std", noise_, mode_ == "goal" ? 0.0 : 0.5);
     pnh.param("seed", seed_, 0);
+    // "action": msspr/Action on action; "cmd_vel": geometry_msgs/Twist on cmd_vel with
+    // linear = cmd_vel_max_speed * action (a robot's command, issue 28).
+    pnh.param<std::string>("command", command_, "action");
+    pnh.param("cmd_vel_max_speed", max_speed_, 2.0);
+    if (command_ != "action" && command_ != "cmd_vel")
+      throw std::invalid_argument("~command must be action or cmd_vel, got '" + command_ + "'");
     ROS_INFO_STREAM("msspr_expert_node parameters:\n  maze: " << maze << "\n  mode: " << mode_
                                                               << "\n  noise_std: " << noise_
-                                                              << "\n  seed: " << seed_);
+                                                              << "\n  seed: " << seed_ << "\n  command: "
+                                                              << command_ << "\n  cmd_vel_max_speed: " << max_speed_);
     map_ = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (mode_ == "goal") {
       goal_expert_ = std::make_unique<msspr::sim::GoalExpert>(*map_, noise_, static_cast<uint64_t>(seed_));
     } else {
       kind_ = msspr::sim::ParseDatasetKind(mode_);  // throws on anything else
     }
-    action_pub_ = nh_.advertise<msspr::Action>("action", 10);
+    if (command_ == "cmd_vel")
+      cmd_vel_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 10);
+    else
+      action_pub_ = nh_.advertise<msspr::Action>("action", 10);
     obs_sub_ = nh_.subscribe("observation", 10, &ExpertNode::OnObservation, this,
                              ros::TransportHints().tcpNoDelay());
     episode_sub_ = nh_.subscribe("episode", 10, &ExpertNode::OnEpisode, this);
@@ -65,7 +76,7 @@ class ExpertNode {
     }
     // A re-sent observation gets the same answer (the noise stream must not advance).
     if (answered_ && obs->episode_id == last_episode_ && obs->step == last_step_) {
-      action_pub_.publish(last_action_);
+      Send(last_action_);
       return;
     }
     Eigen::Vector2d a;
@@ -90,15 +101,28 @@ class ExpertNode {
     msg.episode_id = obs->episode_id;
     msg.step = obs->step;
     msg.action = {static_cast<float>(a.x()), static_cast<float>(a.y())};
-    action_pub_.publish(msg);
+    Send(msg);
     last_action_ = msg;
     last_episode_ = obs->episode_id;
     last_step_ = obs->step;
     answered_ = true;
   }
 
+  void Send(const msspr::Action& msg) {
+    if (command_ != "cmd_vel") {
+      action_pub_.publish(msg);
+      return;
+    }
+    geometry_msgs::Twist t;
+    t.linear.x = max_speed_ * static_cast<double>(msg.action[0]);
+    t.linear.y = max_speed_ * static_cast<double>(msg.action[1]);
+    cmd_vel_pub_.publish(t);
+  }
+
   ros::NodeHandle nh_;
-  std::string mode_;
+  std::string mode_, command_;
+  double max_speed_ = 2.0;
+  ros::Publisher cmd_vel_pub_;
   double noise_ = 0.0;
   int seed_ = 0;
   msspr::sim::DatasetKind kind_ = msspr::sim::DatasetKind::kNavigate;

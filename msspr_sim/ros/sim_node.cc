@@ -3,7 +3,9 @@
 #include <cmath>
 #include <sstream>
 
+#include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
 #include <sensor_msgs/JointState.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -28,6 +30,10 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   o.publish_markers = SimParam(pnh, "publish_markers", o.publish_markers);
   o.path_length = SimParam(pnh, "path_length", o.path_length);
   o.marker_rate = SimParam(pnh, "marker_rate", o.marker_rate);
+  o.standard_topics = SimParam(pnh, "standard_topics", o.standard_topics);
+  o.odom_frame = SimParam(pnh, "odom_frame", o.odom_frame);
+  o.base_frame = SimParam(pnh, "base_frame", o.base_frame);
+  o.cmd_vel_max_speed = SimParam(pnh, "cmd_vel_max_speed", o.cmd_vel_max_speed);
   // Every parameter is checked before the node starts: a bad one is fatal (exit 1).
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
     std::ostringstream s;
@@ -43,6 +49,10 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
   if (o.max_episode_steps < 1) bad("max_episode_steps", ">= 1", o.max_episode_steps);
   if (o.path_length < 2) bad("path_length", ">= 2", o.path_length);
   if (!(o.marker_rate > 0 && std::isfinite(o.marker_rate))) bad("marker_rate", "> 0 (Hz)", o.marker_rate);
+  if (!(o.cmd_vel_max_speed > 0 && std::isfinite(o.cmd_vel_max_speed)))
+    bad("cmd_vel_max_speed", "> 0 (m/s)", o.cmd_vel_max_speed);
+  if (o.odom_frame.empty() || o.base_frame.empty() || o.odom_frame == o.base_frame)
+    bad("odom_frame/~base_frame", "two different non-empty frames", o.odom_frame + "/" + o.base_frame);
   if (o.world_frame.empty() || o.agent_frame.empty() || o.world_frame == o.agent_frame)
     bad("world_frame/~agent_frame", "two different non-empty frames", o.world_frame + "/" + o.agent_frame);
   return o;
@@ -74,6 +84,11 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
   }
   if (options_.publish_markers)
     marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
+  if (options_.standard_topics) {
+    odom_pub_ = nh_.advertise<nav_msgs::Odometry>("odom", 10);
+    goal_pose_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("goal_pose", 1, /*latch=*/true);
+    cmd_vel_sub_ = nh_.subscribe("cmd_vel", 10, &SimNode::OnCmdVel, this, ros::TransportHints().tcpNoDelay());
+  }
   StartRos();
 }
 
@@ -87,6 +102,8 @@ void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
     env_->ResetToTask(task_id, seed);
   path_.clear();
   markers_due_ = true;
+  goal_dirty_ = true;
+  last_position_step_ = -1;
   AnnounceEpisode(task_id, seed, split, ToFloatVector(env_->state()), ToFloatVector(env_->goal()),
                   [this] { return env_->RenderGoal(); });
 }
@@ -104,9 +121,58 @@ msspr::Observation SimNode::MakeObservation() const {
   return o;
 }
 
+void SimNode::OnCmdVel(const geometry_msgs::Twist::ConstPtr& msg) {
+  // The same checks, counters and stepping as an msspr/Action for the current step.
+  auto a = boost::make_shared<msspr::Action>();
+  a->header.stamp = Now();
+  a->episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
+  a->step = EpisodeStep();
+  a->action = {static_cast<float>(msg->linear.x / options_.cmd_vel_max_speed),
+               static_cast<float>(msg->linear.y / options_.cmd_vel_max_speed)};
+  OnAction(a);
+}
+
+void SimNode::PublishStandard(const msspr::Observation& o) {
+  if (goal_dirty_) {
+    geometry_msgs::PoseStamped g;
+    g.header.stamp = o.header.stamp;
+    g.header.frame_id = options_.odom_frame;
+    g.pose.position.x = env_->goal().x();
+    g.pose.position.y = env_->goal().y();
+    g.pose.orientation.w = 1.0;
+    goal_pose_pub_.publish(g);
+    goal_dirty_ = false;
+  }
+  const Eigen::Vector2d p = env_->state();
+  nav_msgs::Odometry od;
+  od.header.stamp = o.header.stamp;
+  od.header.frame_id = options_.odom_frame;
+  od.child_frame_id = options_.base_frame;
+  od.pose.pose.position.x = p.x();
+  od.pose.pose.position.y = p.y();
+  od.pose.pose.orientation.w = 1.0;
+  // Twist in base_link (no rotation: the same axes as odom), from the last step.
+  if (last_position_step_ >= 0 && env_->steps() == last_position_step_ + 1) {
+    const double dt = 0.02 * sim::PointMaze::kFrameSkip;
+    od.twist.twist.linear.x = (p.x() - last_position_.x()) / dt;
+    od.twist.twist.linear.y = (p.y() - last_position_.y()) / dt;
+  }
+  last_position_ = p;
+  last_position_step_ = env_->steps();
+  odom_pub_.publish(od);
+  geometry_msgs::TransformStamped tf;
+  tf.header = od.header;
+  tf.child_frame_id = options_.base_frame;
+  tf.transform.translation.x = p.x();
+  tf.transform.translation.y = p.y();
+  tf.transform.rotation.w = 1.0;
+  tf_.sendTransform(tf);
+}
+
 void SimNode::Publish() {
   const msspr::Observation o = MakeObservation();
   PublishClock(o.header.stamp);
+  if (options_.standard_topics) PublishStandard(o);
   if (robot_) {  // along the URDF's joints: joint k moves by qpos[k] = state[k] along its axis
     std::vector<geometry_msgs::TransformStamped> tfs;
     sensor_msgs::JointState js;
@@ -284,6 +350,7 @@ bool SimNode::SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& re
     return true;
   }
   env_->SetGoal(Eigen::Vector2d(req.goal[0], req.goal[1]));
+  goal_dirty_ = true;
   if (pixels()) {
     const auto goal_img = env_->RenderGoal();
     goal_image_pub_.publish(ToImageMsg(goal_img.data(), options_.image_size,

@@ -12,6 +12,7 @@
 #include <ros/ros.h>
 #include <deque>
 #include <optional>
+#include <geometry_msgs/Twist.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "msspr/Action.h"
@@ -39,6 +40,14 @@ struct SimNodeOptions : SimNodeCommonOptions {  // control_rate 10 Hz: real time
   bool publish_markers = true;             // markers: walls, goal, recent path (latched)
   int path_length = 500;                   // points of the path marker
   double marker_rate = 5.0;                // Hz of wall time, at most
+  // Standard messages beside the native ones (issue 28; config/robots/pointmaze_base.yaml):
+  // nav_msgs/Odometry on odom (odom_frame -> base_frame, and that tf), the goal as
+  // geometry_msgs/PoseStamped on goal_pose (latched, once per episode or goal), and
+  // geometry_msgs/Twist commands on cmd_vel: action = linear.{x,y} / cmd_vel_max_speed.
+  bool standard_topics = true;
+  std::string odom_frame = "odom";
+  std::string base_frame = "base_link";
+  double cmd_vel_max_speed = 2.0;          // m/s of a full action (0.2 m per 0.1 s step)
 };
 
 // Reads ~params into SimNodeOptions, logs every value; throws std::invalid_argument.
@@ -60,6 +69,11 @@ class SimNode : public SimNodeBase {
   }
   void StartInitialEpisode() override;
   void OnWatchdogTick() override { MaybePublishMarkers(false); }
+  uint32_t StandardObservationSubscribers() const override { return odom_pub_.getNumSubscribers(); }
+  uint32_t StandardCommandPublishers() const override { return cmd_vel_sub_.getNumPublishers(); }
+  void OnCmdVel(const geometry_msgs::Twist::ConstPtr& msg);
+  // Odometry, its tf and (when it changed) the goal pose, stamped with the observation.
+  void PublishStandard(const msspr::Observation& o);
 
   // Starts the next episode: task 1..5 or 0 random.
   // With `start`, the episode starts exactly there with `goal` (custom tasks).
@@ -81,6 +95,11 @@ class SimNode : public SimNodeBase {
   ros::Time markers_stamp_;
   ros::WallTime last_marker_time_;
   tf2_ros::TransformBroadcaster tf_;
+  ros::Publisher odom_pub_, goal_pose_pub_;
+  ros::Subscriber cmd_vel_sub_;
+  bool goal_dirty_ = true;
+  Eigen::Vector2d last_position_ = Eigen::Vector2d::Zero();
+  int last_position_step_ = -1;
 };
 
 }  // namespace msspr::ros_bridge

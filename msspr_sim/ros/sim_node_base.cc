@@ -25,6 +25,7 @@ void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* 
   o->action_timeout = param("action_timeout", o->action_timeout);
   o->republish_timeout = param("republish_timeout", o->republish_timeout);
   o->publish_clock = param("publish_clock", o->publish_clock);
+  o->clock_publish_rate = param("clock_publish_rate", o->clock_publish_rate);
   o->auto_reset = param("auto_reset", o->auto_reset);
   o->episode_length = param("episode_length", o->episode_length);
   o->num_episodes = param("num_episodes", o->num_episodes);
@@ -46,6 +47,8 @@ void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* 
     bad("action_timeout", "> 0 (s)", o->action_timeout);
   if (!(o->republish_timeout > 0 && std::isfinite(o->republish_timeout)))
     bad("republish_timeout", "> 0 (s)", o->republish_timeout);
+  if (!(o->clock_publish_rate >= 0 && std::isfinite(o->clock_publish_rate)))
+    bad("clock_publish_rate", ">= 0 (Hz; 0: once per step)", o->clock_publish_rate);
   if (o->image_size < 8 || o->image_size > 1024) bad("image_size", "in 8..1024", o->image_size);
   if (o->episode_length < 2) bad("episode_length", ">= 2", o->episode_length);
   if (o->num_episodes < 0) bad("num_episodes", ">= 0 (0: unbounded)", o->num_episodes);
@@ -82,6 +85,9 @@ void SimNodeBase::StartRos() {
   if (realtime())
     realtime_timer_ =
         nh_.createWallTimer(ros::WallDuration(1.0 / common_.control_rate), &SimNodeBase::OnRealtimeTick, this);
+  if (realtime() && common_.publish_clock && common_.clock_publish_rate > 0)
+    clock_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / common_.clock_publish_rate),
+                                       &SimNodeBase::OnClockTick, this);
   watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(0.05), &SimNodeBase::OnWatchdog, this);
   diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &SimNodeBase::OnDiagnostics, this);
   wait_since_ = ros::WallTime::now();
@@ -92,8 +98,25 @@ void SimNodeBase::StartRos() {
 
 void SimNodeBase::PublishClock(const ros::Time& stamp) {
   if (!common_.publish_clock) return;
+  if (stamp < last_clock_) return;  // the running clock never goes back
+  last_step_wall_ = ros::WallTime::now();
+  last_clock_ = stamp;
   rosgraph_msgs::Clock c;
   c.clock = stamp;
+  clock_pub_.publish(c);
+}
+
+void SimNodeBase::OnClockTick(const ros::WallTimerEvent&) {
+  if (!active_ || paused_) return;
+  // Sim time runs control_rate * control_dt times as fast as wall time, and stops
+  // 1 ms short of the next step's stamp until the step happens.
+  const double speed = common_.control_rate * control_dt_;
+  const double ahead = std::min((ros::WallTime::now() - last_step_wall_).toSec() * speed, control_dt_ - 0.001);
+  const ros::Time t = Now() + ros::Duration(std::max(ahead, 0.0));
+  if (t <= last_clock_) return;
+  last_clock_ = t;
+  rosgraph_msgs::Clock c;
+  c.clock = t;
   clock_pub_.publish(c);
 }
 
@@ -154,8 +177,10 @@ void SimNodeBase::OnRealtimeTick(const ros::WallTimerEvent&) {
 }
 
 bool SimNodeBase::ReadyToStart() {
-  const bool subs_ok = obs_pub_.getNumSubscribers() >= static_cast<uint32_t>(common_.wait_for_subscribers);
-  const bool agent_ok = !common_.auto_reset || action_sub_.getNumPublishers() > 0;
+  const bool subs_ok = obs_pub_.getNumSubscribers() + StandardObservationSubscribers() >=
+                       static_cast<uint32_t>(common_.wait_for_subscribers);
+  const bool agent_ok =
+      !common_.auto_reset || action_sub_.getNumPublishers() + StandardCommandPublishers() > 0;
   if (!subs_ok || !agent_ok) {
     wait_since_ = ros::WallTime::now();
     ROS_INFO_THROTTLE_NAMED(5.0, "msspr_sim", "waiting for %d observation subscriber(s)%s",

@@ -35,6 +35,12 @@ struct SimNodeCommonOptions {
   double action_timeout = 0.5;             // s; an older action becomes zero (real time)
   double republish_timeout = 1.0;          // s; lockstep re-sends an unanswered observation
   bool publish_clock = true;
+  // Real time: /clock also runs on between steps, published at this rate of wall
+  // time (Hz; 0: it moves once per step), at control_rate * control period
+  // times wall speed and never reaching the next step's time (as Gazebo's clock
+  // runs). So that a recorder stamps a command by when it arrived within the
+  // step, not by when its copy of the clock last moved (collect.launch robot:=...).
+  double clock_publish_rate = 0.0;
   // Collection mode: episodes of episode_length steps from the env's random
   // collection resets (seeds sim::EpisodeSeed(seed, k)), the last step's
   // action triggering the next reset; an agent drives them (expert or oracle
@@ -92,6 +98,12 @@ class SimNodeBase {
   virtual void StartInitialEpisode() = 0;
   // Called first at every watchdog tick.
   virtual void OnWatchdogTick() {}
+  // Subscribers of the derived node's standard observation topic (e.g. odom),
+  // counted with those of `observation` against wait_for_subscribers; and
+  // publishers of its standard command topic (e.g. cmd_vel), which count as
+  // an agent in collection mode.
+  virtual uint32_t StandardObservationSubscribers() const { return 0; }
+  virtual uint32_t StandardCommandPublishers() const { return 0; }
 
   bool pixels() const { return common_.observation_mode != "state"; }
   bool realtime() const { return common_.stepping == "realtime"; }
@@ -132,8 +144,10 @@ class SimNodeBase {
   uint64_t tick_ = 0;
   Counters counters_;
 
- private:
+  // An action for the current step, checked and applied as if it came on `action`.
   void OnAction(const msspr::Action::ConstPtr& msg);
+
+ private:
   bool OnReset(msspr::Reset::Request& req, msspr::Reset::Response& res) { return Reset(req, res); }
   bool OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) { return SetGoal(req, res); }
   bool OnPause(msspr::Pause::Request& req, msspr::Pause::Response& res);
@@ -155,7 +169,10 @@ class SimNodeBase {
   bool have_action_ = false;
   ros::WallTime latest_action_time_, last_publish_time_, wait_since_;
   ros::ServiceServer reset_srv_, goal_srv_, pause_srv_;
-  ros::WallTimer realtime_timer_, watchdog_timer_, diag_timer_;
+  ros::WallTimer realtime_timer_, watchdog_timer_, diag_timer_, clock_timer_;
+  ros::WallTime last_step_wall_;  // real time: when the clock last moved to a step
+  ros::Time last_clock_;
+  void OnClockTick(const ros::WallTimerEvent&);
 };
 
 }  // namespace msspr::ros_bridge
