@@ -45,6 +45,11 @@ if [ -x "$BIN/msspr_bench_core" ]; then
   "$BIN/msspr_bench_core" --out "$OUT/core.json"
   echo "[bench] trainer against the eager PyTorch reference"
   scripts/bench_train_vs_reference.sh "$OUT" "$BIN/msspr_bench_core"
+  if [ -x "$BIN/msspr_train" ]; then
+    echo "[bench] msspr_train as a user runs it (metrics.csv), against the reference's best"
+    scripts/bench_train_cli_vs_reference.sh "$OUT" "$BIN" "$OUT/train_vs_reference.json" ||
+      echo "[bench] msspr_train benchmark failed" >&2
+  fi
   # The arm's preset: the critic's gradient reaches the encoders, so 2 threads
   # pipeline only the actor update and the TD target (trainer.pipeline).
   for n in 1 2; do

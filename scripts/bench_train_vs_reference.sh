@@ -3,6 +3,23 @@
 # same configuration (config/pointmaze_cpu.yaml: widths 256, batch 256, one
 # representation update per step), same machine, same run, 1 and 2 threads.
 # Writes $1/train_vs_reference.json. Usage: bench_train_vs_reference.sh OUT_DIR BENCH_CORE_BIN
+#
+# OpenMP wait policy, measured fairly: at each thread count both sides are
+# timed under every policy in MSSPR_BENCH_OMP_POLICIES (default "default PASSIVE";
+# add ACTIVE for a third) and the faster is reported, with every timing and the
+# winner per side in the JSON.
+#   default  OpenMP's own (libgomp: spin 300k iterations, then sleep). For the
+#            reference: OMP_WAIT_POLICY unset. msspr's tools re-execute
+#            themselves with PASSIVE when the variable is unset
+#            (msspr_core/process_env.h), so for them it is OMP_WAIT_POLICY=""
+#            (set, so no re-exec; libgomp reads an empty value as unset, after
+#            a one-line "Invalid value" warning).
+#   PASSIVE  OMP_WAIT_POLICY=PASSIVE: what msspr's tools run with as shipped.
+#   ACTIVE   OMP_WAIT_POLICY=ACTIVE (spin on).
+# The JSON also records GOMP_SPINCOUNT as libgomp reports it (OMP_DISPLAY_ENV)
+# in the process that runs, per side and policy: evidence that the setting
+# reached it (0 passive, 300000 default, 30000000000 active).
+# Other knobs: MSSPR_BENCH_STEPS (timed steps, default 200), MSSPR_REFERENCE.
 set -uo pipefail
 OUT=${1:?out dir}
 BENCH=${2:?msspr_bench_core binary}
@@ -10,11 +27,42 @@ cd "$(dirname "$0")/.."
 REF=${MSSPR_REFERENCE:-$PWD/../shared/tools/mspr_ref.py}
 JSON=$OUT/train_vs_reference.json
 STEPS=${MSSPR_BENCH_STEPS:-200}
-# Both sides with OpenMP's passive wait (msspr's tools set it themselves).
-export OMP_WAIT_POLICY=PASSIVE
+POLICIES=${MSSPR_BENCH_OMP_POLICIES:-default PASSIVE}
+for p in $POLICIES; do
+  case $p in default|PASSIVE|ACTIVE) ;; *) echo "MSSPR_BENCH_OMP_POLICIES: unknown policy '$p' (default|PASSIVE|ACTIVE)" >&2; exit 2 ;; esac
+done
 mkdir -p "$OUT"
+
+# with_policy SIDE POLICY CMD...: runs CMD under POLICY (see above, or "unset");
+# SIDE is ref or msspr.
+with_policy() {
+  local side=$1 pol=$2
+  shift 2
+  case $pol in
+    default) if [ "$side" = msspr ]; then env OMP_WAIT_POLICY= "$@"; else env -u OMP_WAIT_POLICY "$@"; fi ;;
+    unset) env -u OMP_WAIT_POLICY "$@" ;;
+    *) env OMP_WAIT_POLICY="$pol" "$@" ;;
+  esac
+}
+# spin_count SIDE POLICY CMD...: GOMP_SPINCOUNT of the last libgomp start-up in CMD
+# (after msspr's re-exec, if any), as OMP_DISPLAY_ENV=verbose prints it.
+spin_count() {
+  local side=$1 pol=$2
+  shift 2
+  local n
+  n=$(OMP_DISPLAY_ENV=verbose with_policy "$side" "$pol" "$@" 2>&1 >/dev/null |
+        sed -n "s/.*GOMP_SPINCOUNT = '\([0-9]*\)'.*/\1/p" | tail -1)
+  echo "${n:-null}"
+}
+ms_of() {  # the ms_per_step of the last JSON line on stdin, or null
+  /usr/bin/python3 -c 'import json,sys
+lines=[l for l in sys.stdin.read().splitlines() if "ms_per_step" in l]
+print(json.loads(lines[-1])["ms_per_step"] if lines else "null")' 2>/dev/null || echo null
+}
+
 # The CPU-scale pixel step: the shipped preset against the earlier one (Impala CNN on
-# 64x64, batch 32, fp32), synthetic 64x64 images, 1 thread.
+# 64x64, batch 32, fp32), synthetic 64x64 images, 1 thread. Under the caller's
+# OMP_WAIT_POLICY (unset: PASSIVE, as msspr's tools pick it).
 cat > "$OUT/pixels_impala_b32.yaml" <<'YAML'
 network: {obs_mode: pixels, cnn: impala, image_downsample: 1}
 representation: {weight_rew: 0.5, augment_prob: 0.0}
@@ -59,31 +107,78 @@ if ! /usr/bin/python3 -c 'import torch' 2>/dev/null; then
   printf '{"reference": null, "note": "python3-torch not installed"}\n' > "$JSON"
   exit 0
 fi
+
+# What each policy label turns into in each side's process.
+spins=()
+for pol in $POLICIES; do
+  spins+=("{\"side\": \"reference\", \"policy\": \"$pol\", \"gomp_spincount\": $(spin_count ref "$pol" /usr/bin/python3 -c 'import torch')}")
+  spins+=("{\"side\": \"msspr\", \"policy\": \"$pol\", \"gomp_spincount\": $(spin_count msspr "$pol" "$BENCH" --help)}")
+done
+spins+=("{\"side\": \"msspr\", \"policy\": \"unset (as shipped)\", \"gomp_spincount\": $(spin_count msspr unset "$BENCH" --help)}")
+
 rows=()
 for threads in 1 2; do
-  echo "[bench] reference (eager PyTorch), $threads thread(s)"
-  ref_line=$(/usr/bin/python3 "$REF" --time_only --steps $((STEPS + 20)) --episodes 100 --threads "$threads" 2>/dev/null | grep ms_per_step | tail -1)
-  ref_ms=$(printf '%s' "$ref_line" | /usr/bin/python3 -c 'import json,sys; print(json.loads(sys.stdin.read())["ms_per_step"])' 2>/dev/null || echo null)
+  ref_times="{"
+  for pol in $POLICIES; do
+    echo "[bench] reference (eager PyTorch), $threads thread(s), OpenMP wait policy $pol"
+    ms=$(with_policy ref "$pol" /usr/bin/python3 "$REF" --time_only --steps $((STEPS + 20)) --episodes 100 \
+           --threads "$threads" 2>/dev/null | ms_of)
+    ref_times+="\"$pol\": $ms, "
+  done
+  ref_times="${ref_times%, }}"
   for precision in fp32 bf16; do
-    echo "[bench] msspr_core trainer ($precision), $threads thread(s)"
-    ours=$("$BENCH" --config config/pointmaze_cpu.yaml --threads "$threads" --precision "$precision" \
-             --steps "$STEPS" --warmup 20 --out "$OUT/train_${precision}_t$threads.json" 2>/dev/null | tail -1)
-    ours_ms=$(printf '%s' "$ours" | /usr/bin/python3 -c 'import json,sys; print(json.loads(sys.stdin.read())["ms_per_step"])' 2>/dev/null || echo null)
-    rows+=("{\"threads\": $threads, \"precision\": \"$precision\", \"msspr_ms_per_step\": $ours_ms, \"reference_ms_per_step\": $ref_ms}")
-    rm -f "$OUT/train_${precision}_t$threads.json"
+    ours_times="{"
+    for pol in $POLICIES; do
+      echo "[bench] msspr_core trainer ($precision), $threads thread(s), OpenMP wait policy $pol"
+      ms=$(with_policy msspr "$pol" "$BENCH" --config config/pointmaze_cpu.yaml --threads "$threads" \
+             --precision "$precision" --steps "$STEPS" --warmup 20 \
+             --out "$OUT/train_${precision}_t$threads.json" 2>/dev/null | ms_of)
+      ours_times+="\"$pol\": $ms, "
+      rm -f "$OUT/train_${precision}_t$threads.json"
+    done
+    ours_times="${ours_times%, }}"
+    rows+=("{\"threads\": $threads, \"precision\": \"$precision\", \"msspr_ms_by_policy\": $ours_times, \"reference_ms_by_policy\": $ref_times}")
   done
 done
-/usr/bin/python3 - "$JSON" "${rows[@]}" <<'PY'
+/usr/bin/python3 - "$JSON" "$STEPS" "${#spins[@]}" "${spins[@]}" "${rows[@]}" <<'PY'
 import json, sys
-rows = [json.loads(r) for r in sys.argv[2:]]
+path, steps, nspin = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+spins = [json.loads(s) for s in sys.argv[4:4 + nspin]]
+rows = [json.loads(r) for r in sys.argv[4 + nspin:]]
+
+def best(times):
+    ok = {k: v for k, v in times.items() if isinstance(v, (int, float)) and v > 0}
+    if not ok:
+        return None, None
+    k = min(ok, key=ok.get)
+    return k, ok[k]
+
 for r in rows:
+    r['msspr_policy'], r['msspr_ms_per_step'] = best(r['msspr_ms_by_policy'])
+    r['reference_policy'], r['reference_ms_per_step'] = best(r['reference_ms_by_policy'])
     m, ref = r['msspr_ms_per_step'], r['reference_ms_per_step']
     r['ratio'] = round(ref / m, 3) if m and ref else None
+    # msspr as a user runs it: OMP_WAIT_POLICY unset, so its tools pick PASSIVE.
+    shipped = r['msspr_ms_by_policy'].get('PASSIVE')
+    r['msspr_as_shipped_ms_per_step'] = shipped
+    r['ratio_as_shipped'] = round(ref / shipped, 3) if shipped and ref else None
 out = {'config': 'config/pointmaze_cpu.yaml (widths 256, batch 256, repr update every step)',
        'reference': 'shared/tools/mspr_ref.py --time_only (python3-torch, same LibTorch)',
-       'omp_wait_policy': 'PASSIVE', 'rows': rows}
-json.dump(out, open(sys.argv[1], 'w'), indent=2)
+       'timed_steps': steps,
+       'omp_wait_policy': ('each side timed under every policy listed; ms_per_step and ratio use '
+                           'each side\'s faster one (*_policy says which). "default": OpenMP\'s own '
+                           '(reference: OMP_WAIT_POLICY unset; msspr: OMP_WAIT_POLICY="", since its '
+                           'tools re-execute with PASSIVE when it is unset). ratio_as_shipped: msspr '
+                           'with the variable unset (= PASSIVE) against the reference\'s best.'),
+       'policies': list(rows[0]['reference_ms_by_policy']) if rows else [],
+       'gomp_spincount_seen': spins,
+       'rows': rows}
+json.dump(out, open(path, 'w'), indent=2)
+for s in spins:
+    print(f"  {s['side']} under {s['policy']}: GOMP_SPINCOUNT {s['gomp_spincount']}")
 for r in rows:
-    print(f"  {r['threads']} thread(s), {r['precision']}: msspr {r['msspr_ms_per_step']} ms/step, "
-          f"reference {r['reference_ms_per_step']} ms/step, ratio {r['ratio']}")
+    print(f"  {r['threads']} thread(s), {r['precision']}: msspr {r['msspr_ms_per_step']} ms/step "
+          f"({r['msspr_policy']}), reference {r['reference_ms_per_step']} ms/step ({r['reference_policy']}), "
+          f"ratio {r['ratio']} (as shipped {r['ratio_as_shipped']}); "
+          f"msspr {r['msspr_ms_by_policy']}, reference {r['reference_ms_by_policy']}")
 PY
