@@ -62,6 +62,7 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   PolicyNodeOptions o;
   ROS_INFO_NAMED(kLog, "msspr_policy_node parameters:");
   o.checkpoint = Param(pnh, "checkpoint", o.checkpoint);
+  o.robot = Param(pnh, "robot", o.robot);
   o.observation_mode = Param(pnh, "observation_mode", o.observation_mode);
   o.mode = Param(pnh, "mode", o.mode);
   o.rate = Param(pnh, "rate", o.rate);

@@ -27,6 +27,9 @@ namespace msspr::ros_bridge {
 
 struct PolicyNodeOptions {
   std::string checkpoint;                  // required: Trainer::ExportPolicy file or full checkpoint
+  // A robot interface spec (config/robots/*.yaml, issue 28): serve over the robot's
+  // standard topics through it (robot_server.h) instead of msspr/Observation and Action.
+  std::string robot;
   std::string observation_mode = "state";  // state | pixels; must match the checkpoint
   std::string mode = "lockstep";           // lockstep: one action per observation; rate: ~rate Hz
   double rate = 10.0;                      // Hz, rate mode

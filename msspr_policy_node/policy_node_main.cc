@@ -3,12 +3,21 @@
 #include <ros/ros.h>
 
 #include "policy_node.h"
+#include "robot_server.h"
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_policy_node");
   ros::NodeHandle nh, pnh("~");
   try {
     const auto options = msspr::ros_bridge::LoadPolicyNodeOptions(pnh);
+    if (!options.robot.empty()) {
+      // Over the robot's standard topics, through its spec (issue 28).
+      auto spec = msspr::ros_bridge::LoadRobotSpec(options.robot);
+      msspr::ros_bridge::RobotServer server(nh, pnh, options, std::move(spec),
+                                            msspr::ros_bridge::LoadPolicyForNode(options));
+      ros::spin();
+      return 0;
+    }
     msspr::ros_bridge::PolicyNode node(nh, pnh, options, msspr::ros_bridge::LoadPolicyForNode(options));
     ros::spin();
   } catch (const std::exception& e) {

@@ -46,6 +46,8 @@ Evaluates the agent that answers the sim's observations (lockstep), by OGBench's
   --max-steps N       step limit per episode (default 1000; cube-single 200)
   --seed S            evaluation seed (default 0)
   --agent NAME        label written into the results (default "agent")
+  --robot NAME        the robot interface spec the agent is served through, written into the
+                      results as "robot" (demo.launch robot:=NAME; default: none)
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories drawn on the maze, 5 per task (default: none)
   --success-plot F    bar chart of success per task (PNG)
@@ -96,8 +98,10 @@ class SimClient {
   bool HasAgent() const {
     ros::master::V_TopicInfo topics;
     if (!ros::master::getTopics(topics)) return false;
-    const std::string action = ActionTopic();
-    return std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) { return t.name == action; });
+    // msspr/Action on action, or a robot's command on cmd_vel (served through a robot spec).
+    const std::string action = ActionTopic(), cmd_vel = nh_.resolveName("cmd_vel");
+    return std::any_of(topics.begin(), topics.end(),
+                       [&](const ros::master::TopicInfo& t) { return t.name == action || t.name == cmd_vel; });
   }
   int episodes_run() const { return episodes_run_; }
 
@@ -199,7 +203,7 @@ int main(int argc, char** argv) {
     args = std::make_unique<CliArgs>(argc, argv, std::set<std::string>{"help"},
                                      std::set<std::string>{"env", "maze", "tasks", "episodes", "max-steps", "seed",
                                                            "agent", "out", "plot", "success-plot", "step-timeout",
-                                                           "tasks-file", "sims", "sim-ns", "wait"});
+                                                           "tasks-file", "sims", "sim-ns", "wait", "robot"});
     if (args->Has("help")) {
       std::cout << kUsage;
       return 0;
@@ -324,6 +328,7 @@ int main(int argc, char** argv) {
   msspr::sim::EvalReport report;
   report.env = cube ? "cube-single" : "pointmaze-" + maze;
   report.agent = args->Get("agent", "agent");
+  report.robot = args->Get("robot", "");
   report.episodes_per_task = episodes;
   report.max_steps = max_steps;
   report.seed = seed;

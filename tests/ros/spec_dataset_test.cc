@@ -14,6 +14,7 @@
 #include "bag_dataset.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/options.h"
+#include "robot_server.h"
 #include "robot_spec.h"
 #include "robot_spec_test.h"
 #include "torch_test_util.h"
@@ -102,6 +103,18 @@ TEST_F(SpecDatasetTest, TrainWithRobotStoresTheSpecAndBagInfoReports) {
     EXPECT_EQ(stored, spec.text) << file;
     EXPECT_EQ(ros_bridge::CompareRobotSpecs(ros_bridge::ParseRobotSpec(stored, "stored"), spec), "");
   }
+
+  // The policy node refuses to serve it through a spec that disagrees, naming the field.
+  bool stored = false;
+  EXPECT_EQ(ros_bridge::CheckCheckpointAgainstSpec(out + "/policy.pt", spec, 2, 2, &stored), "");
+  EXPECT_TRUE(stored);
+  std::string changed = spec.text;
+  changed.replace(changed.find("scale: 2.0"), 10, "scale: 1.0");
+  const ros_bridge::RobotSpec other_scale = ros_bridge::ParseRobotSpec(changed, "robot.yaml");
+  const std::string refusal = ros_bridge::CheckCheckpointAgainstSpec(out + "/policy.pt", other_scale, 2, 2);
+  EXPECT_NE(refusal.find("action field 0 'velocity' (topic cmd_vel, linear): scale [2] vs [1]"), std::string::npos)
+      << refusal;
+  EXPECT_NE(refusal.find("robot.yaml"), std::string::npos) << refusal;
 
   // msspr_bag_info --robot: per field, and a whole bag exits 0.
   Output info = RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + spec_path_ + " " + Path("a.bag"));

@@ -45,8 +45,9 @@ namespace {
 std::string ReportJson(const MazeMap* map, const EvalReport& r) {
   std::ostringstream j;
   j << std::fixed << std::setprecision(4);
-  j << "{\n  \"env\": \"" << Escape(r.env) << "\",\n  \"agent\": \"" << Escape(r.agent)
-    << "\",\n  \"episodes_per_task\": " << r.episodes_per_task << ",\n  \"max_steps\": " << r.max_steps
+  j << "{\n  \"env\": \"" << Escape(r.env) << "\",\n  \"agent\": \"" << Escape(r.agent) << "\",";
+  if (!r.robot.empty()) j << "\n  \"robot\": \"" << Escape(r.robot) << "\",";
+  j << "\n  \"episodes_per_task\": " << r.episodes_per_task << ",\n  \"max_steps\": " << r.max_steps
     << ",\n  \"seed\": " << r.seed << ",\n  \"tasks\": [\n";
   for (size_t i = 0; i < r.tasks.size(); ++i) {
     const auto& t = r.tasks[i];

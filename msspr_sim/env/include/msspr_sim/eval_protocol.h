@@ -30,6 +30,7 @@ struct TaskResult {
 struct EvalReport {
   std::string env;                   // "pointmaze-medium"
   std::string agent;
+  std::string robot;                 // the robot interface spec served through ("": msspr's own topics)
   int episodes_per_task = 0, max_steps = 1000;
   uint64_t seed = 0;
   std::vector<TaskResult> tasks;

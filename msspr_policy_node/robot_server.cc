@@ -1,0 +1,286 @@
+#include "robot_server.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <torch/torch.h>
+
+#include "msspr_core/checkpoint.h"
+#include "msspr_core/policy.h"
+
+namespace msspr::ros_bridge {
+namespace {
+
+constexpr char kLog[] = "msspr_policy";
+
+}  // namespace
+
+std::string CheckCheckpointAgainstSpec(const std::string& checkpoint, const RobotSpec& spec, int obs_dim,
+                                       int action_dim, bool* stored_spec) {
+  const core::CheckpointFile file = core::ReadCheckpointFile(checkpoint);
+  const core::CheckpointHeader header = core::ParseCheckpointHeader(file.header, checkpoint);
+  auto it = header.metadata.find(kRobotSpecCheckpointKey);
+  if (stored_spec) *stored_spec = it != header.metadata.end();
+  if (it != header.metadata.end()) {
+    RobotSpec stored;
+    try {
+      stored = ParseRobotSpec(it->second, checkpoint + " (stored robot spec)");
+    } catch (const RobotSpecError& e) {
+      return checkpoint + ": its stored robot spec does not load: " + e.what();
+    }
+    const std::string diff = CompareRobotSpecs(stored, spec);
+    if (!diff.empty())
+      return checkpoint + " was trained through robot spec '" + stored.name + "', which differs from " +
+             spec.source + ": " + diff;
+  }
+  if (spec.obs_dim() != obs_dim || spec.action_dim() != action_dim)
+    return spec.source + " assembles observations of " + std::to_string(spec.obs_dim()) + " and actions of " +
+           std::to_string(spec.action_dim()) + " numbers, " + checkpoint + " takes " + std::to_string(obs_dim) +
+           " and gives " + std::to_string(action_dim);
+  return "";
+}
+
+RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNodeOptions& options, RobotSpec spec,
+                         std::shared_ptr<core::Policy> policy)
+    : options_(options), spec_(std::move(spec)), layout_(spec_), nh_(nh), pnh_(pnh), policy_(std::move(policy)) {
+  if (policy_->pixels()) throw std::invalid_argument("~robot: robot specs serve state policies only (no images yet)");
+  bool stored = false;
+  const std::string bad =
+      CheckCheckpointAgainstSpec(options_.checkpoint, spec_, policy_->obs_dim(), policy_->action_dim(), &stored);
+  if (!bad.empty()) throw std::invalid_argument("~robot: " + bad);
+  if (!stored)
+    ROS_WARN_STREAM_NAMED(kLog, options_.checkpoint << " stores no robot spec (trained on msspr's own topics): "
+                                                    << "serving it through " << spec_.source
+                                                    << " on the sizes alone");
+  histories_.resize(layout_.topics.size());
+  last_receipt_.resize(layout_.topics.size());
+  for (size_t k = 0; k < layout_.topics.size(); ++k) {
+    const std::string& type = layout_.topics[k].type;
+    const int i = static_cast<int>(k);
+    if (type == kOdometryType) SubscribeObservation<nav_msgs::Odometry>(i);
+    else if (type == kPoseStampedType) SubscribeObservation<geometry_msgs::PoseStamped>(i);
+    else if (type == kTwistType) SubscribeObservation<geometry_msgs::Twist>(i);
+    else if (type == kTwistStampedType) SubscribeObservation<geometry_msgs::TwistStamped>(i);
+    else if (type == kJointStateType) SubscribeObservation<sensor_msgs::JointState>(i);
+    else if (type == kFloat64MultiArrayType) SubscribeObservation<std_msgs::Float64MultiArray>(i);
+    else if (type == kJointTrajectoryType) SubscribeObservation<trajectory_msgs::JointTrajectory>(i);
+  }
+  if (spec_.goal.source == "pose")
+    goal_sub_ = nh_.subscribe<geometry_msgs::PoseStamped>(
+        spec_.goal.topic, 1, [this](const geometry_msgs::PoseStamped::ConstPtr& m) { OnGoalMessage(*m); });
+  else if (spec_.goal.source == "observation")
+    goal_sub_ = nh_.subscribe<std_msgs::Float64MultiArray>(
+        spec_.goal.topic, 1, [this](const std_msgs::Float64MultiArray::ConstPtr& m) { OnGoalMessage(*m); });
+  if (spec_.action_type == kTwistType) cmd_pub_ = nh_.advertise<geometry_msgs::Twist>(spec_.action_topic, 10);
+  else if (spec_.action_type == kTwistStampedType)
+    cmd_pub_ = nh_.advertise<geometry_msgs::TwistStamped>(spec_.action_topic, 10);
+  else if (spec_.action_type == kFloat64MultiArrayType)
+    cmd_pub_ = nh_.advertise<std_msgs::Float64MultiArray>(spec_.action_topic, 10);
+  else
+    cmd_pub_ = nh_.advertise<trajectory_msgs::JointTrajectory>(spec_.action_topic, 10);
+  diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  const ros::WallDuration period(1.0 / spec_.control_rate);
+  if (options_.mode == "rate") rate_timer_ = nh_.createWallTimer(period, &RobotServer::OnRateTick, this);
+  watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(std::min(0.05, spec_.stale_after / 4)),
+                                        &RobotServer::OnWatchdog, this);
+  diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period), &RobotServer::OnDiagnostics, this);
+  std::ostringstream s;
+  for (const auto& t : layout_.topics) s << " " << t.name << " (" << t.type << ")";
+  ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " through robot spec '"
+                                                           << spec_.name << "' (" << spec_.source << ", "
+                                                           << options_.mode << "): observation from" << s.str()
+                                                           << ", goal from " << spec_.goal.topic << ", "
+                                                           << spec_.action_type << " on " << spec_.action_topic
+                                                           << " at " << spec_.control_rate << " Hz");
+}
+
+RobotServer::~RobotServer() = default;
+
+template <class M>
+void RobotServer::SubscribeObservation(int k) {
+  const bool lockstep = options_.mode == "lockstep";
+  subs_.push_back(nh_.subscribe<M>(
+      layout_.topics[k].name, lockstep ? 10 : 1,
+      [this, k](const boost::shared_ptr<const M>& m) { OnObservationMessage(k, *m); }, ros::VoidConstPtr(),
+      ros::TransportHints().tcpNoDelay()));
+}
+
+template <class M>
+void RobotServer::OnObservationMessage(int k, const M& msg) {
+  ++counters_.messages;
+  TopicSample s;
+  std::string why;
+  bool nonfinite = false;
+  if (!DecodeObservation(spec_, layout_.topics[k], msg, ros::Time::now(), &s, &why, &nonfinite)) {
+    ++counters_.rejected;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected message: " << why);
+    return;
+  }
+  TopicHistory& h = histories_[k];
+  if (!h.samples().empty() && s.stamp < h.samples().back().stamp) {
+    // Stamps going back: a restarted driver or a new episode's clock. Start over.
+    h.Clear();
+  }
+  const ros::Time stamp = s.stamp;
+  h.Add(std::move(s));
+  h.Trim(64);
+  last_receipt_[k] = ros::WallTime::now();
+  if (options_.mode == "lockstep" && k == 0) ActAt(stamp);
+}
+
+template <class M>
+void RobotServer::OnGoalMessage(const M& msg) {
+  std::vector<double> g;
+  std::string why;
+  if (!DecodeGoal(spec_, msg, &g, &why)) {
+    ++counters_.rejected;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected goal: " << why);
+    return;
+  }
+  goal_.assign(g.begin(), g.end());
+}
+
+void RobotServer::OnRateTick(const ros::WallTimerEvent&) { ActAt(ros::Time::now()); }
+
+void RobotServer::OnWatchdog(const ros::WallTimerEvent&) {
+  // Inputs are stale when any observation topic has been silent longer than
+  // stale_after (wall time), or there is no goal yet.
+  const ros::WallTime now = ros::WallTime::now();
+  std::string why;
+  for (size_t k = 0; k < layout_.topics.size() && why.empty(); ++k) {
+    const SpecField& f = spec_.observation[layout_.topics[k].fields[0]];
+    if (histories_[k].samples().empty())
+      why = "topic " + layout_.topics[k].name + " (field '" + f.name + "'): no message yet";
+    else if ((now - last_receipt_[k]).toSec() > spec_.stale_after)
+      why = "topic " + layout_.topics[k].name + " (field '" + f.name + "'): silent for " +
+            std::to_string((now - last_receipt_[k]).toSec()) + " s (stale_after " +
+            std::to_string(spec_.stale_after) + " s)";
+  }
+  if (why.empty() && goal_.empty() && !spec_.goal.topic.empty()) why = "no goal yet on " + spec_.goal.topic;
+  if (!why.empty()) {
+    // Rate mode: a stop every control period while stale. Lockstep: one stop when
+    // inputs go stale (every command steps a lockstep simulator once).
+    if (options_.mode == "rate" ? (now - last_stop_).toSec() >= 1.0 / spec_.control_rate : !stale_)
+      PublishStop(why);
+  } else if (stale_ && options_.mode == "lockstep") {
+    stale_ = false;  // inputs are back; the next message acts
+    ROS_INFO_STREAM_NAMED(kLog, "inputs fresh again: serving");
+  }
+}
+
+void RobotServer::ActAt(const ros::Time& t) {
+  std::vector<float> obs;
+  const std::string why = SampleObservation(spec_, layout_, histories_, t, ros::Time(0, 0), &obs);
+  if (!why.empty()) {
+    PublishStop(why);
+    return;
+  }
+  if (goal_.empty()) {
+    PublishStop("no goal yet on " + spec_.goal.topic);
+    return;
+  }
+  if (stale_) {
+    stale_ = false;
+    ROS_INFO_STREAM_NAMED(kLog, "inputs fresh again: serving");
+  }
+  torch::Tensor a;
+  try {
+    torch::NoGradGuard no_grad;
+    a = policy_->Act(torch::from_blob(obs.data(), {static_cast<int64_t>(obs.size())}, torch::kFloat32),
+                     torch::from_blob(goal_.data(), {static_cast<int64_t>(goal_.size())}, torch::kFloat32))
+            .to(torch::kCPU)
+            .contiguous();
+  } catch (const c10::Error& e) {
+    ++counters_.inference_errors;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, "inference failed: " << e.what_without_backtrace());
+    return;
+  }
+  std::vector<double> av(a.data_ptr<float>(), a.data_ptr<float>() + a.numel());
+  for (double v : av)
+    if (!std::isfinite(v)) {
+      ++counters_.inference_errors;
+      PublishStop("the policy returned NaN / Inf");
+      return;
+    }
+  PublishCommand(av);
+}
+
+void RobotServer::PublishCommand(const std::vector<double>& a) {
+  if (spec_.action_type == kTwistType) {
+    cmd_pub_.publish(MakeTwist(spec_, a));
+  } else if (spec_.action_type == kTwistStampedType) {
+    geometry_msgs::TwistStamped m;
+    m.header.stamp = ros::Time::now();
+    m.twist = MakeTwist(spec_, a);
+    cmd_pub_.publish(m);
+  } else if (spec_.action_type == kFloat64MultiArrayType) {
+    cmd_pub_.publish(MakeFloat64MultiArray(spec_, a));
+  } else {
+    trajectory_msgs::JointTrajectory m = MakeJointTrajectory(spec_, a);
+    m.header.stamp = ros::Time::now();
+    cmd_pub_.publish(m);
+  }
+  ++counters_.commands;
+}
+
+void RobotServer::PublishStop(const std::string& why) {
+  if (!stale_) {
+    stale_ = true;
+    ++counters_.stale_events;
+    ROS_WARN_STREAM_NAMED(kLog, "inputs stale, sending stop commands: " << why);
+  }
+  stale_why_ = why;
+  last_stop_ = ros::WallTime::now();
+  if (spec_.action_type == kTwistType) {
+    cmd_pub_.publish(geometry_msgs::Twist());
+  } else if (spec_.action_type == kTwistStampedType) {
+    geometry_msgs::TwistStamped m;
+    m.header.stamp = ros::Time::now();
+    cmd_pub_.publish(m);
+  } else if (spec_.action_type == kFloat64MultiArrayType) {
+    std_msgs::Float64MultiArray m = MakeFloat64MultiArray(spec_, std::vector<double>(spec_.action_dim(), 0.0));
+    std::fill(m.data.begin(), m.data.end(), 0.0);
+    cmd_pub_.publish(m);
+  } else {
+    // An empty trajectory makes joint_trajectory_controller stop and hold its position.
+    trajectory_msgs::JointTrajectory m;
+    m.header.stamp = ros::Time::now();
+    for (const auto& f : spec_.action) m.joint_names.insert(m.joint_names.end(), f.joints.begin(), f.joints.end());
+    cmd_pub_.publish(m);
+  }
+  ++counters_.stops;
+}
+
+void RobotServer::OnDiagnostics(const ros::WallTimerEvent&) {
+  diagnostic_msgs::DiagnosticArray arr;
+  arr.header.stamp = ros::Time::now();
+  diagnostic_msgs::DiagnosticStatus st;
+  st.name = ros::this_node::getName() + ": robot " + spec_.name;
+  st.hardware_id = spec_.name;
+  st.level = stale_ ? diagnostic_msgs::DiagnosticStatus::WARN : diagnostic_msgs::DiagnosticStatus::OK;
+  st.message = stale_ ? "inputs stale, stopping: " + stale_why_ : "serving";
+  auto kv = [&](const std::string& k, const std::string& v) {
+    diagnostic_msgs::KeyValue x;
+    x.key = k;
+    x.value = v;
+    st.values.push_back(x);
+  };
+  kv("spec", spec_.source);
+  kv("stale", stale_ ? "true" : "false");
+  kv("messages", std::to_string(counters_.messages));
+  kv("rejected", std::to_string(counters_.rejected));
+  kv("commands", std::to_string(counters_.commands));
+  kv("stop_commands", std::to_string(counters_.stops));
+  kv("stale_events", std::to_string(counters_.stale_events));
+  kv("inference_errors", std::to_string(counters_.inference_errors));
+  const ros::WallTime now = ros::WallTime::now();
+  for (size_t k = 0; k < layout_.topics.size(); ++k)
+    kv("age_s " + layout_.topics[k].name,
+       histories_[k].samples().empty() ? "none" : std::to_string((now - last_receipt_[k]).toSec()));
+  arr.status.push_back(st);
+  diag_pub_.publish(arr);
+}
+
+}  // namespace msspr::ros_bridge

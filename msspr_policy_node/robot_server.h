@@ -1,0 +1,80 @@
+// msspr_policy_node with ~robot SPEC.yaml (issue 28): serves a policy over a
+// robot's standard topics through its robot interface spec (robot_spec.h). It
+// subscribes to the spec's observation and goal topics, assembles the
+// observation as training did (robot_fields.h: SampleObservation), and
+// publishes the spec's command type: in lockstep mode once per message of the
+// first observation topic (at its stamp), in rate mode at the spec's control
+// rate (at ros::Time::now()). A watchdog sends a stop command (zero twist,
+// zero array, or an empty trajectory: hold) at the control rate while inputs
+// are stale, as diff_drive_controller's cmd_vel_timeout does, says so on
+// /diagnostics, and serves again once they return. This header does not
+// include torch.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <ros/ros.h>
+
+#include "policy_node.h"
+#include "robot_fields.h"
+#include "robot_spec.h"
+
+namespace msspr::ros_bridge {
+
+// "" when `checkpoint` may be served through `spec`; otherwise why not: the
+// checkpoint stores another spec (naming the first field that differs), or its
+// observation / action sizes are not the spec's. *stored_spec (optional) tells
+// whether the checkpoint carries a spec (msspr_train --robot); one without a
+// spec (trained on msspr's own topics) is served when the sizes agree.
+// Throws std::runtime_error (core::CheckpointError) naming an unreadable file.
+std::string CheckCheckpointAgainstSpec(const std::string& checkpoint, const RobotSpec& spec, int obs_dim,
+                                       int action_dim, bool* stored_spec = nullptr);
+
+class RobotServer {
+ public:
+  // Throws std::invalid_argument when the checkpoint disagrees with the spec.
+  RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNodeOptions& options, RobotSpec spec,
+              std::shared_ptr<core::Policy> policy);
+  ~RobotServer();
+
+  struct Counters {
+    uint64_t messages = 0, rejected = 0, commands = 0, stops = 0, stale_events = 0, inference_errors = 0;
+  };
+
+ private:
+  template <class M>
+  void SubscribeObservation(int k);
+  template <class M>
+  void OnObservationMessage(int k, const M& msg);
+  template <class M>
+  void OnGoalMessage(const M& msg);
+  void OnRateTick(const ros::WallTimerEvent&);
+  void OnWatchdog(const ros::WallTimerEvent&);
+  void OnDiagnostics(const ros::WallTimerEvent&);
+  // Samples the observation at t and acts; a stale one sends a stop instead.
+  void ActAt(const ros::Time& t);
+  void PublishCommand(const std::vector<double>& a);
+  void PublishStop(const std::string& why);
+
+  PolicyNodeOptions options_;
+  RobotSpec spec_;
+  SpecLayout layout_;
+  ros::NodeHandle nh_, pnh_;
+  std::shared_ptr<core::Policy> policy_;
+  std::vector<ros::Subscriber> subs_;
+  ros::Subscriber goal_sub_;
+  ros::Publisher cmd_pub_, diag_pub_;
+  ros::WallTimer rate_timer_, watchdog_timer_, diag_timer_;
+  std::vector<TopicHistory> histories_;
+  std::vector<ros::WallTime> last_receipt_;  // per observation topic (wall clock)
+  std::vector<float> goal_;                  // [obs_dim] (empty: none yet)
+  bool stale_ = false;                       // the watchdog is stopping the robot
+  std::string stale_why_;
+  ros::WallTime last_stop_;
+  Counters counters_;
+};
+
+}  // namespace msspr::ros_bridge
