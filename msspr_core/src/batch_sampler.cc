@@ -152,6 +152,7 @@ ChunkIndices BatchSampler::SampleChunks(int batch, std::mt19937_64& rng) const {
   c.action_mask.resize(c.actions.size());
   c.goal.resize(batch);
   c.mc_return.resize(int64_t{batch} * H);
+  c.goal_ahead.resize(c.mc_return.size());
   for (int b = 0; b < batch; ++b) {
     const int64_t t = SampleStart(rng);
     const int64_t end = data_.trajectory_end(t);
@@ -165,7 +166,11 @@ ChunkIndices BatchSampler::SampleChunks(int batch, std::mt19937_64& rng) const {
     }
     const int64_t g = SampleValueGoal(t, rng);
     c.goal[b] = g;
-    for (int h = 0; h < H; ++h) c.mc_return[b * H + h] = MonteCarloReturn(std::min<int64_t>(t + h, end), g);
+    for (int h = 0; h < H; ++h) {
+      const int64_t s = std::min<int64_t>(t + h, end);
+      c.mc_return[b * H + h] = MonteCarloReturn(s, g);
+      c.goal_ahead[b * H + h] = (g >= s && g <= end) ? 1.0f : 0.0f;
+    }
   }
   return c;
 }

@@ -348,6 +348,8 @@ void ValidateOptions(const MsprOptions& o) {
   Require(r.horizon >= 1, "representation.horizon must be >= 1");
   Require(r.reward_loss == "two_hot" || r.reward_loss == "mse",
           "representation.reward_loss must be 'two_hot' or 'mse'");
+  Require(r.reward_goals == "all" || r.reward_goals == "trajectory",
+          "representation.reward_goals must be 'all' or 'trajectory'");
   Require(r.updates_per_step >= 0, "representation.updates_per_step must be >= 0");
   Require(r.augment_prob >= 0 && r.augment_prob <= 1, "representation.augment_prob in [0, 1]");
   Require(r.augment_pad >= 0 && r.augment_pad < 32, "representation.augment_pad must be in [0, 32)");

@@ -164,6 +164,38 @@ TEST(BatchSamplerTest, ChunkMasksAtTrajectoryEnds) {
   EXPECT_EQ(c1.num_actions, H);
 }
 
+// goal_ahead marks the chunk steps whose goal lies ahead in their own
+// trajectory: exactly those whose Monte Carlo return is not the floor
+// -1/(1-gamma) (a goal behind, or in another trajectory, gets the floor).
+TEST(BatchSamplerTest, GoalAheadMarksGoalsWithAKnownReturn) {
+  const Dataset d = MakeDataset({20, 30, 25});
+  const double gamma = 0.9;
+  const int H = 4;
+  BatchSampler s(d, RelabelOptions(), gamma, 3, H, 2);
+  std::mt19937_64 rng(3);
+  const ChunkIndices c = s.SampleChunks(2000, rng);
+  ASSERT_EQ(c.goal_ahead.size(), c.mc_return.size());
+  int ahead = 0, not_ahead = 0;
+  for (int b = 0; b < c.batch; ++b) {
+    const int64_t t = c.states[b * c.num_states], g = c.goal[b], end = d.trajectory_end(t);
+    for (int h = 0; h < H; ++h) {
+      const int64_t st = std::min<int64_t>(t + h, end);
+      const bool expect = g >= st && g <= end;
+      EXPECT_EQ(c.goal_ahead[b * H + h], expect ? 1.0f : 0.0f);
+      if (expect) {
+        ++ahead;
+        EXPECT_GT(c.mc_return[b * H + h], static_cast<float>(-1 / (1 - gamma)) + 1e-4f);
+      } else {
+        ++not_ahead;
+        EXPECT_FLOAT_EQ(c.mc_return[b * H + h], static_cast<float>(-1 / (1 - gamma)));
+      }
+    }
+  }
+  // Both kinds occur with the default relabelling (30% random goals).
+  EXPECT_GT(ahead, 1000);
+  EXPECT_GT(not_ahead, 1000);
+}
+
 TEST(BatchSamplerTest, SameSeedSameBatch) {
   const Dataset d = MakeDataset({40, 50, 60});
   BatchSampler s(d, RelabelOptions(), 0.99, 3, 5, 5);

@@ -38,13 +38,13 @@ TEST_P(LearningTest, PointInSquareReachesGoals) {
   // Overrides for experiments (the asserted configuration uses neither).
   if (const char* s = std::getenv("MSSPR_LEARNING_STEPS")) o.trainer.steps = std::atoll(s);
   if (const char* s = std::getenv("MSSPR_LEARNING_SEED")) o.trainer.seed = std::strtoull(s, nullptr, 10);
+  o.trainer.log_every = 500;  // before the Trainer, which copies its options
   Trainer trainer(o, ExpertDataset(300, 40, 1));
   Policy policy = trainer.MakePolicy();
   const double untrained = SuccessRate(policy, 100, 123);
   const auto start = std::chrono::steady_clock::now();
   TrainLoopOptions loop;
   loop.quiet = std::getenv("MSSPR_LEARNING_VERBOSE") == nullptr;
-  o.trainer.log_every = 500;
   trainer.Train(loop, [](Policy& p, int64_t step) -> EvalResult {
     return {{"success", SuccessRate(p, 50, 1000 + step)}};
   });

@@ -403,6 +403,48 @@ TEST(TrainerTest, BatchedRepresentationLossEqualsStepByStepEq1) {
   }
 }
 
+// representation.reward_goals "trajectory": f_rew is trained only on goals
+// ahead in the chunk's own trajectory. The reward term then ignores the
+// returns given to every other goal, and equals the term of "all" on a
+// batch where every goal is ahead.
+TEST(TrainerTest, RewardGoalsTrajectoryMasksGoalsOutsideTheTrajectory) {
+  MsprOptions o = TinyOptions();
+  o.representation.reward_goals = "trajectory";
+  Trainer t(o, RandomStateDataset(5, 9));
+  MsprOptions all_o = TinyOptions();
+  Trainer all(all_o, RandomStateDataset(5, 9));
+  ChunkBatch c = t.SampleChunks();
+  const float ahead = c.goal_ahead.sum().item<float>();
+  ASSERT_GT(ahead, 0.0f);
+  ASSERT_LT(ahead, static_cast<float>(c.goal_ahead.numel())) << "the batch needs goals of both kinds";
+  torch::NoGradGuard no_grad;
+  LossInfo before, after, all_info;
+  t.RepresentationLoss(c, &before);
+  // Change the returns of the goals that are not ahead: no effect.
+  ChunkBatch changed = c;
+  changed.mc_return = torch::where(c.goal_ahead > 0, c.mc_return, torch::zeros_like(c.mc_return));
+  t.RepresentationLoss(changed, &after);
+  EXPECT_DOUBLE_EQ(before.rew, after.rew);
+  // "all" (the same initial weights: same seed) sees the change.
+  LossInfo all_before, all_after;
+  all.RepresentationLoss(c, &all_before);
+  all.RepresentationLoss(changed, &all_after);
+  EXPECT_GT(std::abs(all_before.rew - all_after.rew), 1e-3);
+  // With every goal ahead, the two settings give the same term.
+  ChunkBatch every = c;
+  every.goal_ahead = torch::ones_like(c.goal_ahead);
+  t.RepresentationLoss(every, &after);
+  all.RepresentationLoss(every, &all_info);
+  EXPECT_NEAR(after.rew, all_info.rew, 1e-6 * std::abs(all_info.rew));
+  EXPECT_THROW(
+      {
+        MsprOptions bad = TinyOptions();
+        bad.representation.reward_goals = "some";
+        ValidateOptions(bad);
+      },
+      OptionsError);
+}
+
 TEST(TrainerTest, ZeroWeightTermsAreNotComputed) {
   Trainer d(TinyOptions("D"), RandomStateDataset());
   LossInfo info;
@@ -524,7 +566,11 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
   }
 }
 
-TEST(TrainerTest, PipelineIsOffWhereItWouldChangeTheResult) {
+// trainer.pipeline: "auto" pipelines on a CPU with 2 or more threads (with
+// or without the critic's gradient into the encoders, both bit-equal to
+// the sequential schedule: PipelinedStepsEqualSequentialSteps), "on" at any
+// thread count, "off" never; baseline agents are never pipelined.
+TEST(TrainerTest, PipelineFollowsTheOptionAndTheThreadCount) {
   if (!torch::Device(TinyOptions().trainer.device).is_cpu()) GTEST_SKIP() << "CPU only";
   ThreadCountGuard guard;
   torch::set_num_threads(2);
@@ -532,13 +578,17 @@ TEST(TrainerTest, PipelineIsOffWhereItWouldChangeTheResult) {
   o.trainer.pipeline = "off";
   EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());
   o.trainer.pipeline = "auto";
-  o.agent.critic_grad_to_encoder = true;  // pipelined too (actor and TD target beside)
+  EXPECT_TRUE(Trainer(o, RandomStateDataset()).pipelined());
+  o.agent.critic_grad_to_encoder = true;
   EXPECT_TRUE(Trainer(o, RandomStateDataset()).pipelined());
   torch::set_num_threads(1);
   o.agent.critic_grad_to_encoder = false;
   EXPECT_FALSE(Trainer(o, RandomStateDataset()).pipelined());
   o.trainer.pipeline = "on";
   EXPECT_TRUE(Trainer(o, RandomStateDataset()).pipelined());
+  MsprOptions gcbc = o;
+  gcbc.baseline.agent = "gcbc";
+  EXPECT_FALSE(Trainer(gcbc, RandomStateDataset()).pipelined());
   o.trainer.pipeline = "sometimes";
   EXPECT_THROW(ValidateOptions(o), OptionsError);
 }

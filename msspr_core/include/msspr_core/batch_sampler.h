@@ -47,6 +47,8 @@ struct ChunkIndices {
   std::vector<int64_t> goal;         // [B] value-relabelled goal of the chunk
   std::vector<float> mc_return;      // [B, H] Monte Carlo return from s_{t+h} to the goal along
                                      //        the trajectory; -1/(1-gamma) when never reached
+  std::vector<float> goal_ahead;     // [B, H] 1 when the goal lies ahead of s_{t+h} in its own
+                                     //        trajectory (so mc_return is its true return)
 };
 
 class BatchSampler {

@@ -94,6 +94,11 @@ struct RepresentationOptions {
   double weight_goal_dyn = 0.1;    // lambda_g-dyn (0.3 pixel manipulation)
   double weight_goal_act = 0.1;    // lambda_g-act
   std::string reward_loss = "two_hot";  // "two_hot" (cross-entropy) or "mse" (on the decoded value)
+  // Which chunk goals train f_rew: "all" (the paper: a goal outside the
+  // chunk's trajectory, or behind it, gets the return -1/(1-gamma)) or
+  // "trajectory" (only goals ahead in the chunk's own trajectory, whose
+  // return is known; on stitch data most other goals are reachable).
+  std::string reward_goals = "all";
   double lr = 1e-4;                // AdamW learning rate of encoders + predictors
   double weight_decay = 1e-4;      // AdamW weight decay
   double updates_per_step = 1.0;   // representation updates per training step (fractions accumulate)
@@ -111,6 +116,7 @@ struct RepresentationOptions {
     v("weight_goal_dyn", weight_goal_dyn);
     v("weight_goal_act", weight_goal_act);
     v("reward_loss", reward_loss);
+    v("reward_goals", reward_goals);
     v("lr", lr);
     v("weight_decay", weight_decay);
     v("updates_per_step", updates_per_step);

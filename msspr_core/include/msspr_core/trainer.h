@@ -51,6 +51,7 @@ struct ChunkBatch {
   torch::Tensor action_mask;  // [B, A] float32
   torch::Tensor goal;         // [B, ...]
   torch::Tensor mc_return;    // [B, H] float32 Monte Carlo return to the goal
+  torch::Tensor goal_ahead;   // [B, H] float32 1 when the goal is ahead in the same trajectory
 };
 
 // Latest losses (NaN when not computed in that step).

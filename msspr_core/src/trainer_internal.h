@@ -1,0 +1,100 @@
+// Helpers shared by the trainer's source files (trainer*.cc, mspr_losses.cc):
+// float32 casts, gradient clearing, the bf16 autocast scope, per-thread
+// OpenMP thread counts and the representation-update credit test.
+#pragma once
+
+#include <ATen/autocast_mode.h>
+#include <torch/torch.h>
+#include <torch/version.h>
+
+// The OpenMP runtime that LibTorch loaded (weak: null without one). Its
+// thread count is per calling thread, unlike at::set_num_threads, which is
+// process-wide and also drops oneDNN's cached convolution primitives.
+extern "C" {
+__attribute__((weak)) void omp_set_num_threads(int);
+__attribute__((weak)) int omp_get_max_threads(void);
+}
+
+namespace msspr {
+namespace core {
+namespace trainer_internal {
+
+inline torch::Tensor F32(const torch::Tensor& t) { return t.to(torch::kFloat32); }
+
+// Sets gradients to undefined so that optimisers skip parameters that the
+// next backward does not reach.
+inline void ClearGrads(torch::nn::Module& m) {
+  for (auto& p : m.parameters()) p.mutable_grad() = torch::Tensor();
+}
+
+// Whether an accumulated representation credit calls for an update.
+inline bool CreditDue(double credit) { return credit >= 1.0 - 1e-9; }
+
+// trainer.precision = bf16: matrix products and convolutions run in
+// bfloat16 inside this scope (autocast); backward runs outside it, as
+// PyTorch recommends. A no-op for fp32.
+class PrecisionScope {
+ public:
+  PrecisionScope(bool bf16, const torch::Device& device)
+      : bf16_(bf16), type_(device.is_cuda() ? at::kCUDA : at::kCPU) {
+    if (!bf16_) return;
+    prev_ = Enabled(type_);
+    SetDtype(type_, at::kBFloat16);
+    SetEnabled(type_, true);
+  }
+  ~PrecisionScope() {
+    if (!bf16_) return;
+    SetEnabled(type_, prev_);
+    at::autocast::clear_cache();
+  }
+  PrecisionScope(const PrecisionScope&) = delete;
+  PrecisionScope& operator=(const PrecisionScope&) = delete;
+
+ private:
+  // LibTorch 2.4 replaced the per-device functions by ones taking the device
+  // type (the old ones warn on every call there).
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
+  static bool Enabled(at::DeviceType t) { return at::autocast::is_autocast_enabled(t); }
+  static void SetEnabled(at::DeviceType t, bool on) { at::autocast::set_autocast_enabled(t, on); }
+  static void SetDtype(at::DeviceType t, at::ScalarType d) { at::autocast::set_autocast_dtype(t, d); }
+#else
+  static bool Enabled(at::DeviceType t) {
+    return t == at::kCUDA ? at::autocast::is_enabled() : at::autocast::is_cpu_enabled();
+  }
+  static void SetEnabled(at::DeviceType t, bool on) {
+    if (t == at::kCUDA) at::autocast::set_enabled(on);
+    else at::autocast::set_cpu_enabled(on);
+  }
+  static void SetDtype(at::DeviceType t, at::ScalarType d) {
+    if (t == at::kCUDA) at::autocast::set_autocast_gpu_dtype(d);
+    else at::autocast::set_autocast_cpu_dtype(d);
+  }
+#endif
+  bool bf16_;
+  at::DeviceType type_;
+  bool prev_ = false;
+};
+
+// Sets the calling thread's intra-op thread count for a scope (no-op for
+// n <= 0 or without OpenMP).
+class ThreadCountScope {
+ public:
+  explicit ThreadCountScope(int n) {
+    if (n <= 0 || omp_set_num_threads == nullptr || omp_get_max_threads == nullptr) return;
+    prev_ = omp_get_max_threads();
+    if (prev_ != n) omp_set_num_threads(n);
+    else prev_ = 0;
+  }
+  ~ThreadCountScope() {
+    if (prev_ > 0) omp_set_num_threads(prev_);
+  }
+  ThreadCountScope(const ThreadCountScope&) = delete;
+  ThreadCountScope& operator=(const ThreadCountScope&) = delete;
+
+ private:
+  int prev_ = 0;
+};
+
+}  // namespace trainer_internal
+}  // namespace core
+}  // namespace msspr
