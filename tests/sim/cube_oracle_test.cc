@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -78,6 +79,59 @@ TEST(CubeOracleTest, SameSeedSameActions) {
   c.ResetForCollection(11);
   CubePlayOracle oc(6);
   EXPECT_NE(oc.Act(c), CubePlayOracle(5).Act(c));
+}
+
+// The angle between two yaws, modulo 2 pi, in [0, pi].
+double YawGap(double a, double b) {
+  const double d = std::fmod(std::abs(a - b), 2 * M_PI);
+  return std::min(d, 2 * M_PI - d);
+}
+
+// OGBench's shortest_yaw takes both yaws in [0, 2 pi): the chosen pick yaw
+// is one of the cube's four symmetric yaws and never more than pi/4 from
+// the effector's, for every pair of yaws in (-pi, pi]. (Taking only the
+// effector's yaw in [0, 2 pi) asked for turns of up to pi when the cube's
+// yaw was negative.)
+TEST(CubeOracleTest, PickYawIsTheCubesSymmetricYawNearestTheEffector) {
+  double worst = 0;
+  for (int i = 0; i <= 72; ++i) {
+    for (int j = 0; j <= 72; ++j) {
+      const double effector = -M_PI + i * 2 * M_PI / 72, cube = -M_PI + j * 2 * M_PI / 72;
+      const double yaw = NearestSymmetricYaw(cube, effector);
+      // A symmetric yaw of the cube: a multiple of pi/2 away from it.
+      const double k = (yaw - cube) / (M_PI / 2);
+      ASSERT_NEAR(k, std::round(k), 1e-9) << "effector " << effector << " cube " << cube;
+      worst = std::max(worst, YawGap(yaw, effector));
+    }
+  }
+  EXPECT_LE(worst, M_PI / 4 + 1e-9);
+  EXPECT_NEAR(NearestSymmetricYaw(-3.0, 3.0), -3.0 + 2 * M_PI, 1e-12);
+  // The case the effector-only window got wrong: effector -0.1 (6.18 in
+  // [0, 2 pi)) and cube -3.0 asked for -3.0 + 2 pi = 3.28, half a turn away.
+  EXPECT_NEAR(NearestSymmetricYaw(-3.0, -0.1), -3.0 + 3 * M_PI, 1e-12);
+  EXPECT_NEAR(YawIn0To2Pi(-0.5), 2 * M_PI - 0.5, 1e-12);
+  EXPECT_NEAR(YawIn0To2Pi(7.0), 7.0 - 2 * M_PI, 1e-12);
+}
+
+// Over many collection resets, the noise-free plan's pick keyframe (the
+// plan sample at the cube) turns the wrist by at most pi/4 from where it
+// started, and its place keyframe by at most pi/4 from the pick's.
+TEST(CubeOracleTest, PlansNeverAskForMoreThanAnEighthTurn) {
+  CubeEnv env(EnvOptions());
+  CubePlayOracleOptions o;
+  o.noise_scale = 0;
+  o.time_jitter = 0;
+  for (uint64_t seed = 1; seed <= 100; ++seed) {
+    env.ResetForCollection(seed);
+    CubePlayOracle oracle(seed, o);
+    oracle.Act(env);
+    const auto& plan = oracle.plan();
+    // Keyframes without jitter: pick_start at 1.0 s, place_start at 3.2 s.
+    const double at_cube = plan[20][3], at_target = plan[64][3];
+    EXPECT_LT((plan[20].head<3>() - env.CubePosition()).norm(), 1e-9) << "seed " << seed;
+    EXPECT_LE(YawGap(at_cube, env.PinchYaw()), M_PI / 4 + 1e-6) << "seed " << seed;
+    EXPECT_LE(YawGap(at_target, at_cube), M_PI / 4 + 1e-6) << "seed " << seed;
+  }
 }
 
 // Play data: over a 1000-step collection episode the oracle moves the cube

@@ -22,15 +22,6 @@ double Yaw(const Eigen::Quaterniond& q) {
   return std::atan2(2 * (q.w() * q.z() + q.x() * q.y()), 1 - 2 * (q.y() * q.y() + q.z() * q.z()));
 }
 
-// base + k pi/2 (k = -4..4) nearest `near`: the cube's symmetric yaws.
-double NearestSymmetricYaw(double base, double near) {
-  double best = base;
-  for (int k = -4; k <= 4; ++k) {
-    const double candidate = base + k * M_PI / 2;
-    if (std::abs(candidate - near) < std::abs(best - near)) best = candidate;
-  }
-  return best;
-}
 
 // Index under SciPy's "reflect" boundary (d c b a | a b c d | d c b a).
 int Reflect(int i, int n) {
@@ -41,6 +32,25 @@ int Reflect(int i, int n) {
 }
 
 }  // namespace
+
+double YawIn0To2Pi(double yaw) {
+  double y = std::fmod(yaw, 2 * M_PI);
+  if (y < 0) y += 2 * M_PI;
+  return y;
+}
+
+double NearestSymmetricYaw(double object_yaw, double effector_yaw) {
+  // Both taken in [0, 2 pi) first (OGBench's get_yaw); then the candidates
+  // base + k pi/2 (k = -4..4) span [base - 2 pi, base + 2 pi], which holds a
+  // symmetric yaw within pi/4 of any effector yaw in [0, 2 pi).
+  const double base = YawIn0To2Pi(object_yaw), near = YawIn0To2Pi(effector_yaw);
+  double best = base;
+  for (int k = -4; k <= 4; ++k) {
+    const double candidate = base + k * M_PI / 2;
+    if (std::abs(candidate - near) < std::abs(best - near)) best = candidate;
+  }
+  return best;
+}
 
 std::vector<CubePlanSample> SmoothPlanNoise(const std::vector<CubePlanSample>& noise) {
   // gaussian_filter1d(sigma = 0.5, truncate = 4): radius 2.
@@ -67,10 +77,8 @@ void CubePlayOracle::Plan(const CubeEnv& env) {
   const Eigen::Quaterniond q0(env.PinchRotation());
   k.push_back({0.0, p0, q0, 0.0});
   // pick: above the cube, at the cube's symmetric yaw nearest the current
-  // yaw (taken in [0, 2 pi)).
-  double yaw0 = std::fmod(env.PinchYaw(), 2 * M_PI);
-  if (yaw0 < 0) yaw0 += 2 * M_PI;
-  const double pick_yaw = NearestSymmetricYaw(env.CubeYaw(), yaw0);
+  // yaw (both taken in [0, 2 pi), as OGBench's get_yaw does).
+  const double pick_yaw = NearestSymmetricYaw(env.CubeYaw(), env.PinchYaw());
   const Eigen::Vector3d cube = env.CubePosition();
   const Eigen::Vector3d above_cube = cube + Eigen::Vector3d(0, 0, 0.1 + u(0, 0.1));
   const Eigen::Quaterniond pick_rot = Down(pick_yaw);
@@ -78,7 +86,8 @@ void CubePlayOracle::Plan(const CubeEnv& env) {
   k.push_back({0.6, cube, pick_rot, 0.0});        // pick_start
   k.push_back({0.4, cube, pick_rot, 1.0});        // pick_end: closes in between
   k.push_back({0.4, above_cube, pick_rot, 1.0});  // postpick
-  // place: above the target, at its symmetric yaw nearest postpick's.
+  // place: above the target, at its symmetric yaw nearest postpick's (the
+  // pick yaw read back from its rotation, so in [0, 2 pi) too).
   const Eigen::Vector3d target = env.GoalPosition();
   const Eigen::Vector3d above_target = target + Eigen::Vector3d(0, 0, 0.1 + u(0, 0.1));
   const Eigen::Quaterniond place_rot = Down(NearestSymmetricYaw(env.GoalYaw(), pick_yaw));

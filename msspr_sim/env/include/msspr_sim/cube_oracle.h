@@ -32,6 +32,15 @@ using CubePlanSample = Eigen::Matrix<double, 5, 1>;
 // x[-1] = x[0], x[-2] = x[1]) along time, per column. [T, 5] -> [T, 5].
 std::vector<CubePlanSample> SmoothPlanNoise(const std::vector<CubePlanSample>& noise);
 
+// yaw wrapped into [0, 2 pi).
+double YawIn0To2Pi(double yaw);
+
+// The object's symmetric yaw (object_yaw + k pi/2, k = -4..4) nearest
+// effector_yaw, with both yaws first taken in [0, 2 pi) as OGBench's
+// plan oracle does (get_yaw, shortest_yaw): the result is always within
+// pi/4 of the effector's yaw, modulo 2 pi.
+double NearestSymmetricYaw(double object_yaw, double effector_yaw);
+
 class CubePlayOracle {
  public:
   explicit CubePlayOracle(uint64_t seed, const CubePlayOracleOptions& options = {});
