@@ -1,13 +1,24 @@
-// rostest scenario of issue 28: msspr_policy_node ~robot serves the shipped
-// point-maze checkpoint through config/robots/pointmaze_base.yaml over
-// standard topics only (odom, goal_pose in; cmd_vel out); it reaches a goal,
-// stops the robot (zero twist, /diagnostics WARN) when its inputs go stale,
-// and serves again when they return.
+// rostest scenarios of msspr_policy_node ~robot with the shipped point-maze
+// checkpoint and config/robots/pointmaze_base.yaml (standard topics only:
+// odom, goal_pose in; cmd_vel out).
+// - RobotServing (policy_robot.test): it reaches a goal, stops the robot (zero
+//   twist, /diagnostics WARN) when its inputs go stale, and serves again when
+//   they return.
+// - RobotSameActions (policy_robot_same_actions.test): the same states and
+//   goals, given to a node serving over the native msspr topics and to one
+//   serving through the spec, give the same commands: twist.linear.{x, y} =
+//   2.0 * clip(action, -1, 1) within 1e-5.
 #include <cmath>
 #include <cstdio>
 
+#include <algorithm>
+#include <random>
+#include <vector>
+
+#include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
 
 #include "msspr/Pause.h"
 #include "msspr/Reset.h"
@@ -99,6 +110,79 @@ TEST(RobotServing, ReachesGoalStopsWhenStaleAndResumes) {
       << "not serving again after the pause";
   EXPECT_NE(last.linear.x * last.linear.x + last.linear.y * last.linear.y, 0.0);
   EXPECT_TRUE(h.WaitFor([&] { return level.rfind("0 serving", 0) == 0; }, 5.0)) << level;
+}
+
+// Feeds states and goals to both nodes one at a time and compares their answers.
+TEST(RobotSameActions, NativeAndSpecServingGiveTheSameCommands) {
+  RosTestHelper h;
+  ros::NodeHandle nh;
+  ros::Publisher obs_pub = nh.advertise<msspr::Observation>("/native/observation", 10);
+  ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("/robot/odom", 10);
+  ros::Publisher goal_pub = nh.advertise<geometry_msgs::PoseStamped>("/robot/goal_pose", 1, /*latch=*/true);
+  std::vector<std::vector<float>> actions;
+  std::vector<geometry_msgs::Twist> twists;
+  uint64_t stops = 0;
+  ros::Subscriber act_sub = nh.subscribe<msspr::Action>(
+      "/native/action", 100, [&](const msspr::Action::ConstPtr& a) { actions.push_back(a->action); });
+  ros::Subscriber cmd_sub = nh.subscribe<geometry_msgs::Twist>("/robot/cmd_vel", 100, [&](const geometry_msgs::Twist::ConstPtr& t) {
+    // The watchdog's stop (before the first goal, or when odometry pauses) is an exact zero.
+    if (t->linear.x == 0.0 && t->linear.y == 0.0 && t->linear.z == 0.0 && t->angular.z == 0.0) ++stops;
+    else twists.push_back(*t);
+  });
+  ASSERT_TRUE(h.WaitFor([&] {
+    return obs_pub.getNumSubscribers() > 0 && act_sub.getNumPublishers() > 0 && odom_pub.getNumSubscribers() > 0 &&
+           goal_pub.getNumSubscribers() > 0 && cmd_sub.getNumPublishers() > 0;
+  }, 90.0)) << "the two policy nodes are not up (their fatal error, if any, is on their stderr)";
+
+  std::mt19937 rng(28);
+  std::uniform_real_distribution<float> coord(0.0f, 20.0f);  // the medium maze spans about 0..20 m
+  constexpr int kGoals = 4, kStates = 6;
+  uint32_t step = 0;
+  double worst = 0.0;
+  for (int g = 0; g < kGoals; ++g) {
+    const std::vector<float> goal = {coord(rng), coord(rng)};
+    geometry_msgs::PoseStamped gp;
+    gp.header.stamp = ros::Time(100.0 + g);
+    gp.header.frame_id = "odom";
+    gp.pose.position.x = goal[0];
+    gp.pose.position.y = goal[1];
+    gp.pose.orientation.w = 1.0;
+    goal_pub.publish(gp);
+    h.WaitFor([] { return false; }, 0.2);  // the goal reaches the node before the next odometry
+    for (int k = 0; k < kStates; ++k, ++step) {
+      const std::vector<float> state = {coord(rng), coord(rng)};
+      msspr::Observation o;
+      o.header.stamp = ros::Time(100.0 + 0.1 * step);
+      o.episode_id = 1;
+      o.step = step;
+      o.state = state;
+      o.goal = goal;
+      nav_msgs::Odometry od;
+      od.header = o.header;
+      od.header.frame_id = "odom";
+      od.child_frame_id = "base_link";
+      od.pose.pose.position.x = state[0];
+      od.pose.pose.position.y = state[1];
+      od.pose.pose.orientation.w = 1.0;
+      const size_t n = step + 1;
+      obs_pub.publish(o);
+      odom_pub.publish(od);
+      ASSERT_TRUE(h.WaitFor([&] { return actions.size() >= n && twists.size() >= n; }, 20.0))
+          << "no answer to state " << step << ": " << actions.size() << " actions, " << twists.size()
+          << " commands, " << stops << " stops";
+      const auto& a = actions[n - 1];
+      const auto& t = twists[n - 1];
+      ASSERT_EQ(a.size(), 2u);
+      const double ex = 2.0 * std::clamp<double>(a[0], -1.0, 1.0), ey = 2.0 * std::clamp<double>(a[1], -1.0, 1.0);
+      EXPECT_NEAR(t.linear.x, ex, 1e-5) << "state " << step;
+      EXPECT_NEAR(t.linear.y, ey, 1e-5) << "state " << step;
+      EXPECT_EQ(t.linear.z, 0.0);
+      EXPECT_EQ(t.angular.z, 0.0);
+      worst = std::max({worst, std::abs(t.linear.x - ex), std::abs(t.linear.y - ey)});
+    }
+  }
+  std::printf("%u states, %d goals: largest difference %.3g m/s (%lu stop commands, ignored)\n", step, kGoals, worst,
+              stops);
 }
 
 }  // namespace
