@@ -1,17 +1,20 @@
 #!/usr/bin/env bash
-# Fails if any file under msspr_core/ includes a ROS header: the core library
-# must build with LibTorch and Eigen alone (see docs/style.md).
+# Fails if any file under a ROS-free library (default msspr_core/; also used
+# for msspr_sim/eval/) includes a ROS header: those libraries build with plain
+# CMake, without catkin (see docs/style.md).
 set -u
 dir=${1:-$(dirname "$0")/../msspr_core}
+name=$(basename "$(cd "$dir" && pwd)")
+[ "$name" = eval ] && name=msspr_sim/eval
 pattern='#[[:space:]]*include[[:space:]]*[<"](ros/|rosbag/|roscpp/|std_msgs/|sensor_msgs/|geometry_msgs/|diagnostic_msgs/|tf2_ros/|tf2/|image_transport/|cv_bridge/|msspr/|actionlib/|nodelet/|rosgraph_msgs/)'
 hits=$(grep -rnE "$pattern" "$dir" --include='*.h' --include='*.hpp' --include='*.cc' --include='*.cpp' 2>/dev/null)
 if [ -n "$hits" ]; then
-  echo "msspr_core must stay ROS-free; these lines include ROS headers:" >&2
+  echo "$name must stay ROS-free; these lines include ROS headers:" >&2
   echo "$hits" >&2
   exit 1
 fi
 if grep -rnE 'catkin|roscpp' "$dir/CMakeLists.txt" >/dev/null 2>&1; then
-  echo "msspr_core/CMakeLists.txt must not use catkin or roscpp" >&2
+  echo "$name/CMakeLists.txt must not use catkin or roscpp" >&2
   exit 1
 fi
-echo "msspr_core is ROS-free ($(find "$dir" -name '*.h' -o -name '*.cc' | wc -l) files checked)"
+echo "$name is ROS-free ($(find "$dir" -name '*.h' -o -name '*.cc' | wc -l) files checked)"

@@ -1,34 +1,42 @@
-// profile_step: where a GPU training step of msspr_core goes (a diagnostic for
-// GPU machines, built with -DMSSPR_CORE_EXTRA_TOOLS=.../profile_step.cc).
+// msspr_profile_step: where a training step of msspr_core goes (a diagnostic,
+// mostly for GPU machines).
 //
-//   profile_step --config config/pointmaze_paper.yaml [--config Y]... [--device cuda]
-//                [--precision fp32|bf16] [--steps N] [--out-dir DIR] [--graph] [--adam]
+//   msspr_profile_step --config config/pointmaze_paper.yaml[,MORE.yaml] [--device cuda]
+//                      [--precision fp32|bf16] [--steps N] [--out-dir DIR] [--graph] [--adam]
 //
 // On the synthetic point-maze dataset of msspr_bench_core --config (100 x 1001,
-// obs 2, action 2) it prints, as JSON:
+// obs 2, action 2) it prints, as JSON lines:
 //  - wall ms/step of Step(false) (no loss read-back) and Step(true);
 //  - ms of SampleTransitions + SampleChunks (host sampling, host-to-device copies);
-//  - over N steps under the Kineto profiler: kernels per step, summed kernel
-//    time and GPU busy time (union of kernel/copy intervals) per step, the CUDA
-//    runtime calls per step (launches, copies, synchronisations) and the
-//    kernels that take the most time; DIR/trace.json is the chrome trace;
-//  - with --graph: critic loss forward + backward on a fixed batch, eager
-//    against a CUDA-graph replay of the same work (at::cuda::CUDAGraph);
+//  - over N steps under the Kineto profiler (LibTorch >= 2.1 built with Kineto;
+//    otherwise "profiler_error"): kernels per step, summed kernel time and GPU
+//    busy time (union of kernel/copy intervals) per step, the CUDA runtime
+//    calls per step (launches, copies, synchronisations) and the kernels that
+//    take the most time; DIR/trace.json is the chrome trace;
+//  - with --graph (a CUDA LibTorch and --device cuda): critic loss forward +
+//    backward on a fixed batch, eager against a CUDA-graph replay of the same
+//    work (at::cuda::CUDAGraph);
 //  - with --adam: one Adam update of copies of the online networks' parameters
 //    (random gradients) with torch::optim::Adam (a loop over the tensors), as
 //    _foreach_* ops, and as at::_fused_adam_.
-// Needs LibTorch >= 2.1 (Kineto event API); not part of the default build.
+// The build defines MSSPR_PROFILE_CUDA when LibTorch has CUDA.
+#include <torch/torch.h>
+#include <torch/version.h>
+#if MSSPR_PROFILE_CUDA
 #include <ATen/cuda/CUDAGraph.h>
 #include <c10/cuda/CUDAGuard.h>
 #include <c10/cuda/CUDAStream.h>
+#endif
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 1)
+#define MSSPR_PROFILE_KINETO 1
 #include <torch/csrc/autograd/profiler_kineto.h>
-#include <torch/torch.h>
+#endif
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -38,8 +46,8 @@
 #include <string>
 #include <vector>
 
+#include "msspr_core/cli_args.h"
 #include "msspr_core/trainer.h"
-
 namespace {
 
 using namespace msspr::core;
@@ -83,24 +91,44 @@ std::string Json(const std::string& s) {
 
 }  // namespace
 
+constexpr const char* kUsage = R"(usage: msspr_profile_step [options]
+Times and profiles training steps of msspr_core on a synthetic point-maze dataset; JSON lines.
+  --config YAML[,YAML...]  configuration layered on the mspr/cpu preset
+  --device DEV             cpu, cuda, cuda:N (default cuda)
+  --precision P            fp32 | bf16 (default: as configured)
+  --steps N                profiled steps (default 20)
+  --out-dir DIR            write DIR/trace.json (the profiler's chrome trace)
+  --graph                  critic forward + backward, eager against a CUDA-graph replay
+  --adam                   one Adam update: per-tensor loop, _foreach ops, fused
+)";
+
 int main(int argc, char** argv) {
   std::vector<std::string> configs;
-  std::string device = "cuda", precision, out_dir;
+  std::string device, precision, out_dir;
   int steps = 20;
   bool graph = false, adam = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--config" && i + 1 < argc) configs.push_back(argv[++i]);
-    else if (a == "--device" && i + 1 < argc) device = argv[++i];
-    else if (a == "--precision" && i + 1 < argc) precision = argv[++i];
-    else if (a == "--steps" && i + 1 < argc) steps = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--out-dir" && i + 1 < argc) out_dir = argv[++i];
-    else if (a == "--graph") graph = true;
-    else if (a == "--adam") adam = true;
-    else {
-      std::cerr << "profile_step: unknown argument '" << a << "'\n";
-      return 2;
+  try {
+    msspr::cli::CliArgs args(argc, argv, {"help", "graph", "adam"},
+                             {"config", "device", "precision", "steps", "out-dir"});
+    if (args.Has("help")) {
+      std::cout << kUsage;
+      return 0;
     }
+    if (!args.positional().empty())
+      throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    std::stringstream list(args.Get("config", ""));
+    for (std::string item; std::getline(list, item, ',');)
+      if (!item.empty()) configs.push_back(item);
+    device = args.Get("device", "cuda");
+    precision = args.Get("precision", "");
+    if (!precision.empty()) precision = args.GetChoice("precision", "", {"fp32", "bf16"});
+    steps = static_cast<int>(args.GetInt("steps", 20, 1, 1000000));
+    out_dir = args.Get("out-dir", "");
+    graph = args.Has("graph");
+    adam = args.Has("adam");
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_profile_step: " << e.what() << "\n" << kUsage;
+    return 2;
   }
   try {
     MsprOptions o = ResolveOptions("", "", configs, nullptr, "mspr", "cpu");
@@ -123,83 +151,96 @@ int main(int argc, char** argv) {
       t.SampleChunks();
     });
 
-    // Kineto: CPU ops, CUDA runtime calls and GPU activity over `steps` steps.
-    namespace prof = torch::autograd::profiler;
-    using torch::profiler::impl::ActivityType;
-    const torch::profiler::impl::ProfilerConfig cfg(torch::profiler::impl::ProfilerState::KINETO);
-    std::set<ActivityType> acts{ActivityType::CPU};
-    if (dev.is_cuda()) acts.insert(ActivityType::CUDA);
-    prof::prepareProfiler(cfg, acts);
-    Sync(dev);
-    prof::enableProfiler(cfg, acts);
-    const auto p0 = Clock::now();
-    for (int i = 0; i < steps; ++i) t.Step(false);
-    Sync(dev);
-    const double wall_ms = std::chrono::duration<double, std::milli>(Clock::now() - p0).count();
-    std::unique_ptr<prof::ProfilerResult> res = prof::disableProfiler();
-    int64_t gpu_events = 0, gpu_sum_ns = 0;
-    std::vector<std::pair<uint64_t, uint64_t>> spans;
-    std::map<std::string, std::pair<int64_t, int64_t>> kernels, runtime;  // name -> count, ns
-    int64_t cpu_ops = 0;
-    for (const auto& e : res->events()) {
-      const std::string name = e.name();
-      if (e.deviceType() == c10::DeviceType::CUDA) {
-        ++gpu_events;
-        gpu_sum_ns += e.durationNs();
-        spans.emplace_back(e.startNs(), e.startNs() + e.durationNs());
-        auto& k = kernels[name];
-        ++k.first;
-        k.second += e.durationNs();
-      } else if (name.rfind("cuda", 0) == 0 || name.rfind("cu", 0) == 0) {
-        auto& r = runtime[name];
-        ++r.first;
-        r.second += e.durationNs();
-      } else {
-        ++cpu_ops;
+#if MSSPR_PROFILE_KINETO
+    try {
+      // Kineto: CPU ops, CUDA runtime calls and GPU activity over `steps` steps.
+      namespace prof = torch::autograd::profiler;
+      using torch::profiler::impl::ActivityType;
+      const torch::profiler::impl::ProfilerConfig cfg(torch::profiler::impl::ProfilerState::KINETO);
+      std::set<ActivityType> acts{ActivityType::CPU};
+      if (dev.is_cuda()) acts.insert(ActivityType::CUDA);
+      prof::prepareProfiler(cfg, acts);
+      Sync(dev);
+      prof::enableProfiler(cfg, acts);
+      const auto p0 = Clock::now();
+      for (int i = 0; i < steps; ++i) t.Step(false);
+      Sync(dev);
+      const double wall_ms = std::chrono::duration<double, std::milli>(Clock::now() - p0).count();
+      std::unique_ptr<prof::ProfilerResult> res = prof::disableProfiler();
+      int64_t gpu_events = 0, gpu_sum_ns = 0;
+      std::vector<std::pair<uint64_t, uint64_t>> spans;
+      std::map<std::string, std::pair<int64_t, int64_t>> kernels, runtime;  // name -> count, ns
+      int64_t cpu_ops = 0;
+      for (const auto& e : res->events()) {
+        const std::string name = e.name();
+        if (e.deviceType() == c10::DeviceType::CUDA) {
+          ++gpu_events;
+          gpu_sum_ns += e.durationNs();
+          spans.emplace_back(e.startNs(), e.startNs() + e.durationNs());
+          auto& k = kernels[name];
+          ++k.first;
+          k.second += e.durationNs();
+        } else if (name.rfind("cuda", 0) == 0 || name.rfind("cu", 0) == 0) {
+          auto& r = runtime[name];
+          ++r.first;
+          r.second += e.durationNs();
+        } else {
+          ++cpu_ops;
+        }
       }
-    }
-    std::sort(spans.begin(), spans.end());
-    uint64_t busy = 0, cur_s = 0, cur_e = 0;
-    for (const auto& s : spans) {
-      if (s.first > cur_e) {
-        busy += cur_e - cur_s;
-        cur_s = s.first;
-        cur_e = s.second;
-      } else {
-        cur_e = std::max(cur_e, s.second);
+      std::sort(spans.begin(), spans.end());
+      uint64_t busy = 0, cur_s = 0, cur_e = 0;
+      for (const auto& s : spans) {
+        if (s.first > cur_e) {
+          busy += cur_e - cur_s;
+          cur_s = s.first;
+          cur_e = s.second;
+        } else {
+          cur_e = std::max(cur_e, s.second);
+        }
       }
+      busy += cur_e - cur_s;
+      j << ", \"profiled_steps\": " << steps
+        << ", \"profiled_wall_ms_per_step\": " << wall_ms / steps
+        << ", \"gpu_activities_per_step\": " << static_cast<double>(gpu_events) / steps
+        << ", \"gpu_kernel_sum_ms_per_step\": " << gpu_sum_ns / 1e6 / steps
+        << ", \"gpu_busy_ms_per_step\": " << busy / 1e6 / steps
+        << ", \"cpu_events_per_step\": " << static_cast<double>(cpu_ops) / steps;
+      j << ", \"runtime_calls_per_step\": {";
+      bool first = true;
+      for (const auto& kv : runtime) {
+        j << (first ? "" : ", ") << "\"" << Json(kv.first) << "\": ["
+          << static_cast<double>(kv.second.first) / steps << ", " << kv.second.second / 1e6 / steps
+          << "]";
+        first = false;
+      }
+      j << "}, \"top_kernels_ms_per_step\": [";
+      std::vector<std::pair<int64_t, std::string>> top;
+      for (const auto& kv : kernels) top.emplace_back(kv.second.second, kv.first);
+      std::sort(top.rbegin(), top.rend());
+      for (size_t i = 0; i < std::min<size_t>(12, top.size()); ++i) {
+        j << (i ? ", " : "") << "[\"" << Json(top[i].second) << "\", "
+          << static_cast<double>(kernels[top[i].second].first) / steps << ", "
+          << top[i].first / 1e6 / steps << "]";
+      }
+      j << "]";
+      if (!out_dir.empty()) res->save(out_dir + "/trace.json");
+    } catch (const std::exception& e) {
+      std::string msg = e.what();
+      j << ", \"profiler_error\": \"" << Json(msg.substr(0, msg.find('\n'))) << "\"";
     }
-    busy += cur_e - cur_s;
-    j << ", \"profiled_steps\": " << steps << ", \"profiled_wall_ms_per_step\": " << wall_ms / steps
-      << ", \"gpu_activities_per_step\": " << static_cast<double>(gpu_events) / steps
-      << ", \"gpu_kernel_sum_ms_per_step\": " << gpu_sum_ns / 1e6 / steps
-      << ", \"gpu_busy_ms_per_step\": " << busy / 1e6 / steps
-      << ", \"cpu_events_per_step\": " << static_cast<double>(cpu_ops) / steps;
-    j << ", \"runtime_calls_per_step\": {";
-    bool first = true;
-    for (const auto& kv : runtime) {
-      j << (first ? "" : ", ") << "\"" << Json(kv.first) << "\": ["
-        << static_cast<double>(kv.second.first) / steps << ", "
-        << kv.second.second / 1e6 / steps << "]";
-      first = false;
-    }
-    j << "}, \"top_kernels_ms_per_step\": [";
-    std::vector<std::pair<int64_t, std::string>> top;
-    for (const auto& kv : kernels) top.emplace_back(kv.second.second, kv.first);
-    std::sort(top.rbegin(), top.rend());
-    for (size_t i = 0; i < std::min<size_t>(12, top.size()); ++i) {
-      j << (i ? ", " : "") << "[\"" << Json(top[i].second) << "\", "
-        << static_cast<double>(kernels[top[i].second].first) / steps << ", "
-        << top[i].first / 1e6 / steps << "]";
-    }
-    j << "]";
+#else
+    (void)steps;
+    (void)out_dir;
+    j << ", \"profiler_error\": \"needs LibTorch >= 2.1 (Kineto event API)\"";
+#endif
     j << "}";
     std::cout << j.str() << std::endl;
-    if (!out_dir.empty()) res->save(out_dir + "/trace.json");
     j.str("");
     j << "{\"graph\": " << (graph ? "true" : "false");
 
     // CUDA graph: the critic's forward and backward on one fixed batch.
+#if MSSPR_PROFILE_CUDA
     if (graph && dev.is_cuda()) {
       const TransitionBatch tb = t.SampleTransitions();
       const torch::Tensor noise = torch::randn({tb.action.size(0), tb.action.size(1)}).to(dev);
@@ -228,6 +269,9 @@ int main(int argc, char** argv) {
         j << ", \"critic_graph_error\": \"" << Json(msg) << "\"";
       }
     }
+#else
+    if (graph) j << ", \"critic_graph_error\": \"LibTorch without CUDA\"";
+#endif
     j << "}";
     std::cout << j.str() << std::endl;
 
@@ -270,9 +314,10 @@ int main(int argc, char** argv) {
         at::_foreach_addcdiv_(params, m, denom, -lr / bc1);
       });
       try {
-        j << ", \"adam_fused_ms\": " << TimeMs(dev, 50, [&] {
+        const double fused_ms = TimeMs(dev, 50, [&] {
           at::_fused_adam_(params, grads, m, v, {}, steps_t, lr, b1, b2, 0.0, eps, false, false);
         });
+        j << ", \"adam_fused_ms\": " << fused_ms;
       } catch (const std::exception& e) {
         std::string msg = e.what();
         j << ", \"adam_fused_error\": \"" << Json(msg.substr(0, msg.find('\n'))) << "\"";

@@ -15,6 +15,7 @@
 #include "msspr_sim/cube_dataset.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/expert.h"
+#include "msspr_sim/package_files.h"
 #include "msspr_sim/point_maze.h"
 
 namespace {
@@ -113,7 +114,7 @@ int CollectCube(const msspr::ros_bridge::CliArgs& args) {
     opt.episode_length = static_cast<int>(args.GetInt("length", 1001, 2, 1000000));
     opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     image_episodes = args.Has("images") ? episodes + val : args.GetInt("image-episodes", 0, 0, 100000000);
-    env_opt.urdf_path = args.Get("urdf", MSSPR_DEFAULT_ARM_URDF);
+    env_opt.urdf_path = args.Get("urdf", sim::DefaultArmUrdf());
   } catch (const std::exception& e) {
     std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
     return 2;

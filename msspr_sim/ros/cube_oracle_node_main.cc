@@ -15,13 +15,14 @@
 #include "msg_conversion.h"
 #include "msspr/Action.h"
 #include "msspr/Observation.h"
+#include "msspr_sim/package_files.h"
 
 namespace {
 
 class CubeOracleNode {
  public:
   CubeOracleNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh) {
-    std::string urdf = MSSPR_DEFAULT_ARM_URDF;
+    std::string urdf = msspr::sim::DefaultArmUrdf();
     pnh.param<std::string>("urdf", urdf, urdf);
     std::string mode = "goal";
     pnh.param<std::string>("mode", mode, mode);

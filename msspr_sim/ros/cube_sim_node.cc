@@ -14,6 +14,7 @@
 #include "dataset_bag.h"
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
+#include "msspr_sim/package_files.h"
 #include "robot_model.h"
 
 namespace msspr::ros_bridge {
@@ -60,7 +61,7 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   o.cube_frame = SimParam(pnh, "cube_frame", o.cube_frame);
   o.goal_frame = SimParam(pnh, "goal_frame", o.goal_frame);
   o.robot_description = SimParam(pnh, "robot_description", o.robot_description);
-  o.urdf = SimParam(pnh, "urdf", std::string(MSSPR_DEFAULT_ARM_URDF));
+  o.urdf = SimParam(pnh, "urdf", sim::DefaultArmUrdf());
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
     std::ostringstream s;
     s << "~" << name << " must be " << rule << ", got " << v;

@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# Builds msspr_core standalone on a GPU machine against the LibTorch of the
-# Python torch there, runs its gtests (CPU, then the torch tests with
+# Builds msspr_core standalone with CMake on a GPU machine against the LibTorch
+# of the Python torch there, runs its gtests (CPU, then the torch tests with
 # MSSPR_TEST_DEVICE=cuda), times the trainer at paper scale (fp32, bf16) and
-# the eager PyTorch reference on the same GPU, and profiles one step.
+# the eager PyTorch reference on the same GPU, and profiles one step
+# (msspr_profile_step). Optionally (stage "eval") it builds the ROS-free
+# evaluators and tools of msspr_sim/eval (msspr_eval_inprocess,
+# msspr_collect_npz) and evaluates the shipped state checkpoint on the GPU.
 #
 #   scripts/gpu/build_and_bench.sh [OUT_DIR]        # from the repository root
 #
@@ -12,9 +15,14 @@
 # $MSSPR_GPU_PREFIX (default /tmp/deps), never into /:
 #   mkdir -p .gpu_deps && cd .gpu_deps && apt-get download libyaml-cpp-dev \
 #     libyaml-cpp0.7 libzip-dev libzip4 googletest zlib1g-dev zlib1g
-# (zlib only used when the machine has no zlib.h). Stages: STAGES="build bench
-# ref profile test" (default all, run in this order; "extra" adds TF32, bf16
-# and Adam experiments). Writes
+# (zlib only used when the machine has no zlib.h). The reference is
+# ../shared/tools/mspr_ref.py beside the repository ($MSSPR_REFERENCE
+# overrides; stage "ref" is skipped without it). Stage "eval" also needs
+# MuJoCo 2.2, Eigen, OpenCV, urdfdom and EGL where CMake finds them (e.g.
+# Debian 12's libmujoco-dev, libeigen3-dev, libopencv-dev, liburdfdom-dev and
+# their libraries, unpacked into $MSSPR_GPU_PREFIX the same way). Stages:
+# STAGES="build bench ref profile test" (default, run in this order); "eval"
+# and "extra" (TF32, bf16 and Adam experiments) on request. Writes
 # OUT_DIR/results.jsonl (one JSON object per measurement), bench_cuda.json, test logs and a gzipped trace.
 set -uo pipefail
 
@@ -64,7 +72,6 @@ if has_stage build; then
   cmake -S msspr_core -B "$BUILD" "${GEN[@]}" -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_PREFIX_PATH="$TORCH_PREFIX;$PREFIX/usr" \
     -DMSSPR_GTEST_SOURCE_DIR="$PREFIX/usr/src/googletest" \
-    -DMSSPR_CORE_EXTRA_TOOLS="$PWD/scripts/gpu/profile_step.cc" \
     -DTORCH_CUDA_ARCH_LIST="${TORCH_CUDA_ARCH_LIST:-9.0}" "${CUDA_ARGS[@]}" || exit 1
   note "build (-j$JOBS, keep going)"
   start=$(date +%s)
@@ -98,7 +105,11 @@ if has_stage bench; then
   done
 fi
 
-if has_stage ref; then
+REFERENCE=${MSSPR_REFERENCE:-$PWD/../shared/tools/mspr_ref.py}
+if has_stage ref && [ ! -f "$REFERENCE" ]; then
+  note "no reference at $REFERENCE (MSSPR_REFERENCE=PATH/mspr_ref.py): stage ref skipped"
+elif has_stage ref; then
+  export MSSPR_REFERENCE=$REFERENCE
   for i in 1 2; do
     note "eager PyTorch reference on cuda (run $i)"
     PYTHONUNBUFFERED=1 python3 scripts/gpu/run_ref_cuda.py --time_only --scale paper --steps 220 \
@@ -108,7 +119,7 @@ if has_stage ref; then
 fi
 
 if has_stage profile; then
-  P=$BUILD/profile_step
+  P=$BUILD/msspr_profile_step
   if [ -x "$P" ]; then
     mkdir -p /tmp/prof
     for p in fp32 bf16; do
@@ -130,7 +141,7 @@ fi
 # warns on every deprecated autocast call), and Adam variants.
 if has_stage extra; then
   B=$BUILD/msspr_bench_core
-  P=$BUILD/profile_step
+  P=$BUILD/msspr_profile_step
   note "fp32 baseline, then with TF32 matrix products"
   "$B" --config $CONFIG --device cuda --steps 300 --warmup 30 --precision fp32 \
     --out /tmp/r.json && record paper_fp32_baseline /tmp/r.json
@@ -143,6 +154,30 @@ if has_stage extra; then
     --out /tmp/r.json 2>/dev/null && record paper_bf16_stderr_null /tmp/r.json
   note "Adam: loop, _foreach, fused"
   "$P" --config $CONFIG --precision fp32 --steps 2 --adam 2>/dev/null | sed -n 3p | record adam
+fi
+
+# The ROS-free evaluators (msspr_sim/eval: msspr_core + msspr_env, no ROS),
+# built standalone with CMake, and the shipped state checkpoint evaluated by
+# OGBench's protocol on the GPU and on the CPU.
+if has_stage eval; then
+  EVAL_BUILD=${MSSPR_GPU_EVAL_BUILD:-build-eval}
+  TORCH_PREFIX=$(python3 -c 'import torch; print(torch.utils.cmake_prefix_path)')
+  note "configure + build msspr_sim/eval ($EVAL_BUILD)"
+  if cmake -S msspr_sim/eval -B "$EVAL_BUILD" -DCMAKE_BUILD_TYPE=Release \
+       -DMSSPR_GTEST_SOURCE_DIR="$PREFIX/usr/src/googletest" \
+       -DCMAKE_PREFIX_PATH="$TORCH_PREFIX;$PREFIX/usr" -DTORCH_CUDA_ARCH_LIST="${TORCH_CUDA_ARCH_LIST:-9.0}" \
+       >"$OUT_DIR/cmake_eval.log" 2>&1 &&
+     cmake --build "$EVAL_BUILD" -j"$JOBS" --target msspr_eval_inprocess msspr_collect_npz \
+       >"$OUT_DIR/build_eval.log" 2>&1; then
+    for d in cuda cpu; do
+      note "msspr_eval_inprocess, shipped state checkpoint, 50 episodes per task, $d"
+      "$EVAL_BUILD/msspr_eval_inprocess" --policy msspr_policy_node/checkpoints/pointmaze-medium-state.pt \
+        --episodes 50 --device $d --out "$OUT_DIR/eval_$d.json" 2>&1 | tail -3
+    done
+  else
+    echo "msspr_sim/eval did not build; see $OUT_DIR/cmake_eval.log and build_eval.log"
+    tail -5 "$OUT_DIR/cmake_eval.log" "$OUT_DIR/build_eval.log" 2>/dev/null
+  fi
 fi
 
 if has_stage test; then

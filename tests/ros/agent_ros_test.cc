@@ -27,9 +27,9 @@
 #include <rosbag/bag.h>
 
 #include "bag_dataset.h"
-#include "cube_evaluator.h"
 #include "dataset_bag.h"
-#include "maze_evaluator.h"
+#include "msspr_eval/cube_evaluator.h"
+#include "msspr_eval/maze_evaluator.h"
 #include "msspr/Action.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"

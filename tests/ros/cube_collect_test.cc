@@ -14,6 +14,7 @@
 
 #include "dataset_bag.h"
 #include "msspr_sim/cube_env.h"
+#include "msspr_sim/package_files.h"
 
 namespace msspr::ros_bridge {
 namespace {
@@ -44,7 +45,7 @@ TEST(CubeCollect, WritesPlayDatasetThatReplays) {
   EXPECT_NE(out.find("steps/s"), std::string::npos) << out;
 
   sim::CubeEnvOptions eo;
-  eo.urdf_path = MSSPR_DEFAULT_ARM_URDF;
+  eo.urdf_path = sim::DefaultArmUrdf();
   sim::CubeEnv env(eo);
   DatasetBagReader reader(bag);
   std::vector<std::string> splits;

@@ -29,6 +29,7 @@
 #include "dataset_bag.h"
 #include "msspr_sim/arm_model.h"
 #include "msspr_sim/cube_dataset.h"
+#include "msspr_sim/package_files.h"
 #include "ros_test_helper.h"
 
 namespace msspr::testing {
@@ -68,7 +69,7 @@ TEST(CubeSimOracle, ReachesTaskGoals) {
   ros::NodeHandle pnh("~");
   const int episodes = pnh.param("episodes", 3);
   ASSERT_TRUE(h.WaitForSim());
-  ros_bridge::CubeGoalOracle oracle(MSSPR_DEFAULT_ARM_URDF, 0);
+  ros_bridge::CubeGoalOracle oracle(sim::DefaultArmUrdf(), 0);
   for (int task = 1; task <= 5; ++task) {
     int reached = 0;
     double steps = 0;
@@ -109,7 +110,7 @@ TEST(CubeSimOracle, RobotDescriptionJointStatesTf) {
   ros::WallDuration(1.0).sleep();  // the tf listener's own connection
   const auto res = CallReset(h.nh(), 3, 7);
   ASSERT_TRUE(res.ok) << res.message;
-  ros_bridge::CubeGoalOracle oracle(MSSPR_DEFAULT_ARM_URDF, 7);
+  ros_bridge::CubeGoalOracle oracle(sim::DefaultArmUrdf(), 7);
   uint32_t step = 0;
   msspr::Observation::ConstPtr o = boost::make_shared<msspr::Observation>(res.observation);
   for (; step < 40; ++step) {  // the arm moves toward the cube
@@ -239,7 +240,7 @@ TEST(CubeLiveRecording, PlayDataInTheCollectLayout) {
   const std::string& bag = rec.bag();
 
   sim::CubeEnvOptions eo;
-  eo.urdf_path = MSSPR_DEFAULT_ARM_URDF;
+  eo.urdf_path = sim::DefaultArmUrdf();
   sim::CubeEnv env(eo);
   sim::CubeCollectOptions co;
   co.episode_length = 2;  // the reset and one step suffice for the comparison

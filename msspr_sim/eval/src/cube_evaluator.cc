@@ -1,4 +1,4 @@
-#include "cube_evaluator.h"
+#include "msspr_eval/cube_evaluator.h"
 
 #include <algorithm>
 #include <chrono>
@@ -9,10 +9,9 @@
 
 #include "msspr_core/policy.h"
 #include "msspr_sim/cube_env.h"
+#include "msspr_sim/package_files.h"
 
 namespace msspr::agent {
-
-std::string DefaultArmUrdf() { return MSSPR_DEFAULT_ARM_URDF; }
 
 CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -36,7 +35,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     throw std::invalid_argument("EvaluateOnCube: episodes and max_steps must be at least 1");
 
   sim::CubeEnvOptions eo;
-  eo.urdf_path = options.urdf_path.empty() ? DefaultArmUrdf() : options.urdf_path;
+  eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
   eo.max_episode_steps = options.max_steps;
   struct Slot {
     std::unique_ptr<sim::CubeEnv> env;

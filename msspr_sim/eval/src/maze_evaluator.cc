@@ -1,4 +1,4 @@
-#include "maze_evaluator.h"
+#include "msspr_eval/maze_evaluator.h"
 
 #include <algorithm>
 #include <chrono>

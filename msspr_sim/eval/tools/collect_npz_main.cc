@@ -1,50 +1,48 @@
-// ROS-free dataset collection for a GPU machine: the same episodes as
-// `msspr_collect` (msspr::sim::CollectEpisode, episode k of seed S), rendered
-// on T threads (one rendering PointMaze each), written as the core's .npz
-// dataset (float `observations` = states, `images` [N, 64, 64, 3] uint8,
-// `actions`, `terminals`). Train and validation splits go to two files, as
-// OGBench's NAME.npz and NAME-val.npz. Built by scripts/gpu/train_pixels.sh
-// against msspr_env's sources and msspr_core's npz writer:
+// msspr_collect_npz: point-maze datasets without ROS, straight to the core's
+// .npz format (as OGBench's NAME.npz and NAME-val.npz). The episodes are those
+// of msspr_collect (sim::CollectEpisode, episode k of seed S; k < --episodes
+// is "train", the rest "val"), rendered on T threads, one rendering PointMaze
+// each: float `observations` (states), `images` [N, 64, 64, 3] uint8,
+// `actions`, `terminals`. For machines with MuJoCo but no ROS (e.g. a GPU
+// machine training from pixels):
 //
-//   collect_npz --maze medium --episodes 1000 --val-episodes 100 --seed 7 \
-//       --threads 16 --out /data/pix.npz          # + /data/pix-val.npz
-//
-// Episode k < episodes is "train", the rest "val", as in msspr_collect.
+//   msspr_collect_npz --maze medium --episodes 1000 --val-episodes 100 --seed 7
+//                     --threads 16 --out /data/pix.npz      # + /data/pix-val.npz
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <iostream>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "msspr_core/cli_args.h"
 #include "msspr_core/dataset.h"
 #include "msspr_core/npz.h"
 #include "msspr_sim/dataset_gen.h"
+#include "msspr_sim/maze_map.h"
 #include "msspr_sim/point_maze.h"
 
 namespace {
 
-const char kUsage[] =
-    "usage: collect_npz --out FILE.npz [--maze medium] [--kind navigate|stitch]\n"
-    "                   [--episodes 1000] [--val-episodes 100] [--length 1001] [--seed 0]\n"
-    "                   [--threads N] [--no-images]\n";
-
-[[noreturn]] void Usage(const std::string& why) {
-  std::fprintf(stderr, "collect_npz: %s\n%s", why.c_str(), kUsage);
-  std::exit(2);
-}
-
-long ToLong(const std::string& flag, const char* v) {
-  char* end = nullptr;
-  const long x = std::strtol(v, &end, 10);
-  if (end == v || *end != '\0' || x < 0) Usage(flag + " needs a non-negative integer, got '" + v + "'");
-  return x;
-}
+constexpr const char* kUsage = R"(usage: msspr_collect_npz --out FILE.npz [options]
+Collects point-maze episodes (those of msspr_collect) into .npz datasets, without ROS.
+  --out FILE.npz      training split (required); the validation split goes to FILE-val.npz
+  --maze NAME         arena, medium, large or giant (default medium)
+  --kind KIND         navigate | stitch (default navigate)
+  --episodes N        training episodes (default 1000)
+  --val-episodes N    validation episodes (default episodes / 10)
+  --length N          steps per episode (default 1001)
+  --seed S            dataset seed (default 0)
+  --threads N         collection threads (default: the machine's cores)
+  --no-images         states only (default: 64x64 camera images too)
+)";
 
 }  // namespace
 
@@ -52,29 +50,36 @@ int main(int argc, char** argv) {
   namespace sim = msspr::sim;
   namespace core = msspr::core;
   sim::CollectOptions opt;
-  opt.images = true;
-  long episodes = 1000, val = -1, threads = std::thread::hardware_concurrency();
+  long episodes = 1000, val = -1, threads = 1;
   std::string out;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* {
-      if (i + 1 >= argc) Usage(a + " needs a value");
-      return argv[++i];
-    };
-    if (a == "--out") out = next();
-    else if (a == "--maze") opt.maze = next();
-    else if (a == "--kind") opt.kind = sim::ParseDatasetKind(next());
-    else if (a == "--episodes") episodes = ToLong(a, next());
-    else if (a == "--val-episodes") val = ToLong(a, next());
-    else if (a == "--length") opt.episode_length = static_cast<int>(ToLong(a, next()));
-    else if (a == "--seed") opt.seed = static_cast<uint64_t>(ToLong(a, next()));
-    else if (a == "--threads") threads = ToLong(a, next());
-    else if (a == "--no-images") opt.images = false;
-    else Usage("unknown argument '" + a + "'");
+  try {
+    msspr::cli::CliArgs args(
+        argc, argv, {"help", "no-images"},
+        {"out", "maze", "kind", "episodes", "val-episodes", "length", "seed", "threads"});
+    if (args.Has("help")) {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (!args.positional().empty())
+      throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    out = args.Get("out", "");
+    if (out.size() < 5 || out.substr(out.size() - 4) != ".npz")
+      throw msspr::cli::CliError("--out FILE.npz is required");
+    const auto names = sim::MazeMap::Names();
+    opt.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+    opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
+    episodes = args.GetInt("episodes", 1000, 0, 100000000);
+    val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
+    opt.episode_length = static_cast<int>(args.GetInt("length", 1001, 2, 100000000));
+    opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+    const long cores = static_cast<long>(std::thread::hardware_concurrency());
+    threads = args.GetInt("threads", cores > 0 ? cores : 1, 1, 4096);
+    opt.images = !args.Has("no-images");
+    if (episodes + val < 1) throw msspr::cli::CliError("no episodes to collect");
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect_npz: " << e.what() << "\n" << kUsage;
+    return 2;
   }
-  if (out.size() < 5 || out.substr(out.size() - 4) != ".npz") Usage("--out FILE.npz is required");
-  if (val < 0) val = episodes / 10;
-  if (threads < 1) threads = 1;
   const long total = episodes + val;
   const int size = 64;
 
@@ -101,9 +106,10 @@ int main(int argc, char** argv) {
         eps[static_cast<size_t>(k)] = sim::CollectEpisode(env, opt, static_cast<uint64_t>(k));
         const long d = ++done;
         if (d % 50 == 0 || d == total) {
-          const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-          std::fprintf(stderr, "[collect_npz] %ld/%ld episodes, %.0f s, %.0f steps/s\n", d, total, s,
-                       d * double(opt.episode_length) / s);
+          const double s =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          std::fprintf(stderr, "[msspr_collect_npz] %ld/%ld episodes, %.0f s, %.0f steps/s\n", d,
+                       total, s, d * double(opt.episode_length) / s);
         }
       }
     } catch (const std::exception& e) {
@@ -116,7 +122,7 @@ int main(int argc, char** argv) {
   for (long t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   if (!error.empty()) {
-    std::fprintf(stderr, "collect_npz: %s\n", error.c_str());
+    std::fprintf(stderr, "msspr_collect_npz: %s\n", error.c_str());
     return 1;
   }
 
@@ -132,17 +138,18 @@ int main(int argc, char** argv) {
     }
     const int64_t n = b.size();
     core::SaveNpzDataset(b.Build(), path);
-    std::fprintf(stderr, "[collect_npz] wrote %s: %ld episodes, %lld steps\n", path.c_str(), to - from,
-                 static_cast<long long>(n));
+    std::fprintf(stderr, "[msspr_collect_npz] wrote %s: %ld episodes, %lld steps\n", path.c_str(),
+                 to - from, static_cast<long long>(n));
   };
   try {
     write(0, episodes, out);
     write(episodes, total, out.substr(0, out.size() - 4) + "-val.npz");
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "collect_npz: %s\n", e.what());
+    std::fprintf(stderr, "msspr_collect_npz: %s\n", e.what());
     return 1;
   }
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::fprintf(stderr, "[collect_npz] %ld episodes in %.1f s on %ld threads\n", total, s, threads);
+  std::fprintf(stderr, "[msspr_collect_npz] %ld episodes in %.1f s on %ld threads\n", total, s,
+               threads);
   return 0;
 }

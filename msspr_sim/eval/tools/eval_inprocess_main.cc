@@ -8,8 +8,8 @@
 #include <set>
 #include <string>
 
-#include "cube_evaluator.h"
-#include "maze_evaluator.h"
+#include "msspr_eval/cube_evaluator.h"
+#include "msspr_eval/maze_evaluator.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/policy.h"
 #include "msspr_core/process_env.h"
@@ -30,6 +30,7 @@ Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_e
   --max-steps N       step limit (default 1000; cube-single 200)
   --seed S            evaluation seed (default 0)
   --threads N         torch threads (default: torch's choice)
+  --device DEV        where the policy runs: cpu, cuda, cuda:1 (default cpu)
   --agent NAME        label in the results (default: the policy's file name)
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories on the maze (default: none; pointmaze only)
@@ -45,11 +46,11 @@ int main(int argc, char** argv) {
   msspr::agent::MazeEvalOptions eo;
   msspr::agent::CubeEvalOptions co;
   bool cube = false;
-  std::string policy_path, out, plot, agent;
+  std::string policy_path, out, plot, agent, device;
   try {
     msspr::cli::CliArgs args(argc, argv, {"help"},
                              {"policy", "env", "maze", "tasks", "tasks-file", "episodes", "max-steps", "seed",
-                              "threads", "agent", "out", "plot", "urdf"});
+                              "threads", "device", "agent", "out", "plot", "urdf"});
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
@@ -90,6 +91,12 @@ int main(int argc, char** argv) {
     }
     const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
     if (threads > 0) torch::set_num_threads(threads);
+    device = args.Get("device", "cpu");
+    try {
+      (void)torch::Device(device);
+    } catch (const std::exception&) {
+      throw msspr::cli::CliError("--device: '" + device + "' is not a device (cpu, cuda, cuda:N)");
+    }
     out = args.Get("out", "");
     plot = args.Get("plot", "");
     eo.keep_paths = !plot.empty();
@@ -99,7 +106,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    auto policy = msspr::core::Policy::Load(policy_path);
+    auto policy = msspr::core::Policy::Load(policy_path, torch::Device(device));
     if (cube) {
       std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x " << co.episodes
                 << " episodes on cube-single ...\n";

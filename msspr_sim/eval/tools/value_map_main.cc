@@ -12,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-#include "maze_evaluator.h"
+#include "msspr_eval/maze_evaluator.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/policy.h"

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "eval_result.h"
+#include "msspr_eval/eval_result.h"
 
 namespace msspr::core {
 class Policy;
@@ -20,7 +20,7 @@ class Policy;
 namespace msspr::agent {
 
 struct CubeEvalOptions {
-  std::string urdf_path;  // the arm; empty: the package's msspr_sim/urdf/ur5e_2f85.urdf
+  std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf() (package_files.h)
   std::vector<int> tasks = {1, 2, 3, 4, 5};
   int episodes = 50;   // per task
   int max_steps = 200;
@@ -28,9 +28,6 @@ struct CubeEvalOptions {
 };
 
 using CubeEvalResult = TaskSuccessResult;
-
-// The package's arm URDF (the build's source tree).
-std::string DefaultArmUrdf();
 
 // Runs the evaluation. Throws std::invalid_argument on a bad task or when the
 // policy's dimensions do not fit cube-single (28-D states, 5-D actions).

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "eval_result.h"
+#include "msspr_eval/eval_result.h"
 #include "msspr_sim/custom_tasks.h"
 #include "msspr_sim/eval_protocol.h"
 
