@@ -16,6 +16,7 @@
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/maze_plot.h"
+#include "msspr_sim/package_files.h"
 
 namespace {
 
@@ -108,8 +109,9 @@ int main(int argc, char** argv) {
   try {
     auto policy = msspr::core::Policy::Load(policy_path, torch::Device(device));
     if (cube) {
+      if (co.urdf_path.empty()) co.urdf_path = sim::DefaultArmUrdf();
       std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x " << co.episodes
-                << " episodes on cube-single ...\n";
+                << " episodes on cube-single (arm " << co.urdf_path << ") ...\n";
       const auto result = msspr::agent::EvaluateOnCube(policy, co);
       const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, co, agent);
       std::cout << sim::EvalReportTable(report);
