@@ -152,6 +152,7 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
     throw std::invalid_argument(options_.checkpoint + ": the node takes square rgb8 images, the policy expects " +
                                 std::to_string(image_h_) + "x" + std::to_string(image_w_) + "x" +
                                 std::to_string(image_c_));
+  if (pixels_) frames_.emplace(image_h_, image_w_, image_c_, frame_stack_);
   if (!pixels_ && obs_dim_ < 1)
     throw std::invalid_argument(options_.checkpoint + ": state policy with obs_dim " + std::to_string(obs_dim_));
 
@@ -334,32 +335,21 @@ bool PolicyNode::MakePixelInput(const msspr::Observation& obs, const sensor_msgs
     Reject(RejectReason::kNoGoal, "no goal image received yet on " + goal_image_sub_.getTopic());
     return false;
   }
-  const size_t frame_bytes = static_cast<size_t>(image_h_) * image_w_ * image_c_;
   // Frame history of the episode: a re-sent step replaces its frame; a new
   // episode (or an earlier step) starts over with the first frame repeated,
   // as the dataset's frame stacking does at a trajectory's start.
   const bool restart = static_cast<int64_t>(obs.episode_id) != frames_episode_ ||
-                       static_cast<int64_t>(obs.step) < frames_step_ || frames_.empty();
-  if (restart) {
-    frames_.assign(static_cast<size_t>(frame_stack_), img.data);
-  } else if (static_cast<int64_t>(obs.step) == frames_step_) {
-    frames_.back() = img.data;
-  } else {
-    frames_.push_back(img.data);
-    while (frames_.size() > static_cast<size_t>(frame_stack_)) frames_.pop_front();
-  }
+                       static_cast<int64_t>(obs.step) < frames_step_ || frames_->empty();
+  if (restart)
+    frames_->Reset(img.data.data());
+  else if (static_cast<int64_t>(obs.step) == frames_step_)
+    frames_->Replace(img.data.data());
+  else
+    frames_->Push(img.data.data());
   frames_episode_ = obs.episode_id;
   frames_step_ = obs.step;
-  in->image.resize(frame_bytes * frame_stack_);
-  if (frame_stack_ == 1) {
-    std::copy(frames_.front().begin(), frames_.front().end(), in->image.begin());
-  } else {  // [H, W, C * frame_stack], oldest frame first along channels
-    const size_t pixels = static_cast<size_t>(image_h_) * image_w_;
-    for (size_t p = 0; p < pixels; ++p)
-      for (int s = 0; s < frame_stack_; ++s)
-        std::copy_n(frames_[s].data() + p * image_c_, image_c_,
-                    in->image.data() + (p * frame_stack_ + s) * image_c_);
-  }
+  in->image.resize(frames_->stacked_bytes());  // [H, W, C * frame_stack]
+  frames_->Stacked(in->image.data());
   in->episode_id = obs.episode_id;
   in->step = obs.step;
   in->header = obs.header;
@@ -374,12 +364,7 @@ void PolicyNode::OnGoalImage(const sensor_msgs::ImageConstPtr& msg) {
     return;
   }
   // A goal is one image; stacked, it is repeated frame_stack times.
-  const size_t frame_bytes = msg->data.size();
-  goal_image_.resize(frame_bytes * frame_stack_);
-  const size_t pixels = static_cast<size_t>(image_h_) * image_w_;
-  for (size_t p = 0; p < pixels; ++p)
-    for (int s = 0; s < frame_stack_; ++s)
-      std::copy_n(msg->data.data() + p * image_c_, image_c_, goal_image_.data() + (p * frame_stack_ + s) * image_c_);
+  goal_image_ = frames_->Repeat(msg->data.data());
 }
 
 void PolicyNode::OnGoalState(const msspr::Observation::ConstPtr& msg) {

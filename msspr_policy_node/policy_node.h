@@ -9,6 +9,7 @@
 #include <deque>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 
 #include "msspr/Observation.h"
 #include "msspr/SetGoal.h"
+#include "msspr_core/frame_stack.h"
 
 namespace msspr::core {
 class Policy;
@@ -138,7 +140,7 @@ class PolicyNode {
   // Pixels: recent unpaired observations and images (by stamp), and the frame history.
   std::deque<msspr::Observation::ConstPtr> pending_obs_;
   std::deque<sensor_msgs::ImageConstPtr> pending_images_;
-  std::deque<std::vector<uint8_t>> frames_;  // oldest first, each [H, W, C]
+  std::optional<msspr::core::FrameStacker> frames_;  // the episode's last frame_stack images
   int64_t frames_episode_ = -1, frames_step_ = -1;
 
   // Rate mode: the latest good input.

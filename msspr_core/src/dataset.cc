@@ -4,6 +4,8 @@
 #include <cstring>
 #include <limits>
 
+#include "msspr_core/frame_stack.h"
+
 namespace msspr {
 namespace core {
 
@@ -77,15 +79,13 @@ void Dataset::GatherImages(const int64_t* idx, int64_t n, int frame_stack, uint8
     for (int64_t k = 0; k < n; ++k) std::memcpy(out + k * pixels * c, image(idx[k]), pixels * c);
     return;
   }
-  const int cs = c * frame_stack;
+  const FrameStacker stacker(image_shape_.height, image_shape_.width, c, frame_stack);
+  std::vector<const uint8_t*> frames(static_cast<size_t>(frame_stack));
   for (int64_t k = 0; k < n; ++k) {
     const int64_t i = idx[k];
     const int64_t start = trajectory_start(i);
-    uint8_t* dst = out + k * pixels * cs;
-    for (int s = 0; s < frame_stack; ++s) {
-      const uint8_t* src = image(std::max(i - (frame_stack - 1 - s), start));
-      for (int64_t p = 0; p < pixels; ++p) std::memcpy(dst + p * cs + s * c, src + p * c, c);
-    }
+    for (int s = 0; s < frame_stack; ++s) frames[s] = image(std::max(i - (frame_stack - 1 - s), start));
+    stacker.Interleave(frames.data(), out + k * static_cast<int64_t>(stacker.stacked_bytes()));
   }
 }
 

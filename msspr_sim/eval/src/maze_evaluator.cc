@@ -7,12 +7,14 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 
 #include <torch/torch.h>
 
+#include "msspr_core/frame_stack.h"
 #include "msspr_core/policy.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
@@ -43,8 +45,8 @@ struct Slot {
   std::unique_ptr<sim::PointMaze> env;
   bool done = false, success = false;
   int steps = 0;
-  std::vector<uint8_t> frames;  // [H, W, 3 * frame_stack], oldest first (pixels)
-  std::vector<uint8_t> goal_frames;
+  std::optional<core::FrameStacker> frames;  // the episode's last frame_stack renders (pixels)
+  std::vector<uint8_t> goal_frames;          // the goal's render, stacked (pixels)
   std::vector<Eigen::Vector2d> path;
   Eigen::Vector2d start;
 };
@@ -78,27 +80,21 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
     ro.image_size = size;
     renderer = std::make_unique<sim::PointMaze>(ro);
   }
-  const size_t frame_bytes = static_cast<size_t>(size) * size * 3;
-  auto stack_image = [&](const std::vector<uint8_t>& img) {  // one frame repeated, HWC interleaved
-    std::vector<uint8_t> out(frame_bytes * stack);
-    const size_t px = static_cast<size_t>(size) * size;
-    for (size_t p = 0; p < px; ++p)
-      for (int k = 0; k < stack; ++k) std::memcpy(&out[(p * stack + k) * 3], &img[p * 3], 3);
-    return out;
+  std::optional<core::FrameStacker> stacker;  // the frame-stack layout of training (pixels)
+  if (pixels) stacker.emplace(size, size, 3, stack);
+  auto render = [&](const Eigen::Vector2d& xy) {
+    const auto img = renderer->RenderAt(xy);
+    if (img.size() != stacker->frame_bytes())
+      throw std::runtime_error("EvaluateOnMaze: a render of " + std::to_string(img.size()) + " bytes, expected " +
+                               std::to_string(stacker->frame_bytes()));
+    return img;
   };
   auto push_frame = [&](Slot& s, const Eigen::Vector2d& xy, bool fill) {
-    const auto img = renderer->RenderAt(xy);
-    if (fill) {
-      s.frames = stack_image(img);
-    } else {  // drop the oldest frame (channels are interleaved per pixel: HWC with C = 3 * stack)
-      std::vector<uint8_t> next(s.frames.size());
-      const size_t px = static_cast<size_t>(size) * size;
-      for (size_t p = 0; p < px; ++p) {
-        std::memcpy(&next[p * 3 * stack], &s.frames[p * 3 * stack + 3], 3 * (stack - 1));
-        std::memcpy(&next[p * 3 * stack + 3 * (stack - 1)], &img[p * 3], 3);
-      }
-      s.frames.swap(next);
-    }
+    const auto img = render(xy);
+    if (fill)
+      s.frames->Reset(img.data());  // the first frame stands in for the ones before it
+    else
+      s.frames->Push(img.data());
   };
   sim::PointMazeOptions eo;
   eo.maze = maze;
@@ -111,8 +107,9 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
     s.start = spec.task > 0 ? s.env->ResetToTask(spec.task, spec.seed) : s.env->Reset(spec.start, spec.goal);
     if (keep_paths) s.path.push_back(s.start);
     if (pixels) {
+      s.frames.emplace(*stacker);
       push_frame(s, s.start, /*fill=*/true);
-      s.goal_frames = stack_image(renderer->RenderAt(s.env->goal()));
+      s.goal_frames = stacker->Repeat(render(s.env->goal()).data());
     }
     s.success = s.env->success();
     s.done = s.success;
@@ -125,8 +122,8 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
       *obs = torch::empty({B, size, size, 3 * stack}, torch::kUInt8);
       *goal = torch::empty({B, size, size, 3 * stack}, torch::kUInt8);
       for (int64_t b = 0; b < B; ++b) {
-        std::memcpy((*obs)[b].data_ptr<uint8_t>(), batch[b]->frames.data(), frame_bytes * stack);
-        std::memcpy((*goal)[b].data_ptr<uint8_t>(), batch[b]->goal_frames.data(), frame_bytes * stack);
+        batch[b]->frames->Stacked((*obs)[b].data_ptr<uint8_t>());
+        std::memcpy((*goal)[b].data_ptr<uint8_t>(), batch[b]->goal_frames.data(), stacker->stacked_bytes());
       }
     } else {
       *obs = torch::empty({B, 2}, torch::kFloat32);
