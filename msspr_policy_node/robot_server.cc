@@ -59,7 +59,11 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   for (size_t k = 0; k < layout_.topics.size(); ++k) {
     const std::string& type = layout_.topics[k].type;
     const int i = static_cast<int>(k);
-    if (type == kOdometryType) SubscribeObservation<nav_msgs::Odometry>(i);
+    if (type == kTf2Type) {
+      tf_topic_ = i;
+      tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(10.0));
+      tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, /*spin_thread=*/true);
+    } else if (type == kOdometryType) SubscribeObservation<nav_msgs::Odometry>(i);
     else if (type == kPoseStampedType) SubscribeObservation<geometry_msgs::PoseStamped>(i);
     else if (type == kTwistType) SubscribeObservation<geometry_msgs::Twist>(i);
     else if (type == kTwistStampedType) SubscribeObservation<geometry_msgs::TwistStamped>(i);
@@ -73,13 +77,15 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   else if (spec_.goal.source == "observation")
     goal_sub_ = nh_.subscribe<std_msgs::Float64MultiArray>(
         spec_.goal.topic, 1, [this](const std_msgs::Float64MultiArray::ConstPtr& m) { OnGoalMessage(*m); });
-  if (spec_.action_type == kTwistType) cmd_pub_ = nh_.advertise<geometry_msgs::Twist>(spec_.action_topic, 10);
-  else if (spec_.action_type == kTwistStampedType)
-    cmd_pub_ = nh_.advertise<geometry_msgs::TwistStamped>(spec_.action_topic, 10);
-  else if (spec_.action_type == kFloat64MultiArrayType)
-    cmd_pub_ = nh_.advertise<std_msgs::Float64MultiArray>(spec_.action_topic, 10);
-  else
-    cmd_pub_ = nh_.advertise<trajectory_msgs::JointTrajectory>(spec_.action_topic, 10);
+  cmd_topics_ = spec_.CommandTopics();
+  for (const auto& c : cmd_topics_) {
+    if (c.type == kTwistType) cmd_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(c.topic, 10));
+    else if (c.type == kTwistStampedType) cmd_pubs_.push_back(nh_.advertise<geometry_msgs::TwistStamped>(c.topic, 10));
+    else if (c.type == kFloat64MultiArrayType)
+      cmd_pubs_.push_back(nh_.advertise<std_msgs::Float64MultiArray>(c.topic, 10));
+    else
+      cmd_pubs_.push_back(nh_.advertise<trajectory_msgs::JointTrajectory>(c.topic, 10));
+  }
   diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   const ros::WallDuration period(1.0 / spec_.control_rate);
   if (options_.mode == "rate") rate_timer_ = nh_.createWallTimer(period, &RobotServer::OnRateTick, this);
@@ -88,12 +94,13 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period), &RobotServer::OnDiagnostics, this);
   std::ostringstream s;
   for (const auto& t : layout_.topics) s << " " << t.name << " (" << t.type << ")";
+  std::string commands;
+  for (const auto& c : cmd_topics_) commands += (commands.empty() ? "" : ", ") + c.type + " on " + c.topic;
   ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " through robot spec '"
                                                            << spec_.name << "' (" << spec_.source << ", "
                                                            << options_.mode << "): observation from" << s.str()
                                                            << ", goal from " << spec_.goal.topic << ", "
-                                                           << spec_.action_type << " on " << spec_.action_topic
-                                                           << " at " << spec_.control_rate << " Hz");
+                                                           << commands << " at " << spec_.control_rate << " Hz");
 }
 
 RobotServer::~RobotServer() = default;
@@ -127,7 +134,56 @@ void RobotServer::OnObservationMessage(int k, const M& msg) {
   h.Add(std::move(s));
   h.Trim(64);
   last_receipt_[k] = ros::WallTime::now();
-  if (options_.mode == "lockstep" && k == 0) ActAt(stamp);
+  (void)stamp;
+  if (k == 0) ++first_topic_messages_;
+  if (options_.mode == "lockstep") TryActLockstep();
+}
+
+void RobotServer::PollTf() {
+  if (tf_topic_ < 0) return;
+  TopicSample s;
+  std::string why;
+  bool nonfinite = false;
+  if (!DecodeTf(spec_, layout_.topics[tf_topic_], *tf_buffer_, ros::Time::now(), &s, &why, &nonfinite)) {
+    if (nonfinite) {
+      ++counters_.rejected;
+      ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected transform: " << why);
+    }
+    return;
+  }
+  TopicHistory& h = histories_[tf_topic_];
+  if (!h.samples().empty() && s.stamp <= h.samples().back().stamp) {
+    if (s.stamp < h.samples().back().stamp) h.Clear();  // time went back
+    else return;
+  }
+  ++counters_.messages;
+  h.Add(std::move(s));
+  h.Trim(64);
+  last_receipt_[tf_topic_] = ros::WallTime::now();
+}
+
+void RobotServer::TryActLockstep() {
+  if (histories_[0].samples().empty()) return;
+  if (acted_messages_ >= first_topic_messages_) return;  // acted on the first topic's newest message
+  const ros::Time t = histories_[0].samples().back().stamp;
+  const ros::Time ready = Before(t, ros::Duration(spec_.tolerance));
+  auto caught_up = [&](size_t k) {
+    return !histories_[k].samples().empty() && histories_[k].samples().back().stamp >= ready;
+  };
+  for (size_t k = 1; k < layout_.topics.size(); ++k) {
+    if (static_cast<int>(k) == tf_topic_) {
+      // The listener fills the buffer on its own thread: wait for it briefly.
+      const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(std::min(0.2, spec_.stale_after));
+      PollTf();
+      while (!caught_up(k) && ros::WallTime::now() < until && ros::ok()) {
+        ros::WallDuration(0.0005).sleep();
+        PollTf();
+      }
+    }
+    if (!caught_up(k)) return;  // its message for t comes later and calls again
+  }
+  acted_messages_ = first_topic_messages_;
+  ActAt(t);
 }
 
 template <class M>
@@ -142,11 +198,15 @@ void RobotServer::OnGoalMessage(const M& msg) {
   goal_.assign(g.begin(), g.end());
 }
 
-void RobotServer::OnRateTick(const ros::WallTimerEvent&) { ActAt(ros::Time::now()); }
+void RobotServer::OnRateTick(const ros::WallTimerEvent&) {
+  PollTf();
+  ActAt(ros::Time::now());
+}
 
 void RobotServer::OnWatchdog(const ros::WallTimerEvent&) {
   // Inputs are stale when any observation topic has been silent longer than
   // stale_after (wall time), or there is no goal yet.
+  PollTf();
   const ros::WallTime now = ros::WallTime::now();
   std::string why;
   for (size_t k = 0; k < layout_.topics.size() && why.empty(); ++k) {
@@ -208,19 +268,23 @@ void RobotServer::ActAt(const ros::Time& t) {
 }
 
 void RobotServer::PublishCommand(const std::vector<double>& a) {
-  if (spec_.action_type == kTwistType) {
-    cmd_pub_.publish(MakeTwist(spec_, a));
-  } else if (spec_.action_type == kTwistStampedType) {
-    geometry_msgs::TwistStamped m;
-    m.header.stamp = ros::Time::now();
-    m.twist = MakeTwist(spec_, a);
-    cmd_pub_.publish(m);
-  } else if (spec_.action_type == kFloat64MultiArrayType) {
-    cmd_pub_.publish(MakeFloat64MultiArray(spec_, a));
-  } else {
-    trajectory_msgs::JointTrajectory m = MakeJointTrajectory(spec_, a);
-    m.header.stamp = ros::Time::now();
-    cmd_pub_.publish(m);
+  for (size_t c = 0; c < cmd_topics_.size(); ++c) {
+    const std::string& type = cmd_topics_[c].type;
+    const std::string& topic = cmd_topics_[c].topic;
+    if (type == kTwistType) {
+      cmd_pubs_[c].publish(MakeTwist(spec_, a, topic));
+    } else if (type == kTwistStampedType) {
+      geometry_msgs::TwistStamped m;
+      m.header.stamp = ros::Time::now();
+      m.twist = MakeTwist(spec_, a, topic);
+      cmd_pubs_[c].publish(m);
+    } else if (type == kFloat64MultiArrayType) {
+      cmd_pubs_[c].publish(MakeFloat64MultiArray(spec_, a, topic));
+    } else {
+      trajectory_msgs::JointTrajectory m = MakeJointTrajectory(spec_, a, topic);
+      m.header.stamp = ros::Time::now();
+      cmd_pubs_[c].publish(m);
+    }
   }
   ++counters_.commands;
 }
@@ -233,22 +297,28 @@ void RobotServer::PublishStop(const std::string& why) {
   }
   stale_why_ = why;
   last_stop_ = ros::WallTime::now();
-  if (spec_.action_type == kTwistType) {
-    cmd_pub_.publish(geometry_msgs::Twist());
-  } else if (spec_.action_type == kTwistStampedType) {
-    geometry_msgs::TwistStamped m;
-    m.header.stamp = ros::Time::now();
-    cmd_pub_.publish(m);
-  } else if (spec_.action_type == kFloat64MultiArrayType) {
-    std_msgs::Float64MultiArray m = MakeFloat64MultiArray(spec_, std::vector<double>(spec_.action_dim(), 0.0));
-    std::fill(m.data.begin(), m.data.end(), 0.0);
-    cmd_pub_.publish(m);
-  } else {
-    // An empty trajectory makes joint_trajectory_controller stop and hold its position.
-    trajectory_msgs::JointTrajectory m;
-    m.header.stamp = ros::Time::now();
-    for (const auto& f : spec_.action) m.joint_names.insert(m.joint_names.end(), f.joints.begin(), f.joints.end());
-    cmd_pub_.publish(m);
+  for (size_t c = 0; c < cmd_topics_.size(); ++c) {
+    const std::string& type = cmd_topics_[c].type;
+    const std::string& topic = cmd_topics_[c].topic;
+    if (type == kTwistType) {
+      cmd_pubs_[c].publish(geometry_msgs::Twist());
+    } else if (type == kTwistStampedType) {
+      geometry_msgs::TwistStamped m;
+      m.header.stamp = ros::Time::now();
+      cmd_pubs_[c].publish(m);
+    } else if (type == kFloat64MultiArrayType) {
+      std_msgs::Float64MultiArray m =
+          MakeFloat64MultiArray(spec_, std::vector<double>(spec_.action_dim(), 0.0), topic);
+      std::fill(m.data.begin(), m.data.end(), 0.0);
+      cmd_pubs_[c].publish(m);
+    } else {
+      // An empty trajectory makes joint_trajectory_controller stop and hold its position.
+      trajectory_msgs::JointTrajectory m;
+      m.header.stamp = ros::Time::now();
+      for (const auto& f : spec_.action)
+        if (f.topic == topic) m.joint_names.insert(m.joint_names.end(), f.joints.begin(), f.joints.end());
+      cmd_pubs_[c].publish(m);
+    }
   }
   ++counters_.stops;
 }

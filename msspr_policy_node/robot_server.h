@@ -2,9 +2,10 @@
 // robot's standard topics through its robot interface spec (robot_spec.h). It
 // subscribes to the spec's observation and goal topics, assembles the
 // observation as training did (robot_fields.h: SampleObservation), and
-// publishes the spec's command type: in lockstep mode once per message of the
-// first observation topic (at its stamp), in rate mode at the spec's control
-// rate (at ros::Time::now()). A watchdog sends a stop command (zero twist,
+// publishes the spec's command type(s): in lockstep mode once per stamp of the
+// first observation topic, when every observation topic has caught up with it
+// (tf2 fields: the tf2 buffer), in rate mode at the spec's control rate (at
+// ros::Time::now()). tf2 fields are looked up in a tf2_ros::Buffer. A watchdog sends a stop command (zero twist,
 // zero array, or an empty trajectory: hold) at the control rate while inputs
 // are stale, as diff_drive_controller's cmd_vel_timeout does, says so on
 // /diagnostics, and serves again once they return. This header does not
@@ -17,6 +18,8 @@
 #include <vector>
 
 #include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 
 #include "policy_node.h"
 #include "robot_fields.h"
@@ -56,6 +59,10 @@ class RobotServer {
   void OnDiagnostics(const ros::WallTimerEvent&);
   // Samples the observation at t and acts; a stale one sends a stop instead.
   void ActAt(const ros::Time& t);
+  // tf2 fields: a new sample from the buffer when it has newer transforms.
+  void PollTf();
+  // Lockstep: acts at the first topic's newest stamp once every topic has caught up.
+  void TryActLockstep();
   void PublishCommand(const std::vector<double>& a);
   void PublishStop(const std::string& why);
 
@@ -66,7 +73,14 @@ class RobotServer {
   std::shared_ptr<core::Policy> policy_;
   std::vector<ros::Subscriber> subs_;
   ros::Subscriber goal_sub_;
-  ros::Publisher cmd_pub_, diag_pub_;
+  std::vector<RobotSpec::CommandTopic> cmd_topics_;
+  std::vector<ros::Publisher> cmd_pubs_;  // one per command topic
+  ros::Publisher diag_pub_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  int tf_topic_ = -1;                        // layout topic of the tf2 fields, or -1
+  uint64_t first_topic_messages_ = 0;        // lockstep: messages of the first topic (a re-sent one acts again)
+  uint64_t acted_messages_ = 0;              // lockstep: the first topic's messages acted upon
   ros::WallTimer rate_timer_, watchdog_timer_, diag_timer_;
   std::vector<TopicHistory> histories_;
   std::vector<ros::WallTime> last_receipt_;  // per observation topic (wall clock)

@@ -51,6 +51,81 @@ Eigen::VectorXd ArmQ(const sim::CubeEnv& env) {
 }
 }  // namespace
 
+CubeStandardMessages MakeCubeStandardMessages(const sim::CubeEnv& env, const ros::Time& stamp,
+                                              const std::string& world_frame, const std::string& cube_frame,
+                                              const std::string& goal_frame) {
+  CubeStandardMessages out;
+  const auto& arm = env.arm();
+  const auto& links = arm.links();
+  const Eigen::VectorXd q = ArmQ(env);
+  const std::vector<Eigen::Isometry3d> poses = arm.LinkPoses(q);
+  const std::vector<double> qvel = env.Qvel();
+  sensor_msgs::JointState& js = out.joint_states;
+  js.header.stamp = stamp;
+  for (size_t i = 1; i < links.size(); ++i) {
+    const auto& l = links[i];
+    if (l.type == sim::ArmModel::JointType::kFixed) continue;
+    js.name.push_back(l.joint);
+    js.position.push_back(l.multiplier * q[l.dof] + l.offset);
+    // qvel: arm 0-5, then the fingers (the mimic one follows the left's dof)
+    js.velocity.push_back(l.multiplier * qvel[static_cast<size_t>(l.dof)]);
+    out.transforms.push_back(ToTf(poses[static_cast<size_t>(l.parent)].inverse() * poses[i], stamp,
+                                  links[static_cast<size_t>(l.parent)].name, l.name));
+  }
+  // The gripper: the first finger joint that is not a mimic (its dof drives the opening).
+  out.gripper_state.header.stamp = stamp;
+  const sim::CubeEnv::Observation obs = env.GetObservation();
+  for (size_t i = 0; i < js.name.size(); ++i) {
+    if (i < 6) continue;  // the arm's six joints come first
+    out.gripper_state.name = {js.name[i]};
+    out.gripper_state.position = {js.position[i]};
+    out.gripper_state.velocity = {js.velocity[i]};
+    out.gripper_state.effort = {50.0 * static_cast<double>(obs[18])};
+    break;
+  }
+  const std::vector<double> qpos = env.Qpos();
+  out.cube_pose.header.stamp = stamp;
+  out.cube_pose.header.frame_id = world_frame;
+  out.cube_pose.pose.position.x = qpos[8];
+  out.cube_pose.pose.position.y = qpos[9];
+  out.cube_pose.pose.position.z = qpos[10];
+  out.cube_pose.pose.orientation.w = qpos[11];
+  out.cube_pose.pose.orientation.x = qpos[12];
+  out.cube_pose.pose.orientation.y = qpos[13];
+  out.cube_pose.pose.orientation.z = qpos[14];
+  Eigen::Isometry3d cube = Eigen::Isometry3d::Identity();
+  cube.translation() = Eigen::Vector3d(qpos[8], qpos[9], qpos[10]);
+  cube.linear() = Eigen::Quaterniond(qpos[11], qpos[12], qpos[13], qpos[14]).normalized().toRotationMatrix();
+  out.transforms.push_back(ToTf(cube, stamp, world_frame, cube_frame));
+  Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
+  goal.translation() = env.GoalPosition();
+  goal.linear() = Eigen::AngleAxisd(env.GoalYaw(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  out.transforms.push_back(ToTf(goal, stamp, world_frame, goal_frame));
+  // The pinch pose as the arm's controller measures it (as ur_robot_driver's
+  // tool0_controller frame): the simulator's own pinch site, which the
+  // observation reads. It comes from the physics' last kinematics pass, one
+  // 2 ms substep before the joint positions, so it differs from the URDF's
+  // pinch link (forward kinematics of joint_states) by up to about a millimetre.
+  Eigen::Isometry3d pinch = Eigen::Isometry3d::Identity();
+  pinch.translation() = env.PinchPosition();
+  pinch.linear() = env.PinchRotation();
+  out.transforms.push_back(ToTf(pinch, stamp, world_frame, kCubePinchControllerFrame));
+  return out;
+}
+
+std::vector<geometry_msgs::TransformStamped> MakeCubeStaticTransforms(const sim::CubeEnv& env) {
+  const auto& links = env.arm().links();
+  const std::vector<Eigen::Isometry3d> poses = env.arm().LinkPoses(ArmQ(env));
+  std::vector<geometry_msgs::TransformStamped> tfs;
+  for (size_t i = 1; i < links.size(); ++i) {
+    if (links[i].type != sim::ArmModel::JointType::kFixed) continue;
+    const auto& parent = links[static_cast<size_t>(links[i].parent)];
+    tfs.push_back(ToTf(poses[static_cast<size_t>(links[i].parent)].inverse() * poses[i], ros::Time(0),
+                       parent.name, links[i].name));
+  }
+  return tfs;
+}
+
 CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   CubeSimNodeOptions o;
   ROS_INFO_NAMED("msspr_sim", "msspr_sim_node (env cube-single) parameters:");
@@ -61,6 +136,7 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
   o.cube_frame = SimParam(pnh, "cube_frame", o.cube_frame);
   o.goal_frame = SimParam(pnh, "goal_frame", o.goal_frame);
   o.robot_description = SimParam(pnh, "robot_description", o.robot_description);
+  o.standard_topics = SimParam(pnh, "standard_topics", o.standard_topics);
   o.urdf = SimParam(pnh, "urdf", sim::DefaultArmUrdf());
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
     std::ostringstream s;
@@ -122,6 +198,14 @@ CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimN
 
   joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
   marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
+  if (options_.standard_topics) {
+    gripper_state_pub_ = nh_.advertise<sensor_msgs::JointState>("gripper/joint_states", 10);
+    cube_pose_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("cube_pose", 10);
+    goal_obs_pub_ = nh_.advertise<std_msgs::Float64MultiArray>("goal_observation", 1, /*latch=*/true);
+    ee_twist_sub_ = nh_.subscribe("ee_twist", 10, &CubeSimNode::OnEeTwist, this, ros::TransportHints().tcpNoDelay());
+    gripper_cmd_sub_ =
+        nh_.subscribe("gripper_command", 10, &CubeSimNode::OnGripperCommand, this, ros::TransportHints().tcpNoDelay());
+  }
   PublishStaticFrames();
   PublishRobot(Now());  // the arm at home, before any episode
   StartRos();
@@ -132,16 +216,7 @@ CubeSimNode::~CubeSimNode() = default;
 // Fixed URDF joints once on /tf_static (as robot_state_publisher does), and
 // latched markers for the cube and the goal, locked to their frames.
 void CubeSimNode::PublishStaticFrames() {
-  const auto& links = env_->arm().links();
-  const std::vector<Eigen::Isometry3d> poses = env_->arm().LinkPoses(ArmQ(*env_));
-  std::vector<geometry_msgs::TransformStamped> tfs;
-  for (size_t i = 1; i < links.size(); ++i) {
-    if (links[i].type != sim::ArmModel::JointType::kFixed) continue;
-    const auto& parent = links[static_cast<size_t>(links[i].parent)];
-    tfs.push_back(ToTf(poses[static_cast<size_t>(links[i].parent)].inverse() * poses[i], ros::Time(0),
-                       parent.name, links[i].name));
-  }
-  static_tf_.sendTransform(tfs);
+  static_tf_.sendTransform(MakeCubeStaticTransforms(*env_));
 
   visualization_msgs::MarkerArray arr;
   for (int k = 0; k < 2; ++k) {
@@ -165,35 +240,47 @@ void CubeSimNode::PublishStaticFrames() {
 // joint_states for every moving URDF joint (the mimic finger included) and
 // tf2 for the moving joints, the cube and the goal marker.
 void CubeSimNode::PublishRobot(const ros::Time& stamp) {
-  const auto& arm = env_->arm();
-  const auto& links = arm.links();
-  const Eigen::VectorXd q = ArmQ(*env_);
-  const std::vector<Eigen::Isometry3d> poses = arm.LinkPoses(q);
-  const std::vector<double> qvel = env_->Qvel();
-  sensor_msgs::JointState js;
-  js.header.stamp = stamp;
-  std::vector<geometry_msgs::TransformStamped> tfs;
-  for (size_t i = 1; i < links.size(); ++i) {
-    const auto& l = links[i];
-    if (l.type == sim::ArmModel::JointType::kFixed) continue;
-    js.name.push_back(l.joint);
-    js.position.push_back(l.multiplier * q[l.dof] + l.offset);
-    // qvel: arm 0-5, then the fingers (the mimic one follows the left's dof)
-    js.velocity.push_back(l.multiplier * qvel[static_cast<size_t>(l.dof)]);
-    tfs.push_back(ToTf(poses[static_cast<size_t>(l.parent)].inverse() * poses[i], stamp,
-                       links[static_cast<size_t>(l.parent)].name, l.name));
+  const CubeStandardMessages m =
+      MakeCubeStandardMessages(*env_, stamp, options_.world_frame, options_.cube_frame, options_.goal_frame);
+  tf_.sendTransform(m.transforms);
+  if (options_.standard_topics) {
+    cube_pose_pub_.publish(m.cube_pose);
+    gripper_state_pub_.publish(m.gripper_state);
   }
-  Eigen::Isometry3d cube = Eigen::Isometry3d::Identity();
-  const std::vector<double> qpos = env_->Qpos();
-  cube.translation() = Eigen::Vector3d(qpos[8], qpos[9], qpos[10]);
-  cube.linear() = Eigen::Quaterniond(qpos[11], qpos[12], qpos[13], qpos[14]).normalized().toRotationMatrix();
-  tfs.push_back(ToTf(cube, stamp, options_.world_frame, options_.cube_frame));
-  Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
-  goal.translation() = env_->GoalPosition();
-  goal.linear() = Eigen::AngleAxisd(env_->GoalYaw(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  tfs.push_back(ToTf(goal, stamp, options_.world_frame, options_.goal_frame));
-  tf_.sendTransform(tfs);
-  joint_state_pub_.publish(js);
+  joint_state_pub_.publish(m.joint_states);
+}
+
+void CubeSimNode::PublishGoalObservation() {
+  if (!options_.standard_topics || goal_.empty()) return;
+  std_msgs::Float64MultiArray g;
+  g.data.assign(goal_.begin(), goal_.end());
+  goal_obs_pub_.publish(g);
+}
+
+void CubeSimNode::OnEeTwist(const geometry_msgs::TwistStamped::ConstPtr& msg) {
+  pending_twist_ = *msg;
+  MaybeStepStandard();
+}
+
+void CubeSimNode::OnGripperCommand(const std_msgs::Float64MultiArray::ConstPtr& msg) {
+  pending_grip_ = msg->data.empty() ? std::nan("") : msg->data[0];
+  MaybeStepStandard();
+}
+
+void CubeSimNode::MaybeStepStandard() {
+  if (!pending_twist_ || !pending_grip_) return;
+  // The same checks, counters and stepping as an msspr/Action for the current step.
+  auto a = boost::make_shared<msspr::Action>();
+  a->header.stamp = Now();
+  a->episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
+  a->step = EpisodeStep();
+  const auto& t = pending_twist_->twist;
+  a->action = {static_cast<float>(t.linear.x / kCubeEeSpeed), static_cast<float>(t.linear.y / kCubeEeSpeed),
+               static_cast<float>(t.linear.z / kCubeEeSpeed), static_cast<float>(t.angular.z / kCubeEeYawRate),
+               static_cast<float>(*pending_grip_)};
+  pending_twist_.reset();
+  pending_grip_.reset();
+  OnAction(a);
 }
 
 void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {
@@ -207,6 +294,9 @@ void CubeSimNode::BeginEpisode(int task_id, uint64_t seed, const std::string& sp
                                const sim::CubeEnv::Observation& start) {
   std::function<std::vector<uint8_t>()> render_goal;
   if (!goal_.empty()) render_goal = [this] { return env_->goal_image(); };
+  pending_twist_.reset();
+  pending_grip_.reset();
+  PublishGoalObservation();  // before the episode's first observation
   AnnounceEpisode(task_id, seed, split, std::vector<float>(start.begin(), start.end()), goal_, render_goal);
 }
 
@@ -297,6 +387,7 @@ bool CubeSimNode::SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response
   sim::CubeEnv::Observation g;
   std::copy(goal_.begin(), goal_.end(), g.begin());
   env_->SetGoalObservation(g);
+  PublishGoalObservation();
   if (pixels())
     goal_image_pub_.publish(ToImageMsg(env_->goal_image().data(), options_.image_size, Now(), kCameraFrame));
   res.ok = true;

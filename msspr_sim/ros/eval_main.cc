@@ -98,10 +98,13 @@ class SimClient {
   bool HasAgent() const {
     ros::master::V_TopicInfo topics;
     if (!ros::master::getTopics(topics)) return false;
-    // msspr/Action on action, or a robot's command on cmd_vel (served through a robot spec).
-    const std::string action = ActionTopic(), cmd_vel = nh_.resolveName("cmd_vel");
-    return std::any_of(topics.begin(), topics.end(),
-                       [&](const ros::master::TopicInfo& t) { return t.name == action || t.name == cmd_vel; });
+    // msspr/Action on action, or a robot's command served through a robot spec:
+    // cmd_vel (pointmaze_base) or ee_twist (ur5e_cube).
+    const std::string action = ActionTopic(), cmd_vel = nh_.resolveName("cmd_vel"),
+                      ee_twist = nh_.resolveName("ee_twist");
+    return std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) {
+      return t.name == action || t.name == cmd_vel || t.name == ee_twist;
+    });
   }
   int episodes_run() const { return episodes_run_; }
 

@@ -155,6 +155,19 @@ bool ReadRaw(const trajectory_msgs::JointTrajectory& msg, const SpecField& f, st
                      f.field.c_str(), out, why);
 }
 
+bool ReadRaw(const geometry_msgs::TransformStamped& msg, const SpecField& f, std::vector<double>* out,
+             std::string*) {
+  out->clear();
+  for (const auto& p : Paths(f)) {
+    const auto [group, c] = SplitLast(p);
+    out->push_back(group == "translation" ? Component(msg.transform.translation, c)
+                                          : Component(msg.transform.rotation, c));
+  }
+  Derive(f, out);
+  return true;
+}
+
+ros::Time HeaderStamp(const geometry_msgs::TransformStamped& m) { return m.header.stamp; }
 ros::Time HeaderStamp(const nav_msgs::Odometry& m) { return m.header.stamp; }
 ros::Time HeaderStamp(const geometry_msgs::PoseStamped& m) { return m.header.stamp; }
 ros::Time HeaderStamp(const geometry_msgs::Twist&) { return ros::Time(); }
@@ -164,8 +177,10 @@ ros::Time HeaderStamp(const std_msgs::Float64MultiArray&) { return ros::Time(); 
 ros::Time HeaderStamp(const trajectory_msgs::JointTrajectory& m) { return m.header.stamp; }
 
 void ScaleObservation(const SpecField& f, std::vector<double>* values) {
-  for (size_t i = 0; i < values->size(); ++i)
+  for (size_t i = 0; i < values->size(); ++i) {
     (*values)[i] = f.ScaleAt(static_cast<int>(i)) * ((*values)[i] - f.OffsetAt(static_cast<int>(i)));
+    if (f.has_clip) (*values)[i] = std::clamp((*values)[i], f.clip[0], f.clip[1]);
+  }
 }
 
 void UnscaleAction(const SpecField& f, std::vector<double>* values) {
@@ -222,13 +237,20 @@ bool DecodeObservation(const RobotSpec& spec, const SpecLayout::Topic& t, const 
 
 template <class M>
 bool DecodeAction(const RobotSpec& spec, const M& msg, const ros::Time& receipt, TopicSample* out,
-                  std::string* why, bool* nonfinite) {
+                  std::string* why, bool* nonfinite, const std::string& topic) {
   *nonfinite = false;
   out->values.clear();
   out->receipt = receipt;
-  out->stamp = spec.action_stamp == "receipt" ? receipt : HeaderStamp(msg);
+  const std::string& on = topic.empty() ? spec.action_topic : topic;
+  out->stamp = receipt;
+  for (const SpecField& f : spec.action)
+    if (f.topic == on) {
+      out->stamp = f.stamp == "receipt" ? receipt : HeaderStamp(msg);
+      break;
+    }
   std::vector<double> v;
   for (const SpecField& f : spec.action) {
+    if (f.topic != on) continue;
     if (!ReadAny(msg, f, &v, why)) return false;
     if (!AllFinite(v)) {
       *nonfinite = true;
@@ -244,7 +266,8 @@ bool DecodeAction(const RobotSpec& spec, const M& msg, const ros::Time& receipt,
 #define MSSPR_INSTANTIATE(M)                                                                                  \
   template bool DecodeObservation<M>(const RobotSpec&, const SpecLayout::Topic&, const M&, const ros::Time&, \
                                      TopicSample*, std::string*, bool*);                                     \
-  template bool DecodeAction<M>(const RobotSpec&, const M&, const ros::Time&, TopicSample*, std::string*, bool*);
+  template bool DecodeAction<M>(const RobotSpec&, const M&, const ros::Time&, TopicSample*, std::string*, bool*, \
+                                const std::string&);
 MSSPR_INSTANTIATE(nav_msgs::Odometry)
 MSSPR_INSTANTIATE(geometry_msgs::PoseStamped)
 MSSPR_INSTANTIATE(geometry_msgs::Twist)
@@ -252,7 +275,37 @@ MSSPR_INSTANTIATE(geometry_msgs::TwistStamped)
 MSSPR_INSTANTIATE(sensor_msgs::JointState)
 MSSPR_INSTANTIATE(std_msgs::Float64MultiArray)
 MSSPR_INSTANTIATE(trajectory_msgs::JointTrajectory)
+MSSPR_INSTANTIATE(geometry_msgs::TransformStamped)
 #undef MSSPR_INSTANTIATE
+
+bool DecodeTf(const RobotSpec& spec, const SpecLayout::Topic& t, const tf2::BufferCore& buffer,
+              const ros::Time& receipt, TopicSample* out, std::string* why, bool* nonfinite) {
+  *nonfinite = false;
+  out->values.clear();
+  out->receipt = receipt;
+  out->stamp = ros::TIME_MAX;
+  std::vector<double> v;
+  for (int idx : t.fields) {
+    const SpecField& f = spec.observation[idx];
+    geometry_msgs::TransformStamped tf;
+    try {
+      tf = buffer.lookupTransform(f.frames[0], f.frames[1], ros::Time(0));
+    } catch (const tf2::TransformException& e) {
+      *why = "field '" + f.name + "' (tf2 " + f.frames[0] + " -> " + f.frames[1] + "): " + e.what();
+      return false;
+    }
+    ReadRaw(tf, f, &v, why);
+    if (!AllFinite(v)) {
+      *nonfinite = true;
+      *why = "field '" + f.name + "' (tf2 " + f.frames[0] + " -> " + f.frames[1] + "): NaN or Inf";
+      return false;
+    }
+    ScaleObservation(f, &v);
+    out->values.insert(out->values.end(), v.begin(), v.end());
+    out->stamp = std::min(out->stamp, tf.header.stamp);
+  }
+  return true;
+}
 
 bool DecodeGoal(const RobotSpec& spec, const geometry_msgs::PoseStamped& msg, std::vector<double>* goal,
                 std::string* why) {
@@ -311,10 +364,12 @@ std::vector<std::vector<double>> CommandValues(const RobotSpec& spec, const std:
 
 }  // namespace
 
-geometry_msgs::Twist MakeTwist(const RobotSpec& spec, const std::vector<double>& a) {
+geometry_msgs::Twist MakeTwist(const RobotSpec& spec, const std::vector<double>& a, const std::string& topic) {
   geometry_msgs::Twist t;
   const auto values = CommandValues(spec, a);
+  const std::string& on = topic.empty() ? spec.action_topic : topic;
   for (size_t k = 0; k < spec.action.size(); ++k) {
+    if (spec.action[k].topic != on) continue;
     const auto paths = ResolveFieldPaths(spec.action[k], spec.source);
     for (size_t i = 0; i < paths.size(); ++i) {
       auto [group, c] = SplitLast(paths[i]);
@@ -325,10 +380,13 @@ geometry_msgs::Twist MakeTwist(const RobotSpec& spec, const std::vector<double>&
   return t;
 }
 
-std_msgs::Float64MultiArray MakeFloat64MultiArray(const RobotSpec& spec, const std::vector<double>& a) {
+std_msgs::Float64MultiArray MakeFloat64MultiArray(const RobotSpec& spec, const std::vector<double>& a,
+                                                  const std::string& topic) {
   std_msgs::Float64MultiArray m;
   const auto values = CommandValues(spec, a);
+  const std::string& on = topic.empty() ? spec.action_topic : topic;
   for (size_t k = 0; k < spec.action.size(); ++k) {
+    if (spec.action[k].topic != on) continue;
     const auto paths = ResolveFieldPaths(spec.action[k], spec.source);
     for (size_t i = 0; i < paths.size(); ++i) {
       const size_t idx = std::stoul(paths[i].substr(5, paths[i].size() - 6));
@@ -339,12 +397,15 @@ std_msgs::Float64MultiArray MakeFloat64MultiArray(const RobotSpec& spec, const s
   return m;
 }
 
-trajectory_msgs::JointTrajectory MakeJointTrajectory(const RobotSpec& spec, const std::vector<double>& a) {
+trajectory_msgs::JointTrajectory MakeJointTrajectory(const RobotSpec& spec, const std::vector<double>& a,
+                                                     const std::string& topic) {
   trajectory_msgs::JointTrajectory m;
   trajectory_msgs::JointTrajectoryPoint pt;
   const auto values = CommandValues(spec, a);
+  const std::string& on = topic.empty() ? spec.action_topic : topic;
   for (size_t k = 0; k < spec.action.size(); ++k) {
     const auto& f = spec.action[k];
+    if (f.topic != on) continue;
     for (size_t i = 0; i < f.joints.size(); ++i) {
       m.joint_names.push_back(f.joints[i]);
       (f.field == "points[0].positions" ? pt.positions : pt.velocities).push_back(values[k][i]);
@@ -404,15 +465,42 @@ std::string SampleObservation(const RobotSpec& spec, const SpecLayout& layout,
   return why;
 }
 
-std::string SampleAction(const RobotSpec& spec, const TopicHistory& commands, const ros::Time& t,
-                         const ros::Time& not_before, std::vector<float>* a) {
+std::string NewestCommand(const RobotSpec& spec, const std::string& topic, const TopicHistory& commands,
+                          const ros::Time& t, const ros::Time& not_before, const TopicSample** out) {
   const ros::Duration tol(spec.tolerance), stale(spec.stale_after), period(1.0 / spec.control_rate);
   const TopicSample* s = commands.LatestBefore(t + period - tol);
-  if (s == nullptr || s->stamp < Before(not_before, tol)) return "topic " + spec.action_topic + ": no command yet";
+  if (s == nullptr || s->stamp < Before(not_before, tol)) return "topic " + topic + ": no command yet";
   if (s->stamp < Before(t, stale))
-    return "topic " + spec.action_topic + ": newest command is " + std::to_string((t - s->stamp).toSec()) +
+    return "topic " + topic + ": newest command is " + std::to_string((t - s->stamp).toSec()) +
            " s old (stale_after " + std::to_string(spec.stale_after) + " s)";
+  *out = s;
+  return "";
+}
+
+std::string SampleAction(const RobotSpec& spec, const TopicHistory& commands, const ros::Time& t,
+                         const ros::Time& not_before, std::vector<float>* a) {
+  const TopicSample* s = nullptr;
+  const std::string why = NewestCommand(spec, spec.action_topic, commands, t, not_before, &s);
+  if (!why.empty()) return why;
   a->assign(s->values.begin(), s->values.end());
+  return "";
+}
+
+std::string SampleCommands(const RobotSpec& spec, const std::vector<RobotSpec::CommandTopic>& topics,
+                           const std::vector<TopicHistory>& commands, const ros::Time& t,
+                           const ros::Time& not_before, std::vector<float>* a) {
+  a->assign(spec.action_dim(), 0.f);
+  for (size_t k = 0; k < topics.size(); ++k) {
+    const TopicSample* s = nullptr;
+    const std::string why = NewestCommand(spec, topics[k].topic, commands[k], t, not_before, &s);
+    if (!why.empty()) return why;
+    int at = 0;
+    for (size_t j = 0; j < topics[k].fields.size(); ++j) {
+      const int n = spec.action[topics[k].fields[j]].size();
+      for (int i = 0; i < n; ++i) (*a)[topics[k].action_offset[j] + i] = static_cast<float>(s->values[at + i]);
+      at += n;
+    }
+  }
   return "";
 }
 

@@ -10,12 +10,15 @@
 #include <vector>
 
 #include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/time.h>
 #include <sensor_msgs/JointState.h>
 #include <std_msgs/Float64MultiArray.h>
+#include <tf2/buffer_core.h>
+#include <tf2/exceptions.h>
 #include <trajectory_msgs/JointTrajectory.h>
 
 #include "robot_spec.h"
@@ -32,6 +35,9 @@ bool ReadRaw(const sensor_msgs::JointState& msg, const SpecField& f, std::vector
 bool ReadRaw(const std_msgs::Float64MultiArray& msg, const SpecField& f, std::vector<double>* out, std::string* why);
 bool ReadRaw(const trajectory_msgs::JointTrajectory& msg, const SpecField& f, std::vector<double>* out,
              std::string* why);
+// A tf2 field: the transform's translation / rotation (tf2 lookupTransform(frames[0], frames[1])).
+bool ReadRaw(const geometry_msgs::TransformStamped& msg, const SpecField& f, std::vector<double>* out,
+             std::string* why);
 
 // The header stamp of a message, or a zero time for the types without one.
 ros::Time HeaderStamp(const nav_msgs::Odometry& m);
@@ -41,8 +47,9 @@ ros::Time HeaderStamp(const geometry_msgs::TwistStamped& m);
 ros::Time HeaderStamp(const sensor_msgs::JointState& m);
 ros::Time HeaderStamp(const std_msgs::Float64MultiArray& m);
 ros::Time HeaderStamp(const trajectory_msgs::JointTrajectory& m);
+ros::Time HeaderStamp(const geometry_msgs::TransformStamped& m);
 
-// Observation units: scale * (raw - offset), per value.
+// Observation units: scale * (raw - offset), per value (then clipped, when the field has a clip).
 void ScaleObservation(const SpecField& f, std::vector<double>* values);
 // Training: the policy action of a command's raw numbers, (raw - offset) / scale clipped to f.clip.
 void UnscaleAction(const SpecField& f, std::vector<double>* values);
@@ -75,10 +82,18 @@ struct SpecLayout {
 template <class M>
 bool DecodeObservation(const RobotSpec& spec, const SpecLayout::Topic& t, const M& msg, const ros::Time& receipt,
                        TopicSample* out, std::string* why, bool* nonfinite);
-// Decodes a command message into the policy's action units (UnscaleAction).
+// The tf2 fields of layout topic `t` (type tf2) from a tf2 buffer: each
+// field's frames looked up at the latest time the buffer has for them; the
+// sample is stamped with the oldest of those times. False with `why` when a
+// lookup fails (frames not connected yet) or a value is NaN / Inf.
+bool DecodeTf(const RobotSpec& spec, const SpecLayout::Topic& t, const tf2::BufferCore& buffer,
+              const ros::Time& receipt, TopicSample* out, std::string* why, bool* nonfinite);
+
+// Decodes a command message of `topic` ("": the action's own topic) into the
+// policy's action units (UnscaleAction): the values of the fields on that topic.
 template <class M>
 bool DecodeAction(const RobotSpec& spec, const M& msg, const ros::Time& receipt, TopicSample* out,
-                  std::string* why, bool* nonfinite);
+                  std::string* why, bool* nonfinite, const std::string& topic = "");
 // Decodes a goal message into a full goal observation [obs_dim] (pose source:
 // the named observation fields, the rest 0; observation source: data as is).
 bool DecodeGoal(const RobotSpec& spec, const geometry_msgs::PoseStamped& msg, std::vector<double>* goal,
@@ -90,9 +105,12 @@ bool DecodeGoal(const RobotSpec& spec, const std_msgs::Float64MultiArray& msg, s
 // clipped, then offset + scale * a. Twist/TwistStamped: the named components,
 // the rest 0; Float64MultiArray: data sized to the highest index; JointTrajectory:
 // one point with the joints' positions or velocities, time_from_start one control period.
-geometry_msgs::Twist MakeTwist(const RobotSpec& spec, const std::vector<double>& a);
-std_msgs::Float64MultiArray MakeFloat64MultiArray(const RobotSpec& spec, const std::vector<double>& a);
-trajectory_msgs::JointTrajectory MakeJointTrajectory(const RobotSpec& spec, const std::vector<double>& a);
+// Of the fields on command topic `topic` ("": the action's own topic).
+geometry_msgs::Twist MakeTwist(const RobotSpec& spec, const std::vector<double>& a, const std::string& topic = "");
+std_msgs::Float64MultiArray MakeFloat64MultiArray(const RobotSpec& spec, const std::vector<double>& a,
+                                                  const std::string& topic = "");
+trajectory_msgs::JointTrajectory MakeJointTrajectory(const RobotSpec& spec, const std::vector<double>& a,
+                                                     const std::string& topic = "");
 
 // t - d, or time 0 when d is longer than t (ros::Time cannot be negative).
 inline ros::Time Before(const ros::Time& t, const ros::Duration& d) {
@@ -132,5 +150,13 @@ std::string SampleObservation(const RobotSpec& spec, const SpecLayout& layout,
 // not_before. Returns "" and fills a [action_dim], or why not.
 std::string SampleAction(const RobotSpec& spec, const TopicHistory& commands, const ros::Time& t,
                          const ros::Time& not_before, std::vector<float>* a);
+// The newest command of `topic` in `commands` for tick t (as SampleAction), or why none.
+std::string NewestCommand(const RobotSpec& spec, const std::string& topic, const TopicHistory& commands,
+                          const ros::Time& t, const ros::Time& not_before, const TopicSample** out);
+// The same over every command topic (spec.CommandTopics(), one history each):
+// the action [action_dim] from each topic's newest command, or why not.
+std::string SampleCommands(const RobotSpec& spec, const std::vector<RobotSpec::CommandTopic>& topics,
+                           const std::vector<TopicHistory>& commands, const ros::Time& t,
+                           const ros::Time& not_before, std::vector<float>* a);
 
 }  // namespace msspr::ros_bridge

@@ -28,6 +28,7 @@ const std::map<std::string, std::vector<std::string>>& Groups(const std::string&
       {kPoseStampedType, {{"pose.position", kXyz}, {"pose.orientation", kXyzw}}},
       {kTwistType, {{"linear", kXyz}, {"angular", kXyz}}},
       {kTwistStampedType, {{"twist.linear", kXyz}, {"twist.angular", kXyz}}},
+      {kTf2Type, {{"translation", kXyz}, {"rotation", kXyzw}}},
   };
   static const std::map<std::string, std::vector<std::string>> kNone;
   auto it = kGroups.find(type);
@@ -38,8 +39,13 @@ bool HasHeader(const std::string& type) {
   return type != kTwistType && type != kFloat64MultiArrayType;
 }
 
+bool IsCommandType(const std::string& type) {
+  return type == kTwistType || type == kTwistStampedType || type == kFloat64MultiArrayType ||
+         type == kJointTrajectoryType;
+}
+
 bool KnownType(const std::string& type) {
-  return type == kOdometryType || type == kPoseStampedType || type == kTwistType ||
+  return type == kTf2Type || type == kOdometryType || type == kPoseStampedType || type == kTwistType ||
          type == kTwistStampedType || type == kJointStateType || type == kFloat64MultiArrayType ||
          type == kJointTrajectoryType;
 }
@@ -135,7 +141,9 @@ SpecField ReadField(const YAML::Node& node, const std::string& source, const std
   // Name and topic first, so that every later error names them.
   if (node["name"]) f.name = node["name"].as<std::string>("");
   if (kind != "observation") f.topic = default_topic;
-  else if (node["topic"]) f.topic = node["topic"].as<std::string>("");
+  if ((kind == "observation" || kind == "action") && node["topic"]) f.topic = node["topic"].as<std::string>("");
+  if (kind == "observation" && !node["topic"] && node["type"] && node["type"].as<std::string>("") == kTf2Type)
+    f.topic = kTf2Topic;
   if (node["field"]) f.field = node["field"].as<std::string>("");
   const std::string where = Where(source, kind, f);
   MapReader r(node, where);
@@ -145,9 +153,35 @@ SpecField ReadField(const YAML::Node& node, const std::string& source, const std
     r.Get("observation", &obs);  // read by the caller
   }
   if (kind == "observation") {
-    if (!r.Get("topic", &f.topic) || f.topic.empty())
-      throw RobotSpecError(where + "no topic");
-    if (!r.Get("type", &f.type) || f.type.empty()) throw RobotSpecError(where + "no type");
+    r.Get("type", &f.type);
+    if (f.type == kTf2Type) {
+      // tf2 fields are read from /tf and /tf_static; `topic`, when given, must say so.
+      if (r.Get("topic", &f.topic) && f.topic != kTf2Topic && f.topic != "/tf")
+        throw RobotSpecError(where + "a tf2 field is read from /tf and /tf_static: leave out topic (or say tf)");
+      f.topic = kTf2Topic;
+      if (!r.Get("frames", &f.frames) || f.frames.size() != 2 || f.frames[0].empty() || f.frames[1].empty() ||
+          f.frames[0] == f.frames[1])
+        throw RobotSpecError(where + "a tf2 field needs frames: [parent, child] (two different frames)");
+      for (const auto& fr : f.frames)
+        if (fr[0] == '/') throw RobotSpecError(where + "tf2 frame '" + fr + "' must not start with '/'");
+    } else {
+      if (!r.Get("topic", &f.topic) || f.topic.empty()) throw RobotSpecError(where + "no topic");
+      if (f.type.empty()) throw RobotSpecError(where + "no type");
+    }
+  } else if (kind == "action") {
+    // A field may name its own command topic and type (default: the action's).
+    f.type = default_type;
+    const bool own_topic = r.Get("topic", &f.topic);
+    if (own_topic && f.topic.empty()) throw RobotSpecError(where + "empty topic");
+    if (!own_topic) f.topic = default_topic;
+    if (r.Get("type", &f.type) && !own_topic)
+      throw RobotSpecError(where + "a field with its own type needs its own topic");
+    if (own_topic && f.topic != default_topic && !node["type"])
+      throw RobotSpecError(where + "a field on its own topic needs its type");
+    if (!IsCommandType(f.type))
+      throw RobotSpecError(where + "unsupported command type '" + f.type +
+                           "' (supported: geometry_msgs/Twist, geometry_msgs/TwistStamped, "
+                           "std_msgs/Float64MultiArray, trajectory_msgs/JointTrajectory)");
   } else {
     f.topic = default_topic;
     f.type = default_type;
@@ -157,7 +191,7 @@ SpecField ReadField(const YAML::Node& node, const std::string& source, const std
                          ") are not supported yet by robot specs: use state fields");
   if (!KnownType(f.type))
     throw RobotSpecError(where + "unsupported message type '" + f.type +
-                         "' (supported: nav_msgs/Odometry, geometry_msgs/PoseStamped, geometry_msgs/Twist, "
+                         "' (supported: nav_msgs/Odometry, geometry_msgs/PoseStamped, tf2, geometry_msgs/Twist, "
                          "geometry_msgs/TwistStamped, sensor_msgs/JointState, std_msgs/Float64MultiArray, "
                          "trajectory_msgs/JointTrajectory)");
   if (!r.Get("field", &f.field) || f.field.empty()) throw RobotSpecError(where + "no field");
@@ -167,6 +201,7 @@ SpecField ReadField(const YAML::Node& node, const std::string& source, const std
   r.GetNumbers("scale", &f.scale);
   r.GetNumbers("offset", &f.offset);
   if (kind == "action") r.GetNumbers("clip", &f.clip);
+  if (kind == "observation") f.has_clip = r.GetNumbers("clip", &f.clip);
   if (kind == "observation") r.Get("stamp", &f.stamp);
   r.CheckNoUnknownKeys();
   if (f.stamp.empty()) f.stamp = HasHeader(f.type) ? "header" : "receipt";
@@ -247,6 +282,7 @@ std::vector<std::string> ResolveFieldPaths(const SpecField& f, const std::string
     return out;
   }
   if (!f.joints.empty()) throw RobotSpecError(where + "joints apply to JointState and JointTrajectory only");
+  if (!f.frames.empty() && f.type != kTf2Type) throw RobotSpecError(where + "frames apply to tf2 fields only");
   if (f.type == kFloat64MultiArrayType) {
     int b = 0, e = 0;
     if (!ParseArrayRange(f.field, &b, &e))
@@ -295,6 +331,24 @@ int RobotSpec::action_dim() const {
   int n = 0;
   for (const auto& f : action) n += f.size();
   return n;
+}
+
+std::vector<RobotSpec::CommandTopic> RobotSpec::CommandTopics() const {
+  std::vector<CommandTopic> out;
+  int at = 0;
+  for (int i = 0; i < static_cast<int>(action.size()); ++i) {
+    const SpecField& f = action[i];
+    auto it = std::find_if(out.begin(), out.end(), [&](const CommandTopic& c) { return c.topic == f.topic; });
+    if (it == out.end()) {
+      out.push_back(CommandTopic{f.topic, f.type, f.stamp, {}, {}, 0});
+      it = out.end() - 1;
+    }
+    it->fields.push_back(i);
+    it->action_offset.push_back(at);
+    it->size += f.size();
+    at += f.size();
+  }
+  return out;
 }
 
 std::vector<std::string> RobotSpec::ObservationTopics() const {
@@ -389,7 +443,11 @@ RobotSpec ParseRobotSpec(const std::string& yaml, const std::string& source) {
       std::set<std::string> anames;
       for (size_t i = 0; i < fields.size(); ++i) {
         SpecField f = ReadField(fields[i], source, "action", static_cast<int>(i), s.action_topic, s.action_type);
-        f.stamp = s.action_stamp;
+        f.stamp = f.topic == s.action_topic ? s.action_stamp : (HasHeader(f.type) ? "header" : "receipt");
+        for (const auto& g : s.action)
+          if (g.topic == f.topic && g.type != f.type)
+            throw RobotSpecError(source + ": action field '" + f.name + "' (topic " + f.topic + "): type " + f.type +
+                                 ", but field '" + g.name + "' publishes " + g.type + " on that topic");
         if (f.name.empty()) f.name = f.field;
         if (!anames.insert(f.name).second)
           throw RobotSpecError(source + ": action field '" + f.name + "' is named twice");
@@ -480,6 +538,8 @@ std::string CompareRobotSpecs(const RobotSpec& a, const RobotSpec& b) {
       if (f.field != g.field) return who + "field " + f.field + " vs " + g.field;
       if (f.components != g.components) return who + "components " + Fmt(f.components) + " vs " + Fmt(g.components);
       if (f.joints != g.joints) return who + "joints " + Fmt(f.joints) + " vs " + Fmt(g.joints);
+      if (f.frames != g.frames) return who + "frames " + Fmt(f.frames) + " vs " + Fmt(g.frames);
+      if (f.has_clip != g.has_clip) return who + std::string("clip ") + (f.has_clip ? "set" : "none") + " vs " + (g.has_clip ? "set" : "none");
       if (f.derive != g.derive) return who + "derive '" + f.derive + "' vs '" + g.derive + "'";
       if (f.scale != g.scale) return who + "scale " + Fmt(f.scale) + " vs " + Fmt(g.scale);
       if (f.offset != g.offset) return who + "offset " + Fmt(f.offset) + " vs " + Fmt(g.offset);

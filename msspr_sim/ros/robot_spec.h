@@ -30,6 +30,11 @@ inline constexpr const char* kTwistStampedType = "geometry_msgs/TwistStamped";
 inline constexpr const char* kJointStateType = "sensor_msgs/JointState";
 inline constexpr const char* kFloat64MultiArrayType = "std_msgs/Float64MultiArray";
 inline constexpr const char* kJointTrajectoryType = "trajectory_msgs/JointTrajectory";
+// An observation field read from tf2 (/tf and /tf_static): the transform
+// between two frames, as geometry_msgs/TransformStamped (translation, rotation).
+inline constexpr const char* kTf2Type = "tf2";
+// The topic name under which a spec's tf2 fields are grouped (bags: /tf and /tf_static).
+inline constexpr const char* kTf2Topic = "tf";
 
 // One field of a message: a run of numbers the observation (or action) takes.
 struct SpecField {
@@ -43,14 +48,19 @@ struct SpecField {
   std::string field;
   std::vector<std::string> components;  // subset of a group, in this order (empty: all)
   std::vector<std::string> joints;      // JointState / JointTrajectory: by name, in this order
+  // type tf2: [parent, child]: the child frame's pose in the parent frame
+  // (tf2 lookupTransform(parent, child)); fields translation / rotation.
+  std::vector<std::string> frames;
   // "" or "yaw" (1 value) or "yaw_cos_sin" (2 values: cos, sin) of a quaternion field.
   std::string derive;
   // Observation: value = scale * (raw - offset). Action: command = offset + scale * a.
   // One number for all values, or one per value.
   std::vector<double> scale = {1.0};
   std::vector<double> offset = {0.0};
-  // Action only: a in [clip[0], clip[1]] before scaling (training: after unscaling).
+  // Action: a in [clip[0], clip[1]] before scaling (training: after unscaling).
+  // Observation (only with has_clip): the value after scale and offset is clipped.
   std::vector<double> clip = {-1.0, 1.0};
+  bool has_clip = false;  // observation fields: `clip` given
   // Which stamp a message carries: "header" (header.stamp; types with a header)
   // or "receipt" (when it was received / recorded; the only one of Twist and
   // Float64MultiArray).
@@ -94,11 +104,21 @@ struct RobotSpec {
   double stale_after = 0.5;   // s
   std::vector<SpecField> observation;
   SpecGoal goal;
-  // The command: one topic and type; its fields in the action's order.
+  // The command: a topic and type; its fields in the action's order. A field
+  // may name its own topic and type (e.g. an end-effector twist plus a gripper
+  // command): each command topic gets one message per step.
   std::string action_topic = "cmd_vel";
   std::string action_type = kTwistType;
   std::string action_stamp;  // header | receipt (as SpecField::stamp)
   std::vector<SpecField> action;
+  struct CommandTopic {
+    std::string topic, type, stamp;
+    std::vector<int> fields;      // indices into action
+    std::vector<int> action_offset;  // where each field's values start in the action
+    int size = 0;
+  };
+  // The distinct command topics, the action's own topic first.
+  std::vector<CommandTopic> CommandTopics() const;
   SpecEpisodes episodes;
   std::string text;  // the YAML text it was parsed from (stored in checkpoints)
 

@@ -2,6 +2,7 @@
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include <algorithm>
 #include <cmath>
@@ -91,11 +92,14 @@ void SpecBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& fn) 
     r.type = f.type;
     report_.fields.push_back(r);
   }
-  SpecFieldReport cmd;
-  cmd.name = "action";
-  cmd.topic = spec_.action_topic;
-  cmd.type = spec_.action_type;
-  report_.fields.push_back(cmd);
+  const auto commands = spec_.CommandTopics();
+  for (const auto& c : commands) {
+    SpecFieldReport cmd;
+    cmd.name = commands.size() == 1 ? "action" : "action:" + c.topic;
+    cmd.topic = c.topic;
+    cmd.type = c.type;
+    report_.fields.push_back(cmd);
+  }
   uint64_t next_id = 0;
   for (const auto& path : bags_) ReadBag(path, &next_id, fn);
 }
@@ -129,12 +133,23 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
                      ", the spec reads " + type);
     return t;
   };
+  // tf2 fields read /tf (and /tf_static when the bag has it) into a tf2 buffer.
+  std::string tf_topic, tf_static_topic;
   std::vector<std::string> obs_topics;
   for (const auto& topic : layout.topics) {
     const SpecField& f = spec.observation[topic.fields[0]];
+    if (topic.type == kTf2Type) {
+      tf_topic = resolve("/tf", "tf2_msgs/TFMessage", "field '" + f.name + "'");
+      if (bag_topics.count("/tf_static")) tf_static_topic = resolve("/tf_static", "tf2_msgs/TFMessage", "tf2");
+      obs_topics.push_back("");  // sampled from the buffer after each /tf message
+      continue;
+    }
     obs_topics.push_back(resolve(topic.name, topic.type, "field '" + f.name + "'"));
   }
-  const std::string cmd_topic = resolve(spec.action_topic, spec.action_type, "the action");
+  const std::vector<RobotSpec::CommandTopic> cmd_topics = spec.CommandTopics();
+  std::vector<std::string> cmd_bag_topics;
+  for (const auto& c : cmd_topics)
+    cmd_bag_topics.push_back(resolve(c.topic, c.type, cmd_topics.size() == 1 ? "the action" : "the action on " + c.topic));
   std::string episode_topic, episode_type;
   if (spec.episodes.split_by == "topic") {
     const std::string t = MatchTopic(spec.episodes.topic, bag_topics, path);
@@ -145,10 +160,11 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
 
   const std::vector<SpecFieldReport> before = report_.fields;
   std::vector<TopicHistory> histories(layout.topics.size());
-  TopicHistory commands;
+  std::vector<TopicHistory> commands(cmd_topics.size());
   std::vector<ros::Time> boundaries;
   const ros::Duration stale(spec.stale_after), tol(spec.tolerance);
-  const int cmd_index = static_cast<int>(report_.fields.size()) - 1;
+  const int cmd_index = static_cast<int>(report_.fields.size() - cmd_topics.size());  // the first command row
+  tf2::BufferCore tf_buffer(ros::Duration(60.0));
   // Per-field statistics of one decoded (or rejected) message.
   auto account = [&](const std::vector<int>& report_fields, const TopicSample& s, bool ok, bool nonfinite,
                      const std::string& why, bool in_order) {
@@ -178,8 +194,12 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
       if (!s.stamp.isZero() && s.receipt - s.stamp > stale) ++r.late;
     }
   };
-  std::vector<std::string> query = obs_topics;
-  query.push_back(cmd_topic);
+  std::vector<std::string> query;
+  for (const auto& t : obs_topics)
+    if (!t.empty()) query.push_back(t);
+  for (const auto& t : cmd_bag_topics) query.push_back(t);
+  if (!tf_topic.empty()) query.push_back(tf_topic);
+  if (!tf_static_topic.empty()) query.push_back(tf_static_topic);
   if (!episode_topic.empty()) query.push_back(episode_topic);
   try {
     rosbag::View view(bag, rosbag::TopicQuery(query));
@@ -193,21 +213,48 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
           if (!h.isZero()) stamp = h;
         });
         boundaries.push_back(stamp);
-        if (topic != cmd_topic && std::find(obs_topics.begin(), obs_topics.end(), topic) == obs_topics.end()) continue;
+        if (std::find(cmd_bag_topics.begin(), cmd_bag_topics.end(), topic) == cmd_bag_topics.end() &&
+            std::find(obs_topics.begin(), obs_topics.end(), topic) == obs_topics.end())
+          continue;
       }
-      if (topic == cmd_topic) {
+      if (topic == tf_topic || topic == tf_static_topic) {
+        auto tfm = m.instantiate<tf2_msgs::TFMessage>();
+        if (!tfm) continue;
+        const bool is_static = topic == tf_static_topic;
+        for (const auto& t : tfm->transforms) {
+          try {
+            tf_buffer.setTransform(t, "bag", is_static);
+          } catch (const std::exception&) {
+          }
+        }
+        // (A static transform can complete a chain too: sample after either.)
+        for (size_t k = 0; k < layout.topics.size(); ++k) {
+          if (layout.topics[k].type != kTf2Type) continue;
+          TopicSample s;
+          std::string why;
+          bool nonfinite = false;
+          const bool ok = DecodeTf(spec, layout.topics[k], tf_buffer, receipt, &s, &why, &nonfinite);
+          if (!ok && !nonfinite) continue;  // the frames are not connected (yet)
+          if (ok && !histories[k].samples().empty() && s.stamp == histories[k].samples().back().stamp) continue;
+          const bool in_order = ok ? histories[k].Add(s) : true;
+          account(layout.topics[k].fields, s, ok, nonfinite, why, in_order);
+        }
+        continue;
+      }
+      for (size_t c = 0; c < cmd_bag_topics.size(); ++c) {
+        if (topic != cmd_bag_topics[c]) continue;
         TopicSample s;
         std::string why;
         bool ok = false, nonfinite = false;
-        Dispatch(spec.action_type, m, [&](const auto& msg) {
-          ok = DecodeAction(spec, msg, receipt, &s, &why, &nonfinite);
+        Dispatch(cmd_topics[c].type, m, [&](const auto& msg) {
+          ok = DecodeAction(spec, msg, receipt, &s, &why, &nonfinite, cmd_topics[c].topic);
         });
         s.receipt = receipt;
-        const bool in_order = ok ? commands.Add(s) : true;
-        account({cmd_index}, s, ok, nonfinite, why, in_order);
+        const bool in_order = ok ? commands[c].Add(s) : true;
+        account({cmd_index + static_cast<int>(c)}, s, ok, nonfinite, why, in_order);
       }
       for (size_t k = 0; k < obs_topics.size(); ++k) {
-        if (topic != obs_topics[k]) continue;
+        if (obs_topics[k].empty() || topic != obs_topics[k]) continue;
         TopicSample s;
         std::string why;
         bool ok = false, nonfinite = false;
@@ -320,14 +367,17 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
       } else if (missing_obs++ == 0) {
         first_obs_why = why + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
       }
-      const std::string awhy = SampleAction(spec, commands, t, begin, &act);
-      ++report_.fields[cmd_index].ticks;
+      const std::string awhy = SampleCommands(spec, cmd_topics, commands, t, begin, &act);
+      for (size_t c = 0; c < cmd_topics.size(); ++c) {
+        const TopicSample* newest = nullptr;
+        const bool fresh = NewestCommand(spec, cmd_topics[c].topic, commands[c], t, begin, &newest).empty();
+        ++report_.fields[cmd_index + c].ticks;
+        (fresh ? report_.fields[cmd_index + c].covered_ticks : report_.fields[cmd_index + c].stale_ticks)++;
+      }
       if (awhy.empty()) {
-        ++report_.fields[cmd_index].covered_ticks;
         std::copy(act.begin(), act.end(), ep.actions.begin() + k * act_dim);
         ep.has_action[k] = 1;
       } else {
-        ++report_.fields[cmd_index].stale_ticks;
         if (missing_act++ == 0) first_act_why = awhy + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
       }
       if (ep.has_obs[k] && ep.has_action[k]) ++report_.complete_ticks;
