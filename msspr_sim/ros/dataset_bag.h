@@ -1,12 +1,16 @@
 // The dataset bag format of msspr, shared by the direct writer (msspr_collect),
 // `rosbag record` of the live sim node, msspr_bag_info and the training adapter.
 //
-// Layout (README "Dataset bags"): per episode one msspr/EpisodeInfo on
+// Layout (docs/datasets.md): per episode one msspr/EpisodeInfo on
 // /msspr/episode, then for every step t one msspr/Observation (episode_id, step=t)
 // on /msspr/observation, optionally one sensor_msgs/Image (rgb8, stamp equal to the
 // observation's) on /msspr/camera/image, and one msspr/Action (same episode_id and
 // step) on /msspr/action. Transition t is (observation t, action t, observation t+1);
 // the last action of an episode has no next state (OGBench's convention).
+//
+// dataset_bag_writer.cc writes bags; dataset_bag_reader.cc reads them after the
+// checks of dataset_bag_validator.h (the file's structure, and each message's
+// bytes against the layout derived from its generated type).
 #pragma once
 
 #include <cstdint>

@@ -1,13 +1,17 @@
 // Dataset bags without a master: write, read back bit for bit, and report damage.
 #include "dataset_bag.h"
 
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <unistd.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -15,7 +19,9 @@
 #include <random>
 #include <string>
 
+#include "dataset_bag_validator.h"
 #include "msspr/Action.h"
+#include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/point_maze.h"
@@ -334,5 +340,229 @@ TEST(DatasetBagWriter, NeverTruncatesAnExistingBagBeforeItIsComplete) {
   std::remove(path.c_str());
 }
 
+// The bytes ros::serialization writes for `msg`.
+template <class M>
+std::vector<uint8_t> Serialize(const M& msg) {
+  std::vector<uint8_t> buf(ros::serialization::serializationLength(msg));
+  ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
+  ros::serialization::serialize(out, msg);
+  return buf;
+}
+
+// The reader's layout check of M accepts exactly M's own serialization: not a
+// byte less, not a byte more. The layout is derived from the definition
+// generated from the .msg, so a field added to a .msg changes it too; should a
+// new field be one that the derivation lays out wrong, this names the type,
+// the field and the layout.
+template <class M>
+void ExpectLayoutFitsSerialization(const M& msg) {
+  const std::string type = ros::message_traits::datatype<M>();
+  const MessageLayout* layout = nullptr;
+  try {
+    layout = &MessageLayout::Of<M>();
+  } catch (const std::exception& e) {
+    FAIL() << type << ": the dataset bag reader cannot derive its wire layout: " << e.what();
+  }
+  const std::vector<uint8_t> bytes = Serialize(msg);
+  std::string why;
+  EXPECT_TRUE(layout->Fits(bytes.data(), bytes.size(), &why))
+      << type << ": the layout the reader derives from its definition does not hold the "
+      << bytes.size() << " bytes ros::serialization writes (" << why
+      << "); every bag would read as corrupt. Derived layout: " << layout->Describe();
+  if (bytes.empty()) return;
+  EXPECT_FALSE(layout->Fits(bytes.data(), bytes.size() - 1)) << type << ": one byte short";
+  std::vector<uint8_t> longer = bytes;
+  longer.push_back(0);
+  EXPECT_FALSE(layout->Fits(longer.data(), longer.size(), &why)) << type << ": one byte more";
+  EXPECT_NE(why.find("1 bytes left over"), std::string::npos) << why;
+}
+
+TEST(MessageLayout, EachMessageOfADatasetBagFitsItsOwnSerialization) {
+  msspr::Observation o;
+  o.header.seq = 7;
+  o.header.stamp = ros::Time(12, 34);
+  o.header.frame_id = "world";
+  o.episode_id = 3;
+  o.step = 41;
+  o.state = {1.f, 2.f, 3.f};
+  o.goal = {4.f, 5.f};
+  o.success = true;
+  o.last = true;
+  msspr::Action a;
+  a.header.frame_id = "x";
+  a.episode_id = 3;
+  a.step = 41;
+  a.action = {0.5f, -0.5f};
+  msspr::EpisodeInfo e;
+  e.header.frame_id = "world";
+  e.episode_id = 9;
+  e.env = "pointmaze-medium";
+  e.split = "val";
+  e.task_id = -2;
+  e.seed = 0x123456789ull;
+  e.start = {0.f, 1.f};
+  e.goal = {2.f, 3.f, 4.f};
+  sensor_msgs::Image img;
+  img.header.frame_id = kCameraFrame;
+  img.encoding = "rgb8";
+  img.width = img.height = 4;
+  img.step = 12;
+  img.data.assign(48, 7);
+  ExpectLayoutFitsSerialization(o);
+  ExpectLayoutFitsSerialization(a);
+  ExpectLayoutFitsSerialization(e);
+  ExpectLayoutFitsSerialization(img);
+  // Empty strings and arrays as well.
+  ExpectLayoutFitsSerialization(msspr::Observation());
+  ExpectLayoutFitsSerialization(msspr::Action());
+  ExpectLayoutFitsSerialization(msspr::EpisodeInfo());
+  ExpectLayoutFitsSerialization(sensor_msgs::Image());
+}
+
+TEST(MessageLayout, CorruptLengthsAreRejectedNamingTheField) {
+  msspr::Observation o;
+  o.header.frame_id = "world";
+  o.state = {1.f, 2.f};
+  o.goal = {3.f, 4.f};
+  std::vector<uint8_t> bytes = Serialize(o);
+  // The count of `state` follows the header, episode_id and step.
+  const size_t at = ros::serialization::serializationLength(o.header) + 8;
+  const uint32_t huge = 0x40000000u;
+  std::memcpy(bytes.data() + at, &huge, 4);
+  std::string why;
+  EXPECT_FALSE(MessageLayout::Of<msspr::Observation>().Fits(bytes.data(), bytes.size(), &why));
+  EXPECT_NE(why.find("field 'state' (float32[]) at byte " + std::to_string(at) +
+                     " declares 1073741824 items"),
+            std::string::npos)
+      << why;
+  // Every 4-byte word set to 0xFFFFFFFF: a length is caught, nothing runs past the buffer.
+  const std::vector<uint8_t> good = Serialize(o);
+  int rejected = 0;
+  for (size_t k = 0; k + 4 <= good.size(); ++k) {
+    bytes = good;
+    std::memset(bytes.data() + k, 0xFF, 4);
+    rejected += !MessageLayout::Of<msspr::Observation>().Fits(bytes.data(), bytes.size());
+  }
+  EXPECT_GT(rejected, 0);
+  EXPECT_NE(MessageLayout::Of<msspr::Observation>().Describe().find("float32[] state"),
+            std::string::npos)
+      << MessageLayout::Of<msspr::Observation>().Describe();
+}
+
+TEST(MessageLayout, NestedMessagesFixedArraysStringArraysAndConstants) {
+  // Standard messages with what msspr's own do not use yet: constants, float64[9],
+  // nested messages, arrays of fixed-size and of varying-size messages, string[], duration.
+  sensor_msgs::CameraInfo info;
+  info.distortion_model = "plumb_bob";
+  info.D = {0.1, 0.2};
+  info.roi.width = 3;
+  ExpectLayoutFitsSerialization(info);
+  diagnostic_msgs::DiagnosticArray diag;
+  diag.status.resize(2);
+  diag.status[0].name = "arm";
+  diag.status[1].values.resize(3);
+  diag.status[1].values[2].key = "temperature";
+  diag.status[1].values[2].value = "41";
+  ExpectLayoutFitsSerialization(diag);
+  visualization_msgs::MarkerArray markers;
+  markers.markers.resize(2);
+  markers.markers[0].points.resize(5);
+  markers.markers[1].colors.resize(2);
+  markers.markers[1].text = "value";
+  markers.markers[1].lifetime = ros::Duration(1.5);
+  ExpectLayoutFitsSerialization(markers);
+  std::vector<uint8_t> bytes = Serialize(diag);
+  std::string why;
+  EXPECT_FALSE(MessageLayout::Of<diagnostic_msgs::DiagnosticArray>().Fits(bytes.data(),
+                                                                          bytes.size() - 3, &why));
+  EXPECT_NE(why.find("status[1].values[2].value"), std::string::npos) << why;
+}
+
+TEST(MessageLayout, ATypeItCannotLayOutIsNamed) {
+  try {
+    MessageLayout("pkg/Thing", "uint32 a\nwidget b\n");
+    FAIL() << "unknown type accepted";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("pkg/Thing"), std::string::npos) << what;
+    EXPECT_NE(what.find("field 'b' has type 'widget'"), std::string::npos) << what;
+  }
+  const MessageLayout layout("pkg/Thing", "int32 A=3\nstring B=x # y\nuint8[2] c  # two\n");
+  const uint8_t two[2] = {1, 2};
+  EXPECT_TRUE(layout.Fits(two, 2));
+  EXPECT_EQ(layout.Describe(), "uint8[2] c");
+}
+
+}  // namespace
+
+// A message written by another version of msspr's .msg: the same type name and
+// the same bytes, but another definition (another md5).
+struct OtherObservation {
+  msspr::Observation msg;
+};
+
+}  // namespace msspr::ros_bridge
+
+namespace ros {
+namespace message_traits {
+template <>
+struct MD5Sum<msspr::ros_bridge::OtherObservation> {
+  static const char* value() { return "0123456789abcdef0123456789abcdef"; }
+  static const char* value(const msspr::ros_bridge::OtherObservation&) { return value(); }
+};
+template <>
+struct DataType<msspr::ros_bridge::OtherObservation> {
+  static const char* value() { return "msspr/Observation"; }
+  static const char* value(const msspr::ros_bridge::OtherObservation&) { return value(); }
+};
+template <>
+struct Definition<msspr::ros_bridge::OtherObservation> {
+  static const char* value() { return "Header header\nuint32 episode_id\n"; }
+  static const char* value(const msspr::ros_bridge::OtherObservation&) { return value(); }
+};
+}  // namespace message_traits
+namespace serialization {
+template <>
+struct Serializer<msspr::ros_bridge::OtherObservation> {
+  template <typename Stream, typename T>
+  inline static void allInOne(Stream& stream, T m) {
+    stream.next(m.msg);
+  }
+  ROS_DECLARE_ALLINONE_SERIALIZER
+};
+}  // namespace serialization
+}  // namespace ros
+
+namespace msspr::ros_bridge {
+namespace {
+
+TEST(DatasetBag, MessagesOfAnotherDefinitionAreNamedNotReadAsCorrupt) {
+  ros::Time::init();
+  const std::string path = TempPath("otherdef.bag");
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    for (uint32_t t = 0; t < 3; ++t) {
+      const ros::Time stamp(1.0 + t);
+      OtherObservation o;
+      o.msg.header.stamp = stamp;
+      o.msg.step = t;
+      o.msg.state = {1.f, 2.f};
+      msspr::Action a;
+      a.step = t;
+      a.action = {0.5f, -0.5f};
+      bag.write(kObservationTopic, stamp, o);
+      bag.write(kActionTopic, stamp, a);
+    }
+  }
+  DatasetBagReader r(path);
+  r.ForEachEpisode([](BagEpisode&& ep) { EXPECT_EQ(ep.Segments().size(), 0u); });
+  EXPECT_EQ(r.report().foreign_messages, 3u);
+  EXPECT_TRUE(AnyProblemHas(r.report(),
+                            "3 msspr/Observation messages were written with another definition of "
+                            "msspr/Observation (md5 0123456789abcdef0123456789abcdef; this build "
+                            "reads md5 "))
+      << (r.report().problems.empty() ? "" : r.report().problems[0]);
+  std::remove(path.c_str());
+}
 }  // namespace
 }  // namespace msspr::ros_bridge

@@ -1,115 +1,23 @@
-#include "dataset_bag.h"
-
+// The reader of dataset bags (dataset_bag.h): checks a bag's structure and each
+// message's bytes (dataset_bag_validator.h), then gathers the messages into episodes.
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
-#include <roslz4/lz4s.h>
 #include <sensor_msgs/Image.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <map>
-#include <set>
 #include <sstream>
 
+#include "dataset_bag.h"
+#include "dataset_bag_validator.h"
 #include "msg_conversion.h"
 #include "msspr/Action.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
 
 namespace msspr::ros_bridge {
-
-DatasetBagWriter::DatasetBagWriter(const std::string& path, double control_dt, bool lz4)
-    : path_(path),
-      tmp_path_(path + ".tmp." + std::to_string(::getpid())),
-      control_dt_(control_dt),
-      bag_(std::make_unique<rosbag::Bag>()) {
-  try {
-    bag_->open(tmp_path_, rosbag::bagmode::Write);
-  } catch (const rosbag::BagException& e) {
-    throw BagError(path + ": cannot open " + tmp_path_ + " for writing: " + e.what());
-  }
-  if (lz4) bag_->setCompression(rosbag::compression::LZ4);
-}
-
-DatasetBagWriter::~DatasetBagWriter() {
-  // Not closed: the writing failed or was abandoned; an existing bag at path_ stays.
-  try {
-    if (bag_ && bag_->isOpen()) bag_->close();
-  } catch (...) {
-  }
-  if (!closed_) std::remove(tmp_path_.c_str());
-}
-
-void DatasetBagWriter::Close() {
-  if (closed_) return;
-  try {
-    if (bag_ && bag_->isOpen()) bag_->close();
-  } catch (const rosbag::BagException& e) {
-    throw BagError(tmp_path_ + ": cannot finish writing: " + e.what());
-  }
-  if (std::rename(tmp_path_.c_str(), path_.c_str()) != 0)
-    throw BagError(path_ + ": cannot rename " + tmp_path_ + " to it: " + std::strerror(errno));
-  closed_ = true;
-}
-
-void DatasetBagWriter::WriteEpisode(const EpisodeMeta& meta, int length, int obs_dim, int act_dim,
-                                    const float* observations, const float* actions,
-                                    const uint8_t* images, int image_size, double success_radius) {
-  if (closed_ || !bag_->isOpen()) throw BagError(path_ + ": writer already closed");
-  ++tick_;  // the reset
-  const ros::Time t0 = TickToTime(tick_, control_dt_);
-  msspr::EpisodeInfo info;
-  info.header.stamp = t0;
-  info.episode_id = static_cast<uint32_t>(meta.episode_id);
-  info.env = meta.env;
-  info.split = meta.split;
-  info.task_id = meta.task_id;
-  info.seed = meta.seed;
-  info.start = meta.start;
-  info.goal = meta.goal;
-  bag_->write(kEpisodeTopic, t0, info);
-  ++messages_;
-
-  msspr::Observation obs;
-  obs.episode_id = info.episode_id;
-  obs.goal = meta.goal;
-  obs.header.frame_id = "world";
-  msspr::Action act;
-  act.episode_id = info.episode_id;
-  const size_t image_bytes = static_cast<size_t>(image_size) * image_size * 3;
-  for (int t = 0; t < length; ++t) {
-    if (t > 0) ++tick_;
-    const ros::Time stamp = TickToTime(tick_, control_dt_);
-    obs.header.stamp = stamp;
-    obs.step = static_cast<uint32_t>(t);
-    obs.state.assign(observations + static_cast<size_t>(t) * obs_dim,
-                     observations + static_cast<size_t>(t + 1) * obs_dim);
-    double d2 = 0.0;
-    for (int k = 0; k < obs_dim && k < static_cast<int>(meta.goal.size()); ++k) {
-      const double d = static_cast<double>(obs.state[k]) - meta.goal[k];
-      d2 += d * d;
-    }
-    obs.success = !meta.goal.empty() && std::sqrt(d2) <= success_radius;
-    obs.last = (t == length - 1);
-    bag_->write(kObservationTopic, stamp, obs);
-    if (images != nullptr) {
-      bag_->write(kImageTopic, stamp,
-                  ToImageMsg(images + static_cast<size_t>(t) * image_bytes, image_size, stamp,
-                             kCameraFrame));
-      ++messages_;
-    }
-    act.header.stamp = stamp;
-    act.step = obs.step;
-    act.action.assign(actions + static_cast<size_t>(t) * act_dim,
-                      actions + static_cast<size_t>(t + 1) * act_dim);
-    bag_->write(kActionTopic, stamp, act);
-    messages_ += 2;
-  }
-}
 
 std::vector<std::pair<int, int>> BagEpisode::Segments() const {
   std::vector<std::pair<int, int>> out;
@@ -128,210 +36,21 @@ std::vector<std::pair<int, int>> BagEpisode::Segments() const {
 
 namespace {
 
-// rosbag (1.15) trusts the lengths and offsets stored in a bag: a corrupt index
-// entry or record length makes it read outside its buffers and crash. So the
-// reader first walks the file's records (format 2.0) and checks every length
-// against the bytes that hold it, decompresses each chunk (lz4 or none) and
-// checks that every index entry points at a whole record inside it. Throws
-// BagError naming the file and the byte offset.
-class BagStructureCheck {
- public:
-  explicit BagStructureCheck(const std::string& path) : path_(path) {}
-
-  void Run() {
-    f_ = std::fopen(path_.c_str(), "rb");
-    if (!f_) throw BagError(path_ + ": cannot open: " + std::strerror(errno));
-    std::fseek(f_, 0, SEEK_END);
-    size_ = static_cast<uint64_t>(std::ftell(f_));
-    std::fseek(f_, 0, SEEK_SET);
-    try {
-      Walk();
-    } catch (...) {
-      std::fclose(f_);
-      throw;
-    }
-    std::fclose(f_);
-  }
-
- private:
-  [[noreturn]] void Fail(uint64_t at, const std::string& what) const {
-    throw BagError(path_ + ": corrupt or truncated bag at byte " + std::to_string(at) + ": " +
-                   what + " (a recording cut short may be repaired with 'rosbag reindex')");
-  }
-  void Read(uint64_t at, void* dst, uint64_t n) {
-    if (at + n > size_ || std::fseek(f_, static_cast<long>(at), SEEK_SET) != 0 ||
-        std::fread(dst, 1, n, f_) != n)
-      Fail(at, "record runs past the end of the file");
-  }
-  // Parses a record header's "name=value" fields; false when the lengths do not fit.
-  static bool Fields(const std::string& h, std::map<std::string, std::string>* out) {
-    size_t pos = 0;
-    while (pos < h.size()) {
-      if (pos + 4 > h.size()) return false;
-      uint32_t len;
-      std::memcpy(&len, h.data() + pos, 4);
-      pos += 4;
-      if (len > h.size() - pos) return false;
-      const std::string field = h.substr(pos, len);
-      pos += len;
-      const size_t eq = field.find('=');
-      if (eq == std::string::npos) return false;
-      (*out)[field.substr(0, eq)] = field.substr(eq + 1);
-    }
-    return true;
-  }
-  static uint32_t U32(const std::map<std::string, std::string>& m, const char* k) {
-    auto it = m.find(k);
-    uint32_t v = 0;
-    if (it != m.end() && it->second.size() >= 4) std::memcpy(&v, it->second.data(), 4);
-    return v;
-  }
-  // Marks the starts of the records inside a chunk's uncompressed bytes.
-  void MarkRecords(uint64_t at, const std::vector<char>& data) {
-    starts_.assign(data.size(), 0);
-    uint64_t pos = 0;
-    while (pos < data.size()) {
-      uint32_t hl, dl;
-      if (pos + 4 > data.size()) Fail(at, "record inside a chunk runs past its end");
-      std::memcpy(&hl, data.data() + pos, 4);
-      if (pos + 8 + uint64_t{hl} > data.size()) Fail(at, "record inside a chunk runs past its end");
-      std::memcpy(&dl, data.data() + pos + 4 + hl, 4);
-      if (pos + 8 + uint64_t{hl} + dl > data.size())
-        Fail(at, "record inside a chunk runs past its end");
-      starts_[pos] = 1;
-      pos += 8 + uint64_t{hl} + dl;
-    }
-  }
-  void Walk() {
-    char magic[13];
-    Read(0, magic, 13);
-    if (std::memcmp(magic, "#ROSBAG V2.0\n", 13) != 0) Fail(0, "not a rosbag 2.0 file");
-    uint64_t pos = 13;
-    std::set<uint64_t> chunks;
-    bool in_chunk = false;
-    while (pos < size_) {
-      uint32_t hl, dl;
-      Read(pos, &hl, 4);
-      if (hl > (1u << 20))
-        Fail(pos, "record header length " + std::to_string(hl) + " is not plausible");
-      std::string h(hl, '\0');
-      Read(pos + 4, h.data(), hl);
-      Read(pos + 4 + hl, &dl, 4);
-      const uint64_t data_at = pos + 8 + hl;
-      if (data_at + dl > size_) Fail(pos, "record data runs past the end of the file");
-      std::map<std::string, std::string> fields;
-      if (!Fields(h, &fields) || !fields.count("op") || fields["op"].size() != 1)
-        Fail(pos, "bad record header");
-      const int op = fields["op"][0];
-      if (op == 0x05) {  // chunk
-        const std::string compression = fields["compression"];
-        const uint32_t size = U32(fields, "size");
-        if (size > (1u << 30) || dl > (1u << 30))
-          Fail(pos, "chunk of " + std::to_string(size) + " bytes is not plausible");
-        std::vector<char> raw(dl), data(size);
-        Read(data_at, raw.data(), dl);
-        if (compression == "none") {
-          if (dl != size)
-            Fail(pos, "uncompressed chunk of " + std::to_string(dl) + " bytes says " +
-                          std::to_string(size));
-          data.swap(raw);
-        } else if (compression == "lz4") {
-          unsigned int out = size;
-          if (roslz4_buffToBuffDecompress(raw.data(), dl, data.data(), &out) != ROSLZ4_OK ||
-              out != size)
-            Fail(pos, "lz4 chunk does not decompress to its " + std::to_string(size) + " bytes");
-        } else {
-          Fail(pos, "unsupported chunk compression '" + compression + "'");
-        }
-        MarkRecords(pos, data);
-        chunks.insert(pos);
-        in_chunk = true;
-      } else if (op == 0x04) {  // index data of the chunk before it
-        const uint32_t count = U32(fields, "count");
-        if (!in_chunk || uint64_t{count} * 12 != dl) Fail(pos, "bad index record");
-        std::vector<char> entries(dl);
-        Read(data_at, entries.data(), dl);
-        for (uint32_t k = 0; k < count; ++k) {
-          uint32_t offset;
-          std::memcpy(&offset, entries.data() + 12 * k + 8, 4);
-          if (offset >= starts_.size() || !starts_[offset])
-            Fail(pos, "index entry " + std::to_string(k) + " points at no record of its chunk");
-        }
-      } else if (op == 0x06) {  // chunk info
-        uint64_t chunk_pos = 0;
-        auto it = fields.find("chunk_pos");
-        if (it != fields.end() && it->second.size() == 8)
-          std::memcpy(&chunk_pos, it->second.data(), 8);
-        if (!chunks.count(chunk_pos)) Fail(pos, "chunk info points at no chunk");
-        in_chunk = false;
-      } else if (op != 0x03 && op != 0x07 && op != 0x02) {
-        Fail(pos, "unknown record op " + std::to_string(op));
-      }
-      pos = data_at + dl;
-    }
-  }
-
-  std::string path_;
-  std::FILE* f_ = nullptr;
-  uint64_t size_ = 0;
-  std::vector<uint8_t> starts_;  // record starts of the current chunk
-};
-
-// Whether a serialized message of `layout` fills exactly its bytes. The ROS
-// deserializer sizes an array from its length field before checking it
-// against the data, so a corrupt length would allocate gigabytes first.
-// Layout: H header, 1/4/8 fixed bytes, s string, f float32[], b uint8[].
-bool LayoutFits(const std::vector<uint8_t>& buf, const char* layout) {
-  const uint64_t n = buf.size();
-  uint64_t pos = 0;
-  auto length = [&](uint64_t item) {
-    if (pos + 4 > n) return false;
-    uint32_t len;
-    std::memcpy(&len, buf.data() + pos, 4);
-    pos += 4 + item * len;
-    return true;
-  };
-  for (const char* c = layout; *c; ++c) {
-    bool ok = true;
-    switch (*c) {
-      case 'H':
-        pos += 12, ok = pos <= n && length(1);
-        break;  // seq, stamp, frame_id
-      case '1':
-        pos += 1;
-        break;
-      case '4':
-        pos += 4;
-        break;
-      case '8':
-        pos += 8;
-        break;
-      case 's':
-      case 'b':
-        ok = length(1);
-        break;
-      case 'f':
-        ok = length(4);
-        break;
-    }
-    if (!ok || pos > n) return false;
-  }
-  return pos == n;
-}
-
-// MessageInstance::instantiate with the bytes checked first (nullptr for
-// another type, as instantiate). Throws BagError naming the bag for a corrupt message.
+// MessageInstance::instantiate with the bytes checked first against the layout
+// of M (nullptr for another type, as instantiate). Throws BagError naming the
+// bag for a corrupt message.
 template <class M>
-boost::shared_ptr<M> Instantiate(const rosbag::MessageInstance& m, const char* layout,
-                                 const std::string& path, uint64_t index) {
+boost::shared_ptr<M> Instantiate(const rosbag::MessageInstance& m, const std::string& path,
+                                 uint64_t index) {
   if (m.getMD5Sum() != ros::message_traits::md5sum<M>() && m.getMD5Sum() != "*") return nullptr;
   std::vector<uint8_t> buf(m.size());
   ros::serialization::OStream out(buf.data(), static_cast<uint32_t>(buf.size()));
   m.write(out);
-  if (!LayoutFits(buf, layout))
+  std::string why;
+  if (!MessageLayout::Of<M>().Fits(buf.data(), buf.size(), &why))
     throw BagError(path + ": message " + std::to_string(index) + " on " + m.getTopic() +
                    " is corrupt (its " + std::to_string(buf.size()) + " bytes do not hold the " +
-                   ros::message_traits::datatype<M>() + " its fields declare)");
+                   ros::message_traits::datatype<M>() + " its fields declare: " + why + ")");
   auto msg = boost::make_shared<M>();
   ros::serialization::IStream in(buf.data(), static_cast<uint32_t>(buf.size()));
   ros::serialization::deserialize(in, *msg);
@@ -520,7 +239,7 @@ BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
 
 DatasetBagReader::DatasetBagReader(std::string path)
     : path_(std::move(path)), bag_(std::make_unique<rosbag::Bag>()) {
-  BagStructureCheck(path_).Run();
+  CheckBagStructure(path_);
   try {
     bag_->open(path_, rosbag::bagmode::Read);
   } catch (const rosbag::BagException& e) {
@@ -534,7 +253,8 @@ DatasetBagReader::~DatasetBagReader() = default;
 
 uint64_t DatasetBagReader::CountObservations() const {
   try {
-    return rosbag::View(*bag_, rosbag::TopicQuery(std::vector<std::string>{kObservationTopic})).size();
+    return rosbag::View(*bag_, rosbag::TopicQuery(std::vector<std::string>{kObservationTopic}))
+        .size();
   } catch (const rosbag::BagException& e) {
     throw BagError(path_ + ": cannot read the bag index: " + e.what());
   }
@@ -576,6 +296,15 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
     any = true;
     return p;
   };
+  // Messages of another type on an msspr topic; those of the expected type but
+  // another definition (written by another version of the .msg) are named apart.
+  std::map<std::string, std::pair<uint64_t, std::string>> other_definitions;  // type -> n, md5s
+  auto foreign = [&](const rosbag::MessageInstance& m, const char* type, const char* md5) {
+    ++report_.foreign_messages;
+    if (m.getDataType() != type) return;
+    auto& [n, md5s] = other_definitions[type];
+    if (n++ == 0) md5s = "md5 " + m.getMD5Sum() + "; this build reads md5 " + md5;
+  };
   try {
     rosbag::View view(
         *bag_, rosbag::TopicQuery({kEpisodeTopic, kObservationTopic, kActionTopic, kImageTopic}));
@@ -586,9 +315,10 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
       ++report_.messages;
       const std::string& topic = m.getTopic();
       if (topic == kObservationTopic) {
-        auto o = Instantiate<msspr::Observation>(m, "H44ff11", path_, report_.messages);
+        auto o = Instantiate<msspr::Observation>(m, path_, report_.messages);
         if (!o) {
-          ++report_.foreign_messages;
+          foreign(m, ros::message_traits::datatype<msspr::Observation>(),
+                  ros::message_traits::md5sum<msspr::Observation>());
           continue;
         }
         if (!step_ok(o->episode_id, o->step, "observation")) continue;
@@ -602,9 +332,10 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
           pending_images.erase(it);
         }
       } else if (topic == kActionTopic) {
-        auto a = Instantiate<msspr::Action>(m, "H44f", path_, report_.messages);
+        auto a = Instantiate<msspr::Action>(m, path_, report_.messages);
         if (!a) {
-          ++report_.foreign_messages;
+          foreign(m, ros::message_traits::datatype<msspr::Action>(),
+                  ros::message_traits::md5sum<msspr::Action>());
           continue;
         }
         if (!step_ok(a->episode_id, a->step, "action")) continue;
@@ -612,9 +343,10 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
         auto [it_a, fresh] = p.actions.emplace(a->step, a);
         if (!fresh && it_a->second->action != a->action) ++p.duplicates;
       } else if (topic == kEpisodeTopic) {
-        auto e = Instantiate<msspr::EpisodeInfo>(m, "H4ss48ff", path_, report_.messages);
+        auto e = Instantiate<msspr::EpisodeInfo>(m, path_, report_.messages);
         if (!e) {
-          ++report_.foreign_messages;
+          foreign(m, ros::message_traits::datatype<msspr::EpisodeInfo>(),
+                  ros::message_traits::md5sum<msspr::EpisodeInfo>());
           continue;
         }
         auto& p = slot(e->episode_id);
@@ -626,9 +358,10 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
         p.ep.meta.start = e->start;
         p.ep.meta.goal = e->goal;
       } else if (topic == kImageTopic) {
-        auto img = Instantiate<sensor_msgs::Image>(m, "H44s14b", path_, report_.messages);
+        auto img = Instantiate<sensor_msgs::Image>(m, path_, report_.messages);
         if (!img) {
-          ++report_.foreign_messages;
+          foreign(m, ros::message_traits::datatype<sensor_msgs::Image>(),
+                  ros::message_traits::md5sum<sensor_msgs::Image>());
           continue;
         }
         // The image shares its stamp with its observation; it may come first.
@@ -659,6 +392,11 @@ void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& f
   if (!pending_images.empty())
     report_.problems.push_back(std::to_string(pending_images.size()) +
                                " images match no observation stamp");
+  for (const auto& [type, seen] : other_definitions)
+    report_.problems.push_back(std::to_string(seen.first) + " " + type +
+                               " messages were written with another definition of " + type + " (" +
+                               seen.second +
+                               "): the bag comes from another version of msspr's messages");
   if (report_.foreign_messages > 0)
     report_.problems.push_back(std::to_string(report_.foreign_messages) +
                                " messages of an unexpected type on msspr topics");
