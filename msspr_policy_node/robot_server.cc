@@ -264,10 +264,16 @@ void RobotServer::ActAt(const ros::Time& t) {
       PublishStop("the policy returned NaN / Inf");
       return;
     }
-  PublishCommand(av);
+  PublishCommand(av, options_.mode == "lockstep" ? t : ros::Time::now());
 }
 
-void RobotServer::PublishCommand(const std::vector<double>& a) {
+ros::Time RobotServer::CommandStamp() const {
+  if (options_.mode == "lockstep" && !histories_.empty() && !histories_[0].samples().empty())
+    return histories_[0].samples().back().stamp;
+  return ros::Time::now();
+}
+
+void RobotServer::PublishCommand(const std::vector<double>& a, const ros::Time& stamp) {
   for (size_t c = 0; c < cmd_topics_.size(); ++c) {
     const std::string& type = cmd_topics_[c].type;
     const std::string& topic = cmd_topics_[c].topic;
@@ -275,14 +281,14 @@ void RobotServer::PublishCommand(const std::vector<double>& a) {
       cmd_pubs_[c].publish(MakeTwist(spec_, a, topic));
     } else if (type == kTwistStampedType) {
       geometry_msgs::TwistStamped m;
-      m.header.stamp = ros::Time::now();
+      m.header.stamp = stamp;
       m.twist = MakeTwist(spec_, a, topic);
       cmd_pubs_[c].publish(m);
     } else if (type == kFloat64MultiArrayType) {
       cmd_pubs_[c].publish(MakeFloat64MultiArray(spec_, a, topic));
     } else {
       trajectory_msgs::JointTrajectory m = MakeJointTrajectory(spec_, a, topic);
-      m.header.stamp = ros::Time::now();
+      m.header.stamp = stamp;
       cmd_pubs_[c].publish(m);
     }
   }
@@ -304,7 +310,7 @@ void RobotServer::PublishStop(const std::string& why) {
       cmd_pubs_[c].publish(geometry_msgs::Twist());
     } else if (type == kTwistStampedType) {
       geometry_msgs::TwistStamped m;
-      m.header.stamp = ros::Time::now();
+      m.header.stamp = CommandStamp();
       cmd_pubs_[c].publish(m);
     } else if (type == kFloat64MultiArrayType) {
       std_msgs::Float64MultiArray m =
@@ -314,7 +320,7 @@ void RobotServer::PublishStop(const std::string& why) {
     } else {
       // An empty trajectory makes joint_trajectory_controller stop and hold its position.
       trajectory_msgs::JointTrajectory m;
-      m.header.stamp = ros::Time::now();
+      m.header.stamp = CommandStamp();
       for (const auto& f : spec_.action)
         if (f.topic == topic) m.joint_names.insert(m.joint_names.end(), f.joints.begin(), f.joints.end());
       cmd_pubs_[c].publish(m);

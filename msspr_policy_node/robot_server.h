@@ -59,11 +59,14 @@ class RobotServer {
   void OnDiagnostics(const ros::WallTimerEvent&);
   // Samples the observation at t and acts; a stale one sends a stop instead.
   void ActAt(const ros::Time& t);
+  // The stamp of a command or stop: lockstep, the observation it answers (the
+  // newest of the first topic); rate, ros::Time::now().
+  ros::Time CommandStamp() const;
   // tf2 fields: a new sample from the buffer when it has newer transforms.
   void PollTf();
   // Lockstep: acts at the first topic's newest stamp once every topic has caught up.
   void TryActLockstep();
-  void PublishCommand(const std::vector<double>& a);
+  void PublishCommand(const std::vector<double>& a, const ros::Time& stamp);
   void PublishStop(const std::string& why);
 
   PolicyNodeOptions options_;

@@ -258,29 +258,43 @@ void CubeSimNode::PublishGoalObservation() {
 }
 
 void CubeSimNode::OnEeTwist(const geometry_msgs::TwistStamped::ConstPtr& msg) {
-  pending_twist_ = *msg;
+  pending_twists_.push_back(*msg);
   MaybeStepStandard();
 }
 
 void CubeSimNode::OnGripperCommand(const std_msgs::Float64MultiArray::ConstPtr& msg) {
-  pending_grip_ = msg->data.empty() ? std::nan("") : msg->data[0];
+  pending_grips_.push_back(msg->data.empty() ? std::nan("") : msg->data[0]);
   MaybeStepStandard();
 }
 
 void CubeSimNode::MaybeStepStandard() {
-  if (!pending_twist_ || !pending_grip_) return;
-  // The same checks, counters and stepping as an msspr/Action for the current step.
-  auto a = boost::make_shared<msspr::Action>();
-  a->header.stamp = Now();
-  a->episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
-  a->step = EpisodeStep();
-  const auto& t = pending_twist_->twist;
-  a->action = {static_cast<float>(t.linear.x / kCubeEeSpeed), static_cast<float>(t.linear.y / kCubeEeSpeed),
-               static_cast<float>(t.linear.z / kCubeEeSpeed), static_cast<float>(t.angular.z / kCubeEeYawRate),
-               static_cast<float>(*pending_grip_)};
-  pending_twist_.reset();
-  pending_grip_.reset();
-  OnAction(a);
+  constexpr size_t kMaxPending = 10;
+  while (pending_twists_.size() > kMaxPending) pending_twists_.pop_front();
+  while (pending_grips_.size() > kMaxPending) pending_grips_.pop_front();
+  while (!pending_twists_.empty() && !pending_grips_.empty()) {
+    const geometry_msgs::TwistStamped twist = pending_twists_.front();
+    const double grip = pending_grips_.front();
+    pending_twists_.pop_front();
+    pending_grips_.pop_front();
+    // Stamped for an earlier observation (a zero stamp counts as now).
+    if (!twist.header.stamp.isZero() && twist.header.stamp + ros::Duration(1e-6) < Now()) {
+      if (stale_standard_commands_++ == 0 || stale_standard_commands_ % 100 == 0)
+        ROS_WARN_STREAM_NAMED("msspr_sim", "ee_twist stamped " << twist.header.stamp << " for an observation before "
+                                                               << Now() << ": dropped with its gripper command ("
+                                                               << stale_standard_commands_ << " so far)");
+      continue;
+    }
+    // The same checks, counters and stepping as an msspr/Action for the current step.
+    auto a = boost::make_shared<msspr::Action>();
+    a->header.stamp = Now();
+    a->episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
+    a->step = EpisodeStep();
+    const auto& t = twist.twist;
+    a->action = {static_cast<float>(t.linear.x / kCubeEeSpeed), static_cast<float>(t.linear.y / kCubeEeSpeed),
+                 static_cast<float>(t.linear.z / kCubeEeSpeed), static_cast<float>(t.angular.z / kCubeEeYawRate),
+                 static_cast<float>(grip)};
+    OnAction(a);
+  }
 }
 
 void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {
@@ -294,8 +308,6 @@ void CubeSimNode::BeginEpisode(int task_id, uint64_t seed, const std::string& sp
                                const sim::CubeEnv::Observation& start) {
   std::function<std::vector<uint8_t>()> render_goal;
   if (!goal_.empty()) render_goal = [this] { return env_->goal_image(); };
-  pending_twist_.reset();
-  pending_grip_.reset();
   PublishGoalObservation();  // before the episode's first observation
   AnnounceEpisode(task_id, seed, split, std::vector<float>(start.begin(), start.end()), goal_, render_goal);
 }

@@ -23,7 +23,7 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/TwistStamped.h>
-#include <optional>
+#include <deque>
 #include <ros/ros.h>
 #include <sensor_msgs/JointState.h>
 #include <std_msgs/Float64MultiArray.h>
@@ -109,7 +109,10 @@ class CubeSimNode : public SimNodeBase {
   uint32_t StandardCommandPublishers() const override { return ee_twist_sub_.getNumPublishers(); }
   void OnEeTwist(const geometry_msgs::TwistStamped::ConstPtr& msg);
   void OnGripperCommand(const std_msgs::Float64MultiArray::ConstPtr& msg);
-  // Steps once both commands of a step have arrived.
+  // Pairs the k-th twist with the k-th gripper command (each topic arrives in
+  // order); a pair whose twist is stamped before the current observation (made
+  // for an earlier step or episode, e.g. answering an episode's last
+  // observation after a reset) is dropped; otherwise it steps the sim.
   void MaybeStepStandard();
   void PublishGoalObservation();
 
@@ -127,8 +130,9 @@ class CubeSimNode : public SimNodeBase {
   tf2_ros::StaticTransformBroadcaster static_tf_;
   ros::Publisher gripper_state_pub_, cube_pose_pub_, goal_obs_pub_;
   ros::Subscriber ee_twist_sub_, gripper_cmd_sub_;
-  std::optional<geometry_msgs::TwistStamped> pending_twist_;
-  std::optional<double> pending_grip_;
+  std::deque<geometry_msgs::TwistStamped> pending_twists_;
+  std::deque<double> pending_grips_;
+  uint64_t stale_standard_commands_ = 0;
 };
 
 }  // namespace msspr::ros_bridge
