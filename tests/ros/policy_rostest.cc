@@ -25,6 +25,7 @@
 #include "policy_client.h"
 #include "ros_test_helper.h"
 #include <visualization_msgs/MarkerArray.h>
+#include "msspr_core/policy.h"
 #include "msspr_sim/maze_map.h"
 
 namespace msspr::testing {
@@ -65,18 +66,44 @@ TEST(PolicyBadInput, RejectsCountsAndKeepsServing) {
   EXPECT_EQ(c.num_actions(), 0u) << "a rejected observation was answered";
 
   // Good input is served again, answering the same (episode_id, step).
-  c.SendObservation(7, 5, {0.5f, 0.5f}, {4.f, 0.f});
+  const std::vector<float> goal = {4.f, 0.f};
+  const std::vector<std::vector<float>> states = {{0.5f, 0.5f}, {0.6f, 0.5f}};
+  c.SendObservation(7, 5, states[0], goal);
   auto a = c.WaitForAction(7, 5, 10.0);
   ASSERT_TRUE(a) << "no action for a good observation after bad ones";
   ExpectValidAction(*a);
-  c.SendObservation(7, 6, {0.6f, 0.5f}, {4.f, 0.f});
-  ASSERT_TRUE(c.WaitForAction(7, 6, 10.0));
+  c.SendObservation(7, 6, states[1], goal);
+  auto a6 = c.WaitForAction(7, 6, 10.0);
+  ASSERT_TRUE(a6);
   EXPECT_EQ(c.num_actions(), 2u);
-  // Diagnostics: actions, latency percentiles and a value estimate in the return's range.
+  // Diagnostics: actions, latency percentiles and the value estimate: the
+  // smaller of the critic's twin Q values of a served observation, its goal and
+  // the action sent, here computed from the same checkpoint in process. The node
+  // computes it for the first action of each diagnostics period: step 5 or 6.
   ASSERT_TRUE(c.WaitForCounter("actions", 2));
   ASSERT_TRUE(c.helper().WaitFor([&] { return std::isfinite(c.Diag("value_estimate")); }, 10.0))
       << "value_estimate " << c.helper().DiagValue(kPolicyStatus, "value_estimate");
-  EXPECT_LE(c.Diag("value_estimate"), 1e-3);
+  std::string checkpoint;
+  ASSERT_TRUE(c.helper().nh().getParam("policy/checkpoint", checkpoint));
+  core::Policy reference = core::Policy::Load(checkpoint);
+  ASSERT_TRUE(reference.has_value());
+  std::vector<double> expected;
+  for (int k = 0; k < 2; ++k) {
+    const auto& sent = k == 0 ? a->action : a6->action;
+    auto tensor = [](const std::vector<float>& v) {
+      return torch::tensor(v, torch::kFloat32);
+    };
+    const torch::Tensor q = reference.Q(tensor(states[k]), tensor(sent), tensor(goal));
+    ASSERT_EQ(q.numel(), 2) << "twin Q values";
+    expected.push_back(q.min().item<double>());
+  }
+  // The diagnostics print 4 decimals.
+  const double reported = c.Diag("value_estimate");
+  const double tolerance = 5e-5 + 1e-5;
+  EXPECT_TRUE(std::abs(reported - expected[0]) <= tolerance ||
+              std::abs(reported - expected[1]) <= tolerance)
+      << "value_estimate " << reported << ", the critic's min twin Q of step 5 is " << expected[0]
+      << " and of step 6 is " << expected[1];
   EXPECT_GE(c.Diag("latency_p50_ms"), 0.0);
   EXPECT_GE(c.Diag("latency_p99_ms"), c.Diag("latency_p50_ms"));
 
