@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <ros/callback_queue.h>
 #include <torch/torch.h>
 
 #include "msspr_core/checkpoint.h"
@@ -163,6 +164,13 @@ void RobotServer::PollTf() {
 }
 
 void RobotServer::TryActLockstep() {
+  if (draining_) return;  // the outer call acts once the queue is drained
+  // Messages that have already arrived go first: a new episode's goal (an
+  // unstamped Float64MultiArray cannot be waited for by stamp) is published
+  // before its first observation, on another connection.
+  draining_ = true;
+  ros::getGlobalCallbackQueue()->callAvailable();
+  draining_ = false;
   if (histories_[0].samples().empty()) return;
   if (acted_messages_ >= first_topic_messages_) return;  // acted on the first topic's newest message
   const ros::Time t = histories_[0].samples().back().stamp;

@@ -84,6 +84,7 @@ class RobotServer {
   int tf_topic_ = -1;                        // layout topic of the tf2 fields, or -1
   uint64_t first_topic_messages_ = 0;        // lockstep: messages of the first topic (a re-sent one acts again)
   uint64_t acted_messages_ = 0;              // lockstep: the first topic's messages acted upon
+  bool draining_ = false;                    // lockstep: handling the callbacks already queued
   ros::WallTimer rate_timer_, watchdog_timer_, diag_timer_;
   std::vector<TopicHistory> histories_;
   std::vector<ros::WallTime> last_receipt_;  // per observation topic (wall clock)
