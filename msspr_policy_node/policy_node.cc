@@ -12,6 +12,7 @@
 
 #include "msg_conversion.h"
 #include "ros_params.h"
+#include "value_markers.h"
 #include "msspr/Action.h"
 #include "msspr_core/policy.h"
 #include "msspr_sim/maze_map.h"
@@ -184,24 +185,8 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
       ROS_WARN_STREAM_NAMED(kLog, "~value_marker_maze: value markers need a state policy of the point maze "
                                   "(obs_dim 2); none will be published");
     } else {
-      const auto map = sim::MazeMap::FromName(options_.value_marker_maze);
-      const int n = options_.value_marker_per_cell;
-      for (const sim::Cell& c : map.FreeCells())
-        for (int a = 0; a < n; ++a)
-          for (int b = 0; b < n; ++b) {
-            const Eigen::Vector2d p = map.CellCenter(c) + sim::kCellSize * Eigen::Vector2d((b + 0.5) / n - 0.5,
-                                                                                            (a + 0.5) / n - 0.5);
-            value_points_.push_back(static_cast<float>(p.x()));
-            value_points_.push_back(static_cast<float>(p.y()));
-          }
-      // The range label: centred below the maze (its lowest row of free cells, minus a cell).
-      double x0 = 1e9, x1 = -1e9, y0 = 1e9;
-      for (size_t k = 0; k + 1 < value_points_.size(); k += 2) {
-        x0 = std::min<double>(x0, value_points_[k]);
-        x1 = std::max<double>(x1, value_points_[k]);
-        y0 = std::min<double>(y0, value_points_[k + 1]);
-      }
-      value_label_xy_ = {0.5 * (x0 + x1), y0 - 0.75 * sim::kCellSize};
+      value_markers_ =
+          std::make_unique<ValueMarkers>(options_.value_marker_maze, options_.value_marker_per_cell);
       value_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("value_markers", 1, /*latch=*/true);
       value_timer_ = nh_.createWallTimer(ros::WallDuration(options_.value_marker_period),
                                          &PolicyNode::OnValueMarkers, this);
@@ -465,78 +450,16 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
   }
 }
 
-namespace {
-
-// Viridis, 5 stops, linear in between; t in [0, 1].
-std_msgs::ColorRGBA Viridis(double t) {
-  static const double stops[5][3] = {
-      {0.267, 0.005, 0.329}, {0.229, 0.322, 0.546}, {0.128, 0.567, 0.551}, {0.369, 0.789, 0.383}, {0.993, 0.906, 0.144}};
-  t = std::clamp(t, 0.0, 1.0) * 4.0;
-  const int i = std::min(3, static_cast<int>(t));
-  const double f = t - i;
-  std_msgs::ColorRGBA c;
-  c.r = static_cast<float>(stops[i][0] + f * (stops[i + 1][0] - stops[i][0]));
-  c.g = static_cast<float>(stops[i][1] + f * (stops[i + 1][1] - stops[i][1]));
-  c.b = static_cast<float>(stops[i][2] + f * (stops[i + 1][2] - stops[i][2]));
-  c.a = 0.85f;
-  return c;
-}
-
-}  // namespace
-
 void PolicyNode::OnValueMarkers(const ros::WallTimerEvent&) {
-  if (last_goal_.size() != 2 || value_points_.empty()) return;  // no goal served yet
-  const int64_t n = static_cast<int64_t>(value_points_.size() / 2);
-  torch::Tensor v;
+  if (last_goal_.size() != 2 || !value_markers_ || value_markers_->empty()) return;  // no goal served yet
+  visualization_msgs::MarkerArray arr;
   try {
-    torch::InferenceMode guard;
-    const torch::Tensor obs = torch::from_blob(value_points_.data(), {n, 2}, torch::kFloat32);
-    const torch::Tensor goal = torch::tensor(last_goal_).unsqueeze(0).expand({n, 2}).contiguous();
-    v = std::get<0>(policy_->Q(obs, policy_->Act(obs, goal), goal).min(-1)).to(torch::kCPU).contiguous();
+    arr = value_markers_->Make(*policy_, last_goal_);
   } catch (const c10::Error& e) {
     ++counters_.inference_errors;
     ROS_ERROR_STREAM_THROTTLE_NAMED(10.0, kLog, "value markers: inference failed: " << e.what_without_backtrace());
     return;
   }
-  const float* q = v.data_ptr<float>();
-  const float lo = *std::min_element(q, q + n), hi = *std::max_element(q, q + n);
-  visualization_msgs::MarkerArray arr;
-  visualization_msgs::Marker m;
-  m.header.stamp = ros::Time::now();
-  m.header.frame_id = "world";
-  m.ns = "value";
-  m.id = 0;
-  m.type = visualization_msgs::Marker::CUBE_LIST;
-  m.action = visualization_msgs::Marker::ADD;
-  m.pose.orientation.w = 1.0;
-  m.scale.x = m.scale.y = sim::kCellSize / options_.value_marker_per_cell;
-  m.scale.z = 0.02;
-  for (int64_t k = 0; k < n; ++k) {
-    geometry_msgs::Point p;
-    p.x = value_points_[2 * k];
-    p.y = value_points_[2 * k + 1];
-    p.z = 0.01;
-    m.points.push_back(p);
-    m.colors.push_back(Viridis(hi > lo ? (q[k] - lo) / (hi - lo) : 1.0));
-  }
-  // The range, as text above the maze's origin.
-  visualization_msgs::Marker label;
-  label.header = m.header;
-  label.ns = "value_range";
-  label.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
-  label.action = visualization_msgs::Marker::ADD;
-  label.pose.orientation.w = 1.0;
-  label.pose.position.x = value_label_xy_[0];
-  label.pose.position.y = value_label_xy_[1];
-  label.pose.position.z = 3.0;
-  label.scale.z = 1.2;
-  label.color.a = 1.0;
-  std::ostringstream txt;
-  txt.precision(3);
-  txt << "V(s, g) from " << lo << " (purple) to " << hi << " (yellow)";
-  label.text = txt.str();
-  arr.markers.push_back(m);
-  arr.markers.push_back(label);
   value_pub_.publish(arr);
 }
 

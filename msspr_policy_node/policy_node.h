@@ -27,6 +27,8 @@ class Policy;
 
 namespace msspr::ros_bridge {
 
+class ValueMarkers;
+
 struct PolicyNodeOptions {
   std::string checkpoint;                  // required: Trainer::ExportPolicy file or full checkpoint
   // A robot interface spec (config/robots/*.yaml, issue 28): serve over the robot's
@@ -127,9 +129,8 @@ class PolicyNode {
   ros::ServiceServer set_goal_srv_;
   ros::WallTimer rate_timer_, diag_timer_, value_timer_;
   ros::Publisher value_pub_;
-  std::vector<float> value_points_;  // [N, 2] grid over the free cells (value markers)
-  std::vector<float> last_goal_;     // the goal of the latest action (state mode)
-  std::vector<double> value_label_xy_ = {0.0, 0.0};
+  std::unique_ptr<ValueMarkers> value_markers_;  // ~value_marker_maze (value_markers.h)
+  std::vector<float> last_goal_;                 // the goal of the latest action (state mode)
 
   // Goal override (state mode): set by ~set_goal or the goal_state topic; an
   // empty goal clears it and the observation's goal field applies again.
