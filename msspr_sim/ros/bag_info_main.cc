@@ -46,11 +46,17 @@ int SpecInfo(const std::string& spec_path, const std::vector<std::string>& bags,
                   static_cast<unsigned long>(r.episodes), spec.episodes.split_by.c_str(),
                   static_cast<unsigned long>(r.ticks), static_cast<unsigned long>(r.complete_ticks),
                   static_cast<unsigned long>(trajectories), static_cast<unsigned long>(steps));
-      std::printf("%-14s %-22s %8s %8s %9s %6s %8s %6s %6s %6s %6s %8s\n", "field", "topic", "messages", "rate_hz",
-                  "coverage", "gaps", "max_gap", "stale", "late", "order", "nan", "unread");
+      // Columns as wide as the longest field name and topic (at least 14 and 22).
+      int name_w = 14, topic_w = 22;
+      for (const auto& f : r.fields) {
+        name_w = std::max(name_w, static_cast<int>(f.name.size()));
+        topic_w = std::max(topic_w, static_cast<int>(f.topic.size()));
+      }
+      std::printf("%-*s %-*s %8s %8s %9s %6s %8s %6s %6s %6s %6s %8s\n", name_w, "field", topic_w, "topic", "messages",
+                  "rate_hz", "coverage", "gaps", "max_gap", "stale", "late", "order", "nan", "unread");
       for (const auto& f : r.fields)
-        std::printf("%-14s %-22s %8lu %8.2f %8.1f%% %6lu %7.2fs %6lu %6lu %6lu %6lu %8lu\n", f.name.c_str(),
-                    f.topic.c_str(), static_cast<unsigned long>(f.messages), f.rate_hz,
+        std::printf("%-*s %-*s %8lu %8.2f %8.1f%% %6lu %7.2fs %6lu %6lu %6lu %6lu %8lu\n", name_w, f.name.c_str(),
+                    topic_w, f.topic.c_str(), static_cast<unsigned long>(f.messages), f.rate_hz,
                     100.0 * f.coverage(), static_cast<unsigned long>(f.gaps), f.max_gap_s,
                     static_cast<unsigned long>(f.stale_ticks), static_cast<unsigned long>(f.late),
                     static_cast<unsigned long>(f.out_of_order), static_cast<unsigned long>(f.nonfinite),

@@ -1,13 +1,11 @@
 // config/robots/ur5e_cube.yaml against the cube-single sim: a bag of the
 // standard messages msspr_sim_node ~env cube-single publishes (built by the
 // same function, MakeCubeStandardMessages: joint_states, gripper/joint_states,
-// cube_pose, /tf and /tf_static, the goal observation) and of the commands it
-// takes (ee_twist, gripper_command), read through the spec, gives the env's
+// cube_pose, /tf and /tf_static; cube_spec_bag.h) and of the commands it takes
+// (ee_twist, gripper_command), read through the spec, gives the env's
 // own 28-D observations and the actions within 1e-5. The play oracle drives,
 // so that the gripper closes on the cube (contact) along the way. No master.
 #include <gtest/gtest.h>
-#include <rosbag/bag.h>
-#include <tf2_msgs/TFMessage.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -16,8 +14,7 @@
 #include <vector>
 
 #include "cube_sim_node.h"
-#include "msspr_sim/cube_env.h"
-#include "msspr_sim/cube_oracle.h"
+#include "cube_spec_bag.h"
 #include "robot_fields.h"
 #include "robot_spec.h"
 #include "spec_bag.h"
@@ -32,47 +29,10 @@ TEST(RobotSpecCube, SpecObservationsEqualTheNative28D) {
   const fs::path dir = fs::temp_directory_path() / ("msspr_cube_spec_test_" + std::to_string(getpid()));
   fs::create_directories(dir);
   const std::string bag_path = (dir / "cube.bag").string();
-  sim::CubeEnvOptions eo;
-  eo.urdf_path = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
-  sim::CubeEnv env(eo);
-  env.ResetForCollection(11);
-  sim::CubePlayOracle oracle(11);
   constexpr int kSteps = 120;
-  std::vector<sim::CubeEnv::Observation> native;
-  std::vector<sim::CubeEnv::Action> actions;
-  {
-    rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
-    const ros::Time t0(20.0);
-    tf2_msgs::TFMessage statics;
-    statics.transforms = MakeCubeStaticTransforms(env);
-    bag.write("/tf_static", t0, statics);
-    for (int k = 0; k < kSteps; ++k) {
-      const ros::Time stamp = t0 + ros::Duration(0.05 * k);
-      native.push_back(env.GetObservation());
-      const CubeStandardMessages m = MakeCubeStandardMessages(env, stamp, "world", "cube", "cube_goal");
-      tf2_msgs::TFMessage tf;
-      tf.transforms = m.transforms;
-      bag.write("/joint_states", stamp, m.joint_states);
-      bag.write("/gripper/joint_states", stamp, m.gripper_state);
-      bag.write("/cube_pose", stamp, m.cube_pose);
-      bag.write("/tf", stamp, tf);
-      sim::CubeEnv::Action a = oracle.Act(env);
-      for (auto& v : a) v = std::clamp(v, -1.0, 1.0);
-      actions.push_back(a);
-      // The commands, as msspr_policy_node publishes them through the spec.
-      geometry_msgs::TwistStamped twist;
-      twist.header.stamp = stamp;
-      twist.twist.linear.x = a[0] * kCubeEeSpeed;
-      twist.twist.linear.y = a[1] * kCubeEeSpeed;
-      twist.twist.linear.z = a[2] * kCubeEeSpeed;
-      twist.twist.angular.z = a[3] * kCubeEeYawRate;
-      std_msgs::Float64MultiArray grip;
-      grip.data = {a[4]};
-      bag.write("/ee_twist", stamp + ros::Duration(0.001), twist);
-      bag.write("/gripper_command", stamp + ros::Duration(0.001), grip);
-      env.Step(a);
-    }
-  }
+  const test::CubeSpecBag written = test::WriteCubeSpecBag(bag_path, kSteps, 11);
+  const auto& native = written.observations;
+  const auto& actions = written.actions;
   const RobotSpec spec = LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/ur5e_cube.yaml");
   ASSERT_EQ(spec.obs_dim(), sim::CubeEnv::kObservationSize);
   ASSERT_EQ(spec.action_dim(), sim::CubeEnv::kActionSize);

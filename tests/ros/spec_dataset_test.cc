@@ -12,6 +12,7 @@
 #include <string>
 
 #include "bag_dataset.h"
+#include "cube_spec_bag.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/options.h"
 #include "robot_server.h"
@@ -144,6 +145,32 @@ TEST_F(SpecDatasetTest, TrainWithRobotStoresTheSpecAndBagInfoReports) {
   EXPECT_EQ(info.status, 2) << info.text;
   EXPECT_NE(info.text.find(Path("a.bag") + ": no topic wheel_odom (field 'position' of " + other), std::string::npos)
       << info.text;
+}
+
+// The arm: bags of the cube sim's standard messages (tf2, two command topics)
+// check with msspr_bag_info --robot ur5e_cube.yaml and train with msspr_train --robot.
+TEST_F(SpecDatasetTest, ArmBagsTrainThroughTheUr5eSpec) {
+  const std::string arm_spec = std::string(MSSPR_SOURCE_DIR) + "/config/robots/ur5e_cube.yaml";
+  ros_bridge::test::WriteCubeSpecBag(Path("a.bag"), 60, 3);
+  ros_bridge::test::WriteCubeSpecBag(Path("b.bag"), 60, 4);
+  Output info = RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + arm_spec + " " + Path("a.bag"));
+  std::printf("%s\n", info.text.c_str());
+  EXPECT_EQ(info.status, 0) << info.text;
+  for (const char* s : {"episodes:     1 (split by gap), 60 ticks, 60 with observation and action", "pinch_position",
+                        "action:ee_twist", "action:gripper_command"})
+    EXPECT_NE(info.text.find(s), std::string::npos) << s << "\n" << info.text;
+  const std::string config = Path("tiny.yaml");
+  std::ofstream(config) << core::OptionsToYaml(core::testing_util::TinyOptions());
+  const std::string out = Path("run");
+  const Output t = RunTool(std::string(MSSPR_TRAIN_EXE) + " --data " + Path("a.bag") + " " + Path("b.bag") +
+                           " --robot " + arm_spec + " --config " + config +
+                           " --steps 6 --batch 16 --eval-every 0 --threads 1 --quiet --out " + out);
+  ASSERT_EQ(t.status, 0) << t.text;
+  EXPECT_NE(t.text.find("2 bag(s): 2 episodes read -> 2 trajectories, 120 steps"), std::string::npos) << t.text;
+  const ros_bridge::RobotSpec spec = ros_bridge::LoadRobotSpec(arm_spec);
+  bool stored = false;
+  EXPECT_EQ(ros_bridge::CheckCheckpointAgainstSpec(out + "/policy.pt", spec, 28, 5, &stored), "");
+  EXPECT_TRUE(stored);
 }
 
 }  // namespace

@@ -1,0 +1,68 @@
+// Test helper: a bag of the standard messages msspr_sim_node ~env cube-single
+// publishes (MakeCubeStandardMessages: joint_states, gripper/joint_states,
+// cube_pose, /tf, /tf_static) and of the commands it takes (ee_twist,
+// gripper_command), with the play oracle driving CubeEnv, as
+// config/robots/ur5e_cube.yaml reads them. No master needed.
+#pragma once
+
+#include <rosbag/bag.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "cube_sim_node.h"
+#include "msspr_sim/cube_env.h"
+#include "msspr_sim/cube_oracle.h"
+
+namespace msspr::ros_bridge::test {
+
+struct CubeSpecBag {
+  std::vector<sim::CubeEnv::Observation> observations;  // the env's own, per step
+  std::vector<sim::CubeEnv::Action> actions;            // clipped to [-1, 1], per step
+};
+
+// Writes `steps` steps (0.05 s apart from t0) of a collection episode seeded `seed`.
+inline CubeSpecBag WriteCubeSpecBag(const std::string& path, int steps, uint64_t seed, double t0_s = 20.0) {
+  CubeSpecBag out;
+  sim::CubeEnvOptions eo;
+  eo.urdf_path = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
+  sim::CubeEnv env(eo);
+  env.ResetForCollection(seed);
+  sim::CubePlayOracle oracle(seed);
+  rosbag::Bag bag(path, rosbag::bagmode::Write);
+  const ros::Time t0(t0_s);
+  tf2_msgs::TFMessage statics;
+  statics.transforms = MakeCubeStaticTransforms(env);
+  bag.write("/tf_static", t0, statics);
+  for (int k = 0; k < steps; ++k) {
+    const ros::Time stamp = t0 + ros::Duration(0.05 * k);
+    out.observations.push_back(env.GetObservation());
+    const CubeStandardMessages m = MakeCubeStandardMessages(env, stamp, "world", "cube", "cube_goal");
+    tf2_msgs::TFMessage tf;
+    tf.transforms = m.transforms;
+    bag.write("/joint_states", stamp, m.joint_states);
+    bag.write("/gripper/joint_states", stamp, m.gripper_state);
+    bag.write("/cube_pose", stamp, m.cube_pose);
+    bag.write("/tf", stamp, tf);
+    sim::CubeEnv::Action a = oracle.Act(env);
+    for (auto& v : a) v = std::clamp(v, -1.0, 1.0);
+    out.actions.push_back(a);
+    // The commands, as msspr_policy_node publishes them through the spec.
+    geometry_msgs::TwistStamped twist;
+    twist.header.stamp = stamp;
+    twist.twist.linear.x = a[0] * kCubeEeSpeed;
+    twist.twist.linear.y = a[1] * kCubeEeSpeed;
+    twist.twist.linear.z = a[2] * kCubeEeSpeed;
+    twist.twist.angular.z = a[3] * kCubeEeYawRate;
+    std_msgs::Float64MultiArray grip;
+    grip.data = {a[4]};
+    bag.write("/ee_twist", stamp + ros::Duration(0.001), twist);
+    bag.write("/gripper_command", stamp + ros::Duration(0.001), grip);
+    env.Step(a);
+  }
+  return out;
+}
+
+}  // namespace msspr::ros_bridge::test
