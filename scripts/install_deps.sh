@@ -13,7 +13,7 @@ PKGS=(
   libosmesa6-dev libegl-dev libegl-mesa0 libgl-dev
   googletest libgtest-dev
   libyaml-cpp-dev libzip-dev zlib1g-dev libpng-dev python3-numpy
-  cmake make g++
+  cmake make g++ clang-format
 )
 missing=()
 for p in "${PKGS[@]}"; do

@@ -51,7 +51,9 @@ torch::Tensor AwrWeight(const torch::Tensor& adv, double alpha) {
 }
 
 // The two heads of an ensemble on one input: [B, 2].
-torch::Tensor Twin(OgMlp& a, OgMlp& b, const torch::Tensor& x) { return torch::cat({a(x), b(x)}, -1); }
+torch::Tensor Twin(OgMlp& a, OgMlp& b, const torch::Tensor& x) {
+  return torch::cat({a(x), b(x)}, -1);
+}
 
 // OGBench's value loss of a twin V ensemble with target heads (GCIVL, HIQL):
 // q = r + gamma m min(Vbar(s')), adv = q - mean(Vbar(s)), and each online
@@ -59,12 +61,14 @@ torch::Tensor Twin(OgMlp& a, OgMlp& b, const torch::Tensor& x) { return torch::c
 // expectile weight of adv. next_target, target: [B, 2] without gradient;
 // online: [B, 2].
 torch::Tensor TwinExpectileValueLoss(const TransitionBatch& batch, const torch::Tensor& next_target,
-                                     const torch::Tensor& target, const torch::Tensor& online, double expectile) {
+                                     const torch::Tensor& target, const torch::Tensor& online,
+                                     double expectile) {
   const torch::Tensor q = batch.ret + batch.discount * std::get<0>(next_target.min(-1));
   const torch::Tensor w = ExpectileWeight(q - target.mean(-1), expectile);
   const torch::Tensor q1 = batch.ret + batch.discount * next_target.select(-1, 0);
   const torch::Tensor q2 = batch.ret + batch.discount * next_target.select(-1, 1);
-  return (w * (q1 - online.select(-1, 0)).pow(2)).mean() + (w * (q2 - online.select(-1, 1)).pow(2)).mean();
+  return (w * (q1 - online.select(-1, 0)).pow(2)).mean() +
+         (w * (q2 - online.select(-1, 1)).pow(2)).mean();
 }
 
 }  // namespace
@@ -83,8 +87,7 @@ OgMlpImpl::OgMlpImpl(const std::vector<int64_t>& sizes, bool activate_final, boo
     if (!last || activate_final) {
       net->push_back(torch::nn::GELU(torch::nn::GELUOptions().approximate("tanh")));
       if (layer_norm) {
-        net->push_back(torch::nn::LayerNorm(
-            torch::nn::LayerNormOptions({sizes[i + 1]}).eps(1e-6)));
+        net->push_back(torch::nn::LayerNorm(torch::nn::LayerNormOptions({sizes[i + 1]}).eps(1e-6)));
       }
     }
   }
@@ -96,7 +99,8 @@ torch::Tensor OgMlpImpl::forward(const torch::Tensor& x) { return net->forward(x
 GaussianActorImpl::GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers, int64_t out) {
   std::vector<int64_t> sizes{in};
   for (int64_t i = 0; i < layers; ++i) sizes.push_back(hidden);
-  backbone = register_module("backbone", OgMlp(sizes, /*activate_final=*/true, /*layer_norm=*/false));
+  backbone =
+      register_module("backbone", OgMlp(sizes, /*activate_final=*/true, /*layer_norm=*/false));
   head = register_module("head", torch::nn::Linear(hidden, out));
   // variance_scaling(0.01, fan_avg, uniform): a tenth of Xavier's bound.
   const double bound = 0.1 * std::sqrt(6.0 / static_cast<double>(hidden + out));
@@ -105,7 +109,9 @@ GaussianActorImpl::GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers,
   head->bias.zero_();
 }
 
-torch::Tensor GaussianActorImpl::Mean(const torch::Tensor& x) { return head->forward(backbone->forward(x)); }
+torch::Tensor GaussianActorImpl::Mean(const torch::Tensor& x) {
+  return head->forward(backbone->forward(x));
+}
 
 torch::Tensor GaussianActorImpl::LogProb(const torch::Tensor& x, const torch::Tensor& a) {
   return StdNormalLogProb(a, Mean(x));
@@ -117,7 +123,8 @@ torch::Tensor StdNormalLogProb(const torch::Tensor& a, const torch::Tensor& mean
 }
 
 torch::Tensor ExpectileWeight(const torch::Tensor& adv, double expectile) {
-  return torch::where(adv >= 0, torch::full_like(adv, expectile), torch::full_like(adv, 1.0 - expectile));
+  return torch::where(adv >= 0, torch::full_like(adv, expectile),
+                      torch::full_like(adv, 1.0 - expectile));
 }
 
 torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_t k,
@@ -136,8 +143,9 @@ torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_
   const torch::Tensor sign = torch::where(order < k, -1.0, 1.0).to(x.scalar_type());
   const torch::Tensor change = torch::cat({valid, valid}, -1).gather(-1, order) * sign;
   const torch::Tensor inside = (change.cumsum(-1) < 0).to(x.scalar_type()) * -1.0;
-  const torch::Tensor edges =
-      torch::cat({inside.narrow(-1, 0, 1), inside.narrow(-1, 1, 2 * k - 1) - inside.narrow(-1, 0, 2 * k - 1)}, -1);
+  const torch::Tensor edges = torch::cat(
+      {inside.narrow(-1, 0, 1), inside.narrow(-1, 1, 2 * k - 1) - inside.narrow(-1, 0, 2 * k - 1)},
+      -1);
   const torch::Tensor components = (values * edges).sum(-1);  // [B, C]
   const torch::Tensor a = torch::sigmoid(alpha_raw).reshape({});
   return a * components.mean(-1) + (1.0 - a) * std::get<0>(components.max(-1));
@@ -146,13 +154,16 @@ torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_
 // --- GcAgentImpl --------------------------------------------------------------
 
 GcAgentImpl::GcAgentImpl(const MsprOptions& options)
-    : options_(options), obs_dim_(options.network.obs_dim), action_dim_(options.network.action_dim) {
+    : options_(options),
+      obs_dim_(options.network.obs_dim),
+      action_dim_(options.network.action_dim) {
   if (options.network.obs_mode != "state") {
     throw OptionsError("baseline agent '" + options.baseline.agent +
                        "': only state observations (network.obs_mode 'state') are supported");
   }
   if (obs_dim_ <= 0 || action_dim_ <= 0) {
-    throw OptionsError("baseline agent '" + options.baseline.agent + "': network.obs_dim and action_dim must be set");
+    throw OptionsError("baseline agent '" + options.baseline.agent +
+                       "': network.obs_dim and action_dim must be set");
   }
 }
 
@@ -182,7 +193,9 @@ void GcAgentImpl::Polyak(torch::nn::Module& target, const torch::nn::Module& onl
   for (size_t i = 0; i < t.size(); ++i) t[i].mul_(1.0 - tau).add_(o[i], tau);
 }
 
-torch::Tensor GcAgentImpl::Cat(const torch::Tensor& a, const torch::Tensor& b) { return torch::cat({a, b}, -1); }
+torch::Tensor GcAgentImpl::Cat(const torch::Tensor& a, const torch::Tensor& b) {
+  return torch::cat({a, b}, -1);
+}
 
 std::vector<int64_t> GcAgentImpl::Sizes(int64_t in, int64_t out) const {
   std::vector<int64_t> sizes{in};
@@ -276,7 +289,8 @@ void GcivlAgent::UpdateTargets() {
   Polyak(*target_v2, *v2);
 }
 
-torch::Tensor GcivlAgent::Value(const torch::Tensor& obs, const torch::Tensor&, const torch::Tensor& goal) {
+torch::Tensor GcivlAgent::Value(const torch::Tensor& obs, const torch::Tensor&,
+                                const torch::Tensor& goal) {
   return Twin(v1, v2, Cat(obs, goal));
 }
 
@@ -294,7 +308,8 @@ GciqlAgent::GciqlAgent(const MsprOptions& o) : GcActorAgent(o) {
   RegisterActor();
 }
 
-torch::Tensor GciqlAgent::Q(const torch::Tensor& obs, const torch::Tensor& goal, const torch::Tensor& action) {
+torch::Tensor GciqlAgent::Q(const torch::Tensor& obs, const torch::Tensor& goal,
+                            const torch::Tensor& action) {
   return Twin(q1, q2, torch::cat({obs, goal, action}, -1));
 }
 
@@ -309,9 +324,11 @@ torch::Tensor GciqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) 
   }
   const torch::Tensor v_s = v(s_g).squeeze(-1);
   const torch::Tensor diff = tq - v_s;
-  const torch::Tensor value_loss = (ExpectileWeight(diff.detach(), options_.baseline.expectile) * diff.pow(2)).mean();
+  const torch::Tensor value_loss =
+      (ExpectileWeight(diff.detach(), options_.baseline.expectile) * diff.pow(2)).mean();
   const torch::Tensor q = Q(batch.obs, batch.value_goal, batch.action);
-  const torch::Tensor critic_loss = ((q.select(-1, 0) - y).pow(2) + (q.select(-1, 1) - y).pow(2)).mean();
+  const torch::Tensor critic_loss =
+      ((q.select(-1, 0) - y).pow(2) + (q.select(-1, 1) - y).pow(2)).mean();
 
   const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
   const torch::Tensor mean = actor->Mean(x);
@@ -344,7 +361,8 @@ torch::Tensor GciqlAgent::Value(const torch::Tensor& obs, const torch::Tensor& a
 QrlAgent::QrlAgent(const MsprOptions& o) : GcActorAgent(o) {
   const BaselineOptions& b = o.baseline;
   phi = register_module("phi", OgMlp(Sizes(obs_dim_, b.latent_dim), false, true));
-  dynamics = register_module("dynamics", OgMlp(Sizes(b.latent_dim + action_dim_, b.latent_dim), false, true));
+  dynamics = register_module("dynamics",
+                             OgMlp(Sizes(b.latent_dim + action_dim_, b.latent_dim), false, true));
   alpha_raw = register_parameter("alpha_raw", torch::zeros({1}));
   log_lambda = register_parameter("log_lambda", torch::zeros({1}));
   RegisterActor();
@@ -360,7 +378,8 @@ torch::Tensor QrlAgent::PredictLatent(const torch::Tensor& z, const torch::Tenso
 
 torch::Tensor QrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   const BaselineOptions& b = options_.baseline;
-  const torch::Tensor z = phi(batch.obs), z_next = phi(batch.next_obs), z_goal = phi(batch.value_goal);
+  const torch::Tensor z = phi(batch.obs), z_next = phi(batch.next_obs),
+                      z_goal = phi(batch.value_goal);
   const torch::Tensor d_neg = Distance(z, z_goal);
   const torch::Tensor d_pos = Distance(z, z_next);
   const torch::Tensor neg_loss = (100.0 * torch::softplus(5.0 - d_neg / 100.0)).mean();
@@ -397,7 +416,8 @@ torch::Tensor QrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   return value_loss + lambda_loss + dyn_loss + actor_loss;
 }
 
-torch::Tensor QrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal) {
+torch::Tensor QrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action,
+                              const torch::Tensor& goal) {
   const torch::Tensor q = -Distance(PredictLatent(phi(obs), action), phi(goal)).unsqueeze(-1);
   return torch::cat({q, q}, -1);
 }
@@ -441,17 +461,19 @@ torch::Tensor CrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
     const torch::Tensor diag = logits0.diagonal();
     info->emplace_back("critic", Item(critic_loss));
     info->emplace_back("logits_pos", Item(diag.mean()));
-    info->emplace_back("logits_neg", n > 1 ? Item((logits0.sum() - diag.sum()) / (n * (n - 1))) : NAN);
-    info->emplace_back("accuracy",
-                       Item((logits0.argmax(1) == torch::arange(n, logits0.options().dtype(torch::kLong)))
-                                .to(torch::kFloat32)
-                                .mean()));
+    info->emplace_back("logits_neg",
+                       n > 1 ? Item((logits0.sum() - diag.sum()) / (n * (n - 1))) : NAN);
+    info->emplace_back("accuracy", Item((logits0.argmax(1) ==
+                                         torch::arange(n, logits0.options().dtype(torch::kLong)))
+                                            .to(torch::kFloat32)
+                                            .mean()));
   }
   const torch::Tensor actor_loss = DdpgBcLoss(q_pi, StdNormalLogProb(batch.action, mean), info);
   return critic_loss + actor_loss;
 }
 
-torch::Tensor CrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal) {
+torch::Tensor CrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& action,
+                              const torch::Tensor& goal) {
   const double scale = std::sqrt(static_cast<double>(options_.baseline.latent_dim));
   const torch::Tensor sa = Cat(obs, action);
   const torch::Tensor l1 = (phi1(sa) * psi1(goal)).sum(-1, true) / scale;
@@ -472,7 +494,8 @@ HiqlAgent::HiqlAgent(const MsprOptions& o) : GcAgentImpl(o) {
   InitTarget(*target_v1, *v1);
   InitTarget(*target_v2, *v2);
   low_actor = register_module("low_actor", GaussianActor(in_v, b.hidden, b.layers, action_dim_));
-  high_actor = register_module("high_actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, b.rep_dim));
+  high_actor =
+      register_module("high_actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, b.rep_dim));
 }
 
 torch::Tensor HiqlAgent::GoalRep(const torch::Tensor& obs, const torch::Tensor& goal) {
@@ -496,20 +519,23 @@ torch::Tensor HiqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
     target = V(batch.obs, batch.value_goal, true);
   }
   const torch::Tensor v = V(batch.obs, batch.value_goal, false);
-  const torch::Tensor value_loss = TwinExpectileValueLoss(batch, next_target, target, v, b.expectile);
+  const torch::Tensor value_loss =
+      TwinExpectileValueLoss(batch, next_target, target, v, b.expectile);
 
   torch::Tensor low_adv, high_adv, high_target_rep;
   {
     torch::NoGradGuard no_grad;
-    low_adv = V(batch.next_obs, batch.low_goal, false).mean(-1) - V(batch.obs, batch.low_goal, false).mean(-1);
-    high_adv =
-        V(batch.high_target, batch.high_goal, false).mean(-1) - V(batch.obs, batch.high_goal, false).mean(-1);
+    low_adv = V(batch.next_obs, batch.low_goal, false).mean(-1) -
+              V(batch.obs, batch.low_goal, false).mean(-1);
+    high_adv = V(batch.high_target, batch.high_goal, false).mean(-1) -
+               V(batch.obs, batch.high_goal, false).mean(-1);
     high_target_rep = GoalRep(batch.obs, batch.high_target);
   }
   torch::Tensor low_rep = GoalRep(batch.obs, batch.low_goal);
   if (!b.low_actor_rep_grad) low_rep = low_rep.detach();
   const torch::Tensor low_loss =
-      -(AwrWeight(low_adv, b.low_alpha) * low_actor->LogProb(Cat(batch.obs, low_rep), batch.action)).mean();
+      -(AwrWeight(low_adv, b.low_alpha) * low_actor->LogProb(Cat(batch.obs, low_rep), batch.action))
+           .mean();
   const torch::Tensor high_loss =
       -(AwrWeight(high_adv, b.high_alpha) *
         high_actor->LogProb(Cat(batch.obs, batch.high_goal), high_target_rep))
@@ -535,7 +561,8 @@ torch::Tensor HiqlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal
   return low_actor->Mean(Cat(obs, z)).clamp(-1.0, 1.0);
 }
 
-torch::Tensor HiqlAgent::Value(const torch::Tensor& obs, const torch::Tensor&, const torch::Tensor& goal) {
+torch::Tensor HiqlAgent::Value(const torch::Tensor& obs, const torch::Tensor&,
+                               const torch::Tensor& goal) {
   return V(obs, goal, false);
 }
 
@@ -549,7 +576,8 @@ std::shared_ptr<GcAgentImpl> MakeAgent(const MsprOptions& options) {
   if (name == "qrl") return std::make_shared<QrlAgent>(options);
   if (name == "crl") return std::make_shared<CrlAgent>(options);
   if (name == "hiql") return std::make_shared<HiqlAgent>(options);
-  throw OptionsError("MakeAgent: '" + name + "' is not a baseline agent (gcbc, gcivl, gciql, qrl, crl, hiql)");
+  throw OptionsError("MakeAgent: '" + name +
+                     "' is not a baseline agent (gcbc, gcivl, gciql, qrl, crl, hiql)");
 }
 
 }  // namespace core

@@ -103,7 +103,7 @@ TransitionIndices BatchSampler::SampleTransitions(int batch, std::mt19937_64& rn
 }
 
 TransitionIndices BatchSampler::SampleOgbenchTransitions(int batch, std::mt19937_64& rng,
-                                                       int subgoal_steps) const {
+                                                         int subgoal_steps) const {
   TransitionIndices b;
   b.Resize(batch);
   if (subgoal_steps > 0) {

@@ -1,13 +1,12 @@
 #include "msspr_core/checkpoint.h"
 
-#include <yaml-cpp/yaml.h>
-#include <zlib.h>
-
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
+#include <zlib.h>
 
 #include <cerrno>
 #include <cstdio>
@@ -217,7 +216,8 @@ void WriteCheckpointFile(const std::string& path, const CheckpointFile& file, bo
   RemoveStaleTemporaries(path);
 }
 
-CheckpointFile ReadCheckpointFileOrPrevious(const std::string& path, const std::string& expected_kind,
+CheckpointFile ReadCheckpointFileOrPrevious(const std::string& path,
+                                            const std::string& expected_kind,
                                             std::string* used_path) {
   try {
     CheckpointFile f = ReadCheckpointFile(path, expected_kind);
@@ -227,7 +227,8 @@ CheckpointFile ReadCheckpointFileOrPrevious(const std::string& path, const std::
     const std::string prev = path + ".prev";
     struct stat st;
     if (::stat(prev.c_str(), &st) != 0) throw;
-    std::cerr << "msspr: " << e.what() << "; falling back to the previous checkpoint " << prev << "\n";
+    std::cerr << "msspr: " << e.what() << "; falling back to the previous checkpoint " << prev
+              << "\n";
     CheckpointFile f = ReadCheckpointFile(prev, expected_kind);
     if (used_path) *used_path = prev;
     return f;

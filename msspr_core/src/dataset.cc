@@ -16,7 +16,8 @@ Dataset Dataset::FromArrays(std::vector<float> states, int obs_dim, std::vector<
   if (n == 0) throw DatasetError("dataset is empty");
   if (action_dim <= 0) throw DatasetError("action_dim must be > 0");
   if (obs_dim < 0) throw DatasetError("obs_dim must be >= 0");
-  if (obs_dim == 0 && image_shape.empty()) throw DatasetError("dataset has neither states nor images");
+  if (obs_dim == 0 && image_shape.empty())
+    throw DatasetError("dataset has neither states nor images");
   if (static_cast<int64_t>(states.size()) != n * obs_dim) {
     throw DatasetError("states have " + std::to_string(states.size()) + " values, expected " +
                        std::to_string(n * obs_dim));
@@ -50,7 +51,8 @@ Dataset Dataset::FromArrays(std::vector<float> states, int obs_dim, std::vector<
       d.valid_.push_back(i);
     }
   }
-  if (d.valid_.empty()) throw DatasetError("dataset has no transition (all trajectories have 1 step)");
+  if (d.valid_.empty())
+    throw DatasetError("dataset has no transition (all trajectories have 1 step)");
   return d;
 }
 
@@ -84,7 +86,8 @@ void Dataset::GatherImages(const int64_t* idx, int64_t n, int frame_stack, uint8
   for (int64_t k = 0; k < n; ++k) {
     const int64_t i = idx[k];
     const int64_t start = trajectory_start(i);
-    for (int s = 0; s < frame_stack; ++s) frames[s] = image(std::max(i - (frame_stack - 1 - s), start));
+    for (int s = 0; s < frame_stack; ++s)
+      frames[s] = image(std::max(i - (frame_stack - 1 - s), start));
     stacker.Interleave(frames.data(), out + k * static_cast<int64_t>(stacker.stacked_bytes()));
   }
 }
@@ -108,7 +111,8 @@ void DatasetBuilder::Reserve(int64_t total_steps) {
 void DatasetBuilder::AddEpisode(const float* observations, const float* actions, int64_t T,
                                 const uint8_t* images) {
   if (T < 1) throw DatasetError("AddEpisode: episode needs at least 1 step");
-  if (obs_dim_ > 0 && observations == nullptr) throw DatasetError("AddEpisode: observations missing");
+  if (obs_dim_ > 0 && observations == nullptr)
+    throw DatasetError("AddEpisode: observations missing");
   if (actions == nullptr) throw DatasetError("AddEpisode: actions missing");
   if (!image_shape_.empty() && images == nullptr) throw DatasetError("AddEpisode: images missing");
   if (image_shape_.empty() && images != nullptr) {
@@ -116,7 +120,8 @@ void DatasetBuilder::AddEpisode(const float* observations, const float* actions,
   }
   if (obs_dim_ > 0) states_.insert(states_.end(), observations, observations + T * obs_dim_);
   actions_.insert(actions_.end(), actions, actions + T * action_dim_);
-  if (!image_shape_.empty()) images_.insert(images_.end(), images, images + T * image_shape_.numel());
+  if (!image_shape_.empty())
+    images_.insert(images_.end(), images, images + T * image_shape_.numel());
   terminals_.insert(terminals_.end(), T - 1, 0);
   terminals_.push_back(1);
   ++num_episodes_;

@@ -21,7 +21,8 @@ int EnvInt(const char* name, int fallback) {
   if (!v || !*v) return fallback;
   char* end = nullptr;
   const long x = std::strtol(v, &end, 10);
-  if (*end != '\0') throw DistributedError(std::string("environment ") + name + "='" + v + "' is not an integer");
+  if (*end != '\0')
+    throw DistributedError(std::string("environment ") + name + "='" + v + "' is not an integer");
   return static_cast<int>(x);
 }
 
@@ -36,9 +37,11 @@ DistributedOptions DistributedOptions::FromEnvironment(DistributedOptions base) 
 }
 
 void DistributedOptions::Validate() const {
-  if (world_size < 1) throw DistributedError("world size must be >= 1, got " + std::to_string(world_size));
+  if (world_size < 1)
+    throw DistributedError("world size must be >= 1, got " + std::to_string(world_size));
   if (rank < 0 || rank >= world_size)
-    throw DistributedError("rank " + std::to_string(rank) + " is outside 0.." + std::to_string(world_size - 1));
+    throw DistributedError("rank " + std::to_string(rank) + " is outside 0.." +
+                           std::to_string(world_size - 1));
   if (master_port < 1 || master_port > 65535)
     throw DistributedError("master port " + std::to_string(master_port) + " is outside 1..65535");
   if (master_addr.empty()) throw DistributedError("no master address");
@@ -58,8 +61,8 @@ struct Distributed::Impl {
 namespace {
 
 std::string Where(const DistributedOptions& o) {
-  return "rank " + std::to_string(o.rank) + "/" + std::to_string(o.world_size) + " (master " + o.master_addr +
-         ":" + std::to_string(o.master_port) + ")";
+  return "rank " + std::to_string(o.rank) + "/" + std::to_string(o.world_size) + " (master " +
+         o.master_addr + ":" + std::to_string(o.master_port) + ")";
 }
 
 bool Loopback(const std::string& addr) {
@@ -72,10 +75,11 @@ void Guard(const DistributedOptions& o, const std::string& what, F&& f) {
   try {
     f();
   } catch (const c10::Error& e) {
-    throw DistributedError(Where(o) + ": " + what + " failed (a peer exited or timed out?): " +
-                           e.what_without_backtrace());
+    throw DistributedError(Where(o) + ": " + what +
+                           " failed (a peer exited or timed out?): " + e.what_without_backtrace());
   } catch (const std::exception& e) {
-    throw DistributedError(Where(o) + ": " + what + " failed (a peer exited or timed out?): " + e.what());
+    throw DistributedError(Where(o) + ": " + what +
+                           " failed (a peer exited or timed out?): " + e.what());
   }
 }
 
@@ -112,7 +116,7 @@ Distributed::Distributed(const DistributedOptions& options, torch::Device device
       opts->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
     }
     impl_->group = c10::make_intrusive<c10d::ProcessGroupGloo>(impl_->store, options_.rank,
-                                                              options_.world_size, opts);
+                                                               options_.world_size, opts);
     impl_->host_copies = device_.is_cuda();
     backend_ = device_.is_cuda() ? "gloo (host copies)" : "gloo";
   });
@@ -126,7 +130,8 @@ void Distributed::AllReduceSum(std::vector<torch::Tensor>& tensors) {
     std::vector<torch::Tensor> one{x};
     const auto start = std::chrono::steady_clock::now();
     Guard(options_, "all-reduce", [&] { impl_->group->allreduce(one)->wait(); });
-    stats_.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats_.seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     stats_.bytes += x.numel() * x.element_size();
     ++stats_.allreduces;
     if (impl_->host_copies) t.copy_(x);
@@ -143,7 +148,8 @@ void Distributed::AverageGradients(const std::vector<torch::Tensor>& params, int
   AverageDefinedGradients(with_grad, bucket_bytes);
 }
 
-void Distributed::AverageDefinedGradients(const std::vector<torch::Tensor>& params, int64_t bucket_bytes) {
+void Distributed::AverageDefinedGradients(const std::vector<torch::Tensor>& params,
+                                          int64_t bucket_bytes) {
   size_t i = 0;
   while (i < params.size()) {
     // One bucket: consecutive parameters of the same dtype, up to bucket_bytes.
@@ -182,8 +188,9 @@ void Distributed::Broadcast(std::vector<torch::Tensor>& tensors, int root) {
 }
 
 bool Distributed::Any(bool flag) {
-  std::vector<torch::Tensor> t{torch::full({1}, flag ? 1.0f : 0.0f, torch::TensorOptions().device(
-                                                                          impl_->host_copies ? torch::kCPU : device_))};
+  std::vector<torch::Tensor> t{
+      torch::full({1}, flag ? 1.0f : 0.0f,
+                  torch::TensorOptions().device(impl_->host_copies ? torch::kCPU : device_))};
   AllReduceSum(t);
   return t[0].item<float>() > 0.5f;
 }
@@ -193,7 +200,8 @@ void Distributed::Barrier() {
 }
 
 void Distributed::Set(const std::string& key, const std::string& value) {
-  Guard(options_, "store set", [&] { impl_->store->set(key, std::vector<uint8_t>(value.begin(), value.end())); });
+  Guard(options_, "store set",
+        [&] { impl_->store->set(key, std::vector<uint8_t>(value.begin(), value.end())); });
 }
 
 std::string Distributed::Get(const std::string& key) {
@@ -211,7 +219,8 @@ struct Distributed::Impl {};
 Distributed::Distributed(const DistributedOptions& options, torch::Device device)
     : options_(options), device_(device) {
   throw DistributedError(
-      "data-parallel training needs LibTorch with torch.distributed (c10d) and Gloo, and the Gloo headers "
+      "data-parallel training needs LibTorch with torch.distributed (c10d) and Gloo, and the Gloo "
+      "headers "
       "(Debian: libgloo-dev); this msspr_core was built without them");
 }
 Distributed::~Distributed() = default;

@@ -68,7 +68,8 @@ torch::Tensor ForeachAdamW::step(LossClosure closure) {
       const auto& gs = grads[step];
       auto& m = exp_avgs[step];
       auto& v = exp_avg_sqs[step];
-      if (options.weight_decay() != 0) torch::_foreach_mul_(ps, 1 - options.lr() * options.weight_decay());
+      if (options.weight_decay() != 0)
+        torch::_foreach_mul_(ps, 1 - options.lr() * options.weight_decay());
       const double bias_correction1 = 1 - std::pow(beta1, step);
       const double bias_correction2 = 1 - std::pow(beta2, step);
       torch::_foreach_mul_(m, beta1);

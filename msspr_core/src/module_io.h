@@ -2,12 +2,12 @@
 // names are the checkpoint's (repr, critic, actor, target_*); keep them stable.
 #pragma once
 
+#include <torch/torch.h>
+
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <torch/torch.h>
 
 #include "msspr_core/checkpoint.h"
 
@@ -31,8 +31,9 @@ inline void ReadModule(torch::serialize::InputArchive& archive, const std::strin
 // Writes an inference export (kind "policy"): a header with `options` and
 // `step`, then each (key, module): "repr", "actor", "critic" for Ms.PR,
 // "agent" for a baseline. Atomic (WriteCheckpointFile).
-inline void WritePolicyExport(const std::string& path, const MsprOptions& options, int64_t step,
-                              const std::vector<std::pair<std::string, const torch::nn::Module*>>& modules) {
+inline void WritePolicyExport(
+    const std::string& path, const MsprOptions& options, int64_t step,
+    const std::vector<std::pair<std::string, const torch::nn::Module*>>& modules) {
   CheckpointHeader header;
   header.options = options;
   header.step = step;

@@ -1,9 +1,8 @@
 // Ms.PR's losses: the representation loss (Eq. 1), the critic's n-step TD
 // loss with its TD3 target (Eq. 2) and the TD3+BC actor loss (Eq. 3).
-#include "msspr_core/trainer.h"
-
 #include <vector>
 
+#include "msspr_core/trainer.h"
 #include "trainer_internal.h"
 
 namespace msspr {
@@ -39,8 +38,9 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
   torch::Tensor targets;  // [B, L - 1, zs] target-encoder latents of s_1..s_{L-1}
   {
     torch::NoGradGuard no_grad;
-    targets = F32(target_repr_->state_encoder->forward(batch.states.narrow(1, 1, l - 1).flatten(0, 1)))
-                  .view({b, l - 1, -1});
+    targets =
+        F32(target_repr_->state_encoder->forward(batch.states.narrow(1, 1, l - 1).flatten(0, 1)))
+            .view({b, l - 1, -1});
   }
   // One encoder call for the chunk's first state and the goal.
   torch::Tensor z, zg;
@@ -59,18 +59,23 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
     zsa_list.push_back(repr_->Zsa(zs_list.back(), batch.actions.select(1, h)));
     zs_list.push_back(pred->Dynamics(zsa_list.back()));
   }
-  const torch::Tensor z_h = torch::cat(std::vector<torch::Tensor>(zs_list.begin(), zs_list.end() - 1), 0);  // [H*B, zs]
-  const torch::Tensor z_next = F32(torch::cat(std::vector<torch::Tensor>(zs_list.begin() + 1, zs_list.end()), 0));
+  const torch::Tensor z_h =
+      torch::cat(std::vector<torch::Tensor>(zs_list.begin(), zs_list.end() - 1), 0);  // [H*B, zs]
+  const torch::Tensor z_next =
+      F32(torch::cat(std::vector<torch::Tensor>(zs_list.begin() + 1, zs_list.end()), 0));
   const torch::Tensor mask = batch.action_mask.narrow(1, 0, horizon).t();  // [H, B]
-  const torch::Tensor target_next = targets.narrow(1, 0, horizon).transpose(0, 1).reshape({horizon * b, -1});
+  const torch::Tensor target_next =
+      targets.narrow(1, 0, horizon).transpose(0, 1).reshape({horizon * b, -1});
 
   const auto per_h = [&](const torch::Tensor& v) { return v.view({horizon, b}); };
   const torch::Tensor zero = torch::zeros({}, z_next.options());
   const torch::Tensor dyn = SumOfMaskedMeans(per_h((z_next - target_next).pow(2).mean(-1)), mask);
   torch::Tensor inv = zero, rew = zero, gdyn = zero, gact = zero;
   if (use_inv) {
-    const torch::Tensor a_true = batch.actions.narrow(1, 0, horizon).transpose(0, 1).reshape({horizon * b, -1});
-    inv = SumOfMaskedMeans(per_h((F32(pred->Inverse(z_h, target_next)) - a_true).pow(2).mean(-1)), mask);
+    const torch::Tensor a_true =
+        batch.actions.narrow(1, 0, horizon).transpose(0, 1).reshape({horizon * b, -1});
+    inv = SumOfMaskedMeans(per_h((F32(pred->Inverse(z_h, target_next)) - a_true).pow(2).mean(-1)),
+                           mask);
   }
   torch::Tensor grep;
   if (use_goal) grep = repr_->goal_head->forward(z_h, zg.repeat({horizon, 1}));  // [H*B, goal]
@@ -81,29 +86,32 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
     if (r.reward_loss == "mse") {
       per = (TwoHotDecode(logits, bins_) - ret).pow(2);
     } else {
-      const torch::Tensor two_hot = TwoHotEncode(ret, bins_, -1.0 / (1.0 - options_.agent.gamma), 0.0);
+      const torch::Tensor two_hot =
+          TwoHotEncode(ret, bins_, -1.0 / (1.0 - options_.agent.gamma), 0.0);
       per = -(two_hot * torch::log_softmax(logits, -1)).sum(-1);
     }
     // representation.reward_goals "trajectory": only goals ahead in the
     // chunk's own trajectory, whose Monte Carlo return is known, train f_rew.
-    rew = SumOfMaskedMeans(per_h(per), r.reward_goals == "trajectory"
-                                           ? mask * batch.goal_ahead.t()
-                                           : mask);
+    rew = SumOfMaskedMeans(per_h(per),
+                           r.reward_goals == "trajectory" ? mask * batch.goal_ahead.t() : mask);
   }
   if (use_gdyn) {
-    const torch::Tensor target_k = targets.narrow(1, k - 1, horizon).transpose(0, 1).reshape({horizon * b, -1});
+    const torch::Tensor target_k =
+        targets.narrow(1, k - 1, horizon).transpose(0, 1).reshape({horizon * b, -1});
     const torch::Tensor gd_mask = batch.state_mask.narrow(1, k, horizon).t();  // [H, B]
-    gdyn = SumOfMaskedMeans(per_h((F32(pred->GoalDynamics(z_h, grep)) - target_k).pow(2).mean(-1)), gd_mask);
+    gdyn = SumOfMaskedMeans(per_h((F32(pred->GoalDynamics(z_h, grep)) - target_k).pow(2).mean(-1)),
+                            gd_mask);
   }
   if (use_gact) {
     std::vector<torch::Tensor> windows, masks;
     for (int64_t h = 0; h < horizon; ++h) {
-      windows.push_back(batch.actions.narrow(1, h, k));     // [B, k, act]
-      masks.push_back(batch.action_mask.narrow(1, h, k));   // [B, k]
+      windows.push_back(batch.actions.narrow(1, h, k));    // [B, k, act]
+      masks.push_back(batch.action_mask.narrow(1, h, k));  // [B, k]
     }
-    const torch::Tensor ga_true = torch::cat(windows, 0);   // [H*B, k, act]
-    const torch::Tensor ga_mask = torch::stack(masks, 0);   // [H, B, k]
-    const torch::Tensor err = (F32(pred->GoalActions(z_h, grep)) - ga_true).pow(2).mean(-1).view({horizon, b, k});
+    const torch::Tensor ga_true = torch::cat(windows, 0);  // [H*B, k, act]
+    const torch::Tensor ga_mask = torch::stack(masks, 0);  // [H, B, k]
+    const torch::Tensor err =
+        (F32(pred->GoalActions(z_h, grep)) - ga_true).pow(2).mean(-1).view({horizon, b, k});
     gact = ((err * ga_mask).sum({1, 2}) / ga_mask.sum({1, 2}).clamp_min(1.0)).sum();
   }
   const torch::Tensor total = r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv +
@@ -160,12 +168,14 @@ torch::Tensor Trainer::CriticTarget(const TransitionBatch& batch, const torch::T
   const AgentOptions& a = options_.agent;
   const int64_t b = batch.obs.size(0);
   torch::NoGradGuard no_grad;
-  const torch::Tensor z = target_repr_->state_encoder->forward(torch::cat({batch.next_obs, batch.value_goal}, 0));
+  const torch::Tensor z =
+      target_repr_->state_encoder->forward(torch::cat({batch.next_obs, batch.value_goal}, 0));
   const torch::Tensor zs_next = z.narrow(0, 0, b), zg = z.narrow(0, b, b);
   const torch::Tensor grep_next = target_repr_->goal_head->forward(zs_next, zg);
   const torch::Tensor eps =
       (noise.to(device_) * a.target_noise).clamp(-a.target_noise_clip, a.target_noise_clip);
-  const torch::Tensor a_next = (F32(target_actor_->forward(zs_next, grep_next)) + eps).clamp(-1.0, 1.0);
+  const torch::Tensor a_next =
+      (F32(target_actor_->forward(zs_next, grep_next)) + eps).clamp(-1.0, 1.0);
   const torch::Tensor q_next = std::get<0>(
       F32(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next)).min(-1));
   torch::Tensor y = batch.ret + batch.discount * q_next;  // [B]
@@ -178,8 +188,9 @@ torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const Transition
   return CriticLossFromTarget(batch, lat, CriticTarget(batch, noise), info);
 }
 
-torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
-                                            const torch::Tensor& y, LossInfo* info) {
+torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch,
+                                            const TransitionLatents* lat, const torch::Tensor& y,
+                                            LossInfo* info) {
   const AgentOptions& a = options_.agent;
   const int64_t b = batch.obs.size(0);
   torch::Tensor zsa, grep;
@@ -189,14 +200,16 @@ torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch, const 
     zsa = repr_->Zsa(lat->zs, batch.action);
   } else {
     // The critic's gradient reaches the encoders (agent.critic_grad_to_encoder).
-    const torch::Tensor z = repr_->state_encoder->forward(torch::cat({batch.obs, batch.value_goal}, 0));
+    const torch::Tensor z =
+        repr_->state_encoder->forward(torch::cat({batch.obs, batch.value_goal}, 0));
     grep = repr_->goal_head->forward(z.narrow(0, 0, b), z.narrow(0, b, b));
     zsa = repr_->Zsa(z.narrow(0, 0, b), batch.action);
   }
   const torch::Tensor q = F32(critic_->forward(zsa, grep));  // [B, 2]
   const torch::Tensor loss = Huber(q - y.unsqueeze(-1), a.huber_delta).mean(0).sum();
   if (info) {
-    const torch::Tensor host = torch::stack({loss.detach(), q.detach().mean()}).to(torch::kCPU, torch::kFloat64);
+    const torch::Tensor host =
+        torch::stack({loss.detach(), q.detach().mean()}).to(torch::kCPU, torch::kFloat64);
     info->critic = host[0].item<double>();
     info->q_mean = host[1].item<double>();
   }
@@ -217,13 +230,15 @@ torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionL
     grep = repr_->goal_head->forward(lat.zs, lat.z_actor_goal);
   }
   const torch::Tensor pi = F32(actor_->forward(lat.zs, grep));  // [B, act]
-  const torch::Tensor q = std::get<0>(F32(critic_->forward(repr_->Zsa(lat.zs, pi), grep)).min(-1));  // [B]
+  const torch::Tensor q =
+      std::get<0>(F32(critic_->forward(repr_->Zsa(lat.zs, pi), grep)).min(-1));  // [B]
   const torch::Tensor scale = q.abs().mean().detach().clamp_min(1e-6);
   const torch::Tensor q_loss = -q.mean() / scale;
   const torch::Tensor bc = (pi - batch.action).pow(2).sum(-1).mean();
   const torch::Tensor loss = q_loss + a.bc_weight * bc;
   if (info) {
-    const torch::Tensor host = torch::stack({loss.detach(), bc.detach()}).to(torch::kCPU, torch::kFloat64);
+    const torch::Tensor host =
+        torch::stack({loss.detach(), bc.detach()}).to(torch::kCPU, torch::kFloat64);
     info->actor = host[0].item<double>();
     info->bc = host[1].item<double>();
   }
@@ -240,12 +255,14 @@ LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed
   LossInfo info;
   if (agent_) {
     agent_->Loss(
-        MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, agent_->SubgoalSteps()), false, &data),
+        MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, agent_->SubgoalSteps()),
+                            false, &data),
         &info.agent);
     return info;
   }
   RepresentationLoss(MakeChunkBatch(sampler.SampleChunks(batch, rng), false, &data), &info);
-  const TransitionBatch tb = MakeTransitionBatch(sampler.SampleTransitions(batch, rng), false, &data);
+  const TransitionBatch tb =
+      MakeTransitionBatch(sampler.SampleTransitions(batch, rng), false, &data);
   CriticLoss(tb, torch::zeros({tb.action.size(0), tb.action.size(1)}), &info);
   ActorLoss(tb, &info);
   return info;

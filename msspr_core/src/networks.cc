@@ -9,8 +9,7 @@ namespace msspr {
 namespace core {
 namespace nn = torch::nn;
 
-MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer_norm,
-                 double eps) {
+MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer_norm, double eps) {
   TORCH_CHECK(sizes.size() >= 2, "Mlp needs at least input and output sizes");
   net = nn::Sequential();
   for (size_t j = 0; j + 1 < sizes.size(); ++j) {
@@ -39,19 +38,25 @@ torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
 std::vector<std::string> MlpImpl::LayerKinds() const {
   std::vector<std::string> kinds;
   for (const auto& m : net->children()) {
-    if (m->as<nn::Linear>()) kinds.push_back("Linear");
-    else if (m->as<nn::LayerNorm>()) kinds.push_back("LayerNorm");
-    else if (m->as<nn::GELU>()) kinds.push_back("GELU");
-    else kinds.push_back(m->name());
+    if (m->as<nn::Linear>())
+      kinds.push_back("Linear");
+    else if (m->as<nn::LayerNorm>())
+      kinds.push_back("LayerNorm");
+    else if (m->as<nn::GELU>())
+      kinds.push_back("GELU");
+    else
+      kinds.push_back(m->name());
   }
   return kinds;
 }
 
 ResidualBlockImpl::ResidualBlockImpl(int64_t in_channels, int64_t features) {
-  cnn1 = register_module("cnn1", nn::Conv2d(nn::Conv2dOptions(in_channels, features, 3).padding(1)));
+  cnn1 =
+      register_module("cnn1", nn::Conv2d(nn::Conv2dOptions(in_channels, features, 3).padding(1)));
   cnn2 = register_module("cnn2", nn::Conv2d(nn::Conv2dOptions(features, features, 3).padding(1)));
   cnn3 = register_module("cnn3", nn::Conv2d(nn::Conv2dOptions(features, features, 3).padding(1)));
-  max_pool = register_module("max_pool", nn::MaxPool2d(nn::MaxPool2dOptions(3).stride(2).padding(1)));
+  max_pool =
+      register_module("max_pool", nn::MaxPool2d(nn::MaxPool2dOptions(3).stride(2).padding(1)));
 }
 
 torch::Tensor ResidualBlockImpl::forward(const torch::Tensor& x) {
@@ -77,7 +82,8 @@ ImpalaCnnImpl::ImpalaCnnImpl(int64_t in_channels, int64_t out_dim, double eps, i
   const int64_t side = (in_size + 7) / 8;  // three maxpools (3, stride 2, pad 1)
   if (feature_norm_on) {
     feature_norm = register_module(
-        "feature_norm", torch::nn::LayerNorm(torch::nn::LayerNormOptions({32 * side * side}).eps(eps)));
+        "feature_norm",
+        torch::nn::LayerNorm(torch::nn::LayerNormOptions({32 * side * side}).eps(eps)));
   }
   fc = register_module("fc", Mlp(std::vector<int64_t>{32 * side * side, out_dim}, true, true, eps));
 }
@@ -97,7 +103,8 @@ LightCnnImpl::LightCnnImpl(int64_t in_channels, int64_t in_size, int64_t out_dim
   const int64_t side = (in_size + 7) / 8;
   if (feature_norm_on) {
     feature_norm = register_module(
-        "feature_norm", torch::nn::LayerNorm(torch::nn::LayerNormOptions({32 * side * side}).eps(eps)));
+        "feature_norm",
+        torch::nn::LayerNorm(torch::nn::LayerNormOptions({32 * side * side}).eps(eps)));
   }
   fc = register_module("fc", Mlp(std::vector<int64_t>{32 * side * side, out_dim}, true, true, eps));
 }
@@ -123,9 +130,11 @@ StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) : downsample(o.image
     const int64_t channels = int64_t{o.image_channels} * o.frame_stack;
     const int64_t side = o.image_height / std::max(1, o.image_downsample);
     if (o.cnn == "light") {
-      light_cnn = register_module("light_cnn", LightCnn(channels, side, o.zs_dim, o.layer_norm_eps, o.cnn_feature_norm));
+      light_cnn = register_module(
+          "light_cnn", LightCnn(channels, side, o.zs_dim, o.layer_norm_eps, o.cnn_feature_norm));
     } else {
-      cnn = register_module("cnn", ImpalaCnn(channels, o.zs_dim, o.layer_norm_eps, side, o.cnn_feature_norm));
+      cnn = register_module(
+          "cnn", ImpalaCnn(channels, o.zs_dim, o.layer_norm_eps, side, o.cnn_feature_norm));
     }
   } else {
     mlp = register_module("mlp", Mlp(Sizes(o.obs_dim, o.encoder_hidden, o.encoder_layers, o.zs_dim),
@@ -189,8 +198,8 @@ torch::Tensor StateEncoderImpl::forward(const torch::Tensor& obs) {
 }
 
 GoalHeadImpl::GoalHeadImpl(const NetworkOptions& o) : length_normalize(o.length_normalize) {
-  mlp = register_module("mlp", Mlp(Sizes(2 * o.zs_dim, o.goal_hidden, 2, o.goal_dim), false, true,
-                                   o.layer_norm_eps));
+  mlp = register_module(
+      "mlp", Mlp(Sizes(2 * o.zs_dim, o.goal_hidden, 2, o.goal_dim), false, true, o.layer_norm_eps));
 }
 
 torch::Tensor GoalHeadImpl::forward(const torch::Tensor& zs, const torch::Tensor& zg) {

@@ -58,8 +58,9 @@ void CheckFinite(const std::vector<float>& v, int64_t row_size, const std::strin
       ++bad;
     }
   if (bad > 0)
-    Fail(path, key, std::to_string(bad) + " non-finite values (NaN or Inf), the first in row " +
-                        std::to_string(first / std::max<int64_t>(row_size, 1)));
+    Fail(path, key,
+         std::to_string(bad) + " non-finite values (NaN or Inf), the first in row " +
+             std::to_string(first / std::max<int64_t>(row_size, 1)));
 }
 
 ZipPtr OpenZip(const std::string& path) {
@@ -140,9 +141,12 @@ NpyInfo ReadHeader(zip_file_t* f, const std::string& path, const std::string& ke
   }
   info.data_offset = static_cast<int64_t>(data_offset);
   for (int64_t d : info.shape)
-    if (d < 0) Fail(path, key, "bad .npy shape '" + h.substr(v, s_end - v + 1) + "': negative dimension");
-  if (info.numel() < 0) Fail(path, key, "bad .npy shape '" + h.substr(v, s_end - v + 1) + "': too many elements");
-  if (info.fortran_order && info.shape.size() > 1) Fail(path, key, "fortran_order arrays are not supported");
+    if (d < 0)
+      Fail(path, key, "bad .npy shape '" + h.substr(v, s_end - v + 1) + "': negative dimension");
+  if (info.numel() < 0)
+    Fail(path, key, "bad .npy shape '" + h.substr(v, s_end - v + 1) + "': too many elements");
+  if (info.fortran_order && info.shape.size() > 1)
+    Fail(path, key, "fortran_order arrays are not supported");
   if (info.descr.size() < 3 || info.descr[0] == '>') {
     Fail(path, key, "unsupported dtype '" + info.descr + "' (little-endian numeric expected)");
   }
@@ -167,7 +171,8 @@ int64_t ItemSize(const std::string& descr) {
 
 // The header must describe exactly the bytes the zip entry holds: a lying
 // shape never drives an allocation.
-void CheckEntrySize(zip_t* z, const NpyInfo& info, const std::string& path, const std::string& key) {
+void CheckEntrySize(zip_t* z, const NpyInfo& info, const std::string& path,
+                    const std::string& key) {
   zip_stat_t st;
   zip_stat_init(&st);
   if (zip_stat(z, (key + ".npy").c_str(), 0, &st) != 0 || !(st.valid & ZIP_STAT_SIZE))
@@ -179,11 +184,13 @@ void CheckEntrySize(zip_t* z, const NpyInfo& info, const std::string& path, cons
     Fail(path, key, "shape " + ShapeString(info.shape) + " is too large");
   const uint64_t expected = static_cast<uint64_t>(info.data_offset + n * item);
   if (st.size != expected)
-    Fail(path, key, "header says shape " + ShapeString(info.shape) + " of '" + info.descr + "' (" +
-                        std::to_string(expected - info.data_offset) + " data bytes), but the entry holds " +
-                        (st.size >= static_cast<uint64_t>(info.data_offset)
-                             ? std::to_string(st.size - info.data_offset)
-                             : std::string("less than a header")) + " (truncated or lying header)");
+    Fail(path, key,
+         "header says shape " + ShapeString(info.shape) + " of '" + info.descr + "' (" +
+             std::to_string(expected - info.data_offset) + " data bytes), but the entry holds " +
+             (st.size >= static_cast<uint64_t>(info.data_offset)
+                  ? std::to_string(st.size - info.data_offset)
+                  : std::string("less than a header")) +
+             " (truncated or lying header)");
 }
 
 template <class Dst, class Src>
@@ -206,23 +213,38 @@ void ReadConverted(zip_file_t* f, const NpyInfo& info, Dst* out, const std::stri
   }
   if (!allow_any) Fail(path, key, "dtype '" + info.descr + "' cannot be read as this type");
   int size = 0;
-  if (t == "f8" || t == "i8" || t == "u8") size = 8;
-  else if (t == "f4" || t == "i4" || t == "u4") size = 4;
-  else if (t == "i2" || t == "u2") size = 2;
-  else if (t == "i1" || t == "u1" || t == "b1") size = 1;
-  else Fail(path, key, "unsupported dtype '" + info.descr + "'");
+  if (t == "f8" || t == "i8" || t == "u8")
+    size = 8;
+  else if (t == "f4" || t == "i4" || t == "u4")
+    size = 4;
+  else if (t == "i2" || t == "u2")
+    size = 2;
+  else if (t == "i1" || t == "u1" || t == "b1")
+    size = 1;
+  else
+    Fail(path, key, "unsupported dtype '" + info.descr + "'");
   std::vector<char> raw(static_cast<size_t>(n) * size);
   ReadExact(f, raw.data(), raw.size(), path, key);
-  if (t == "f8") Convert<Dst, double>(raw, n, out);
-  else if (t == "f4") Convert<Dst, float>(raw, n, out);
-  else if (t == "i8") Convert<Dst, int64_t>(raw, n, out);
-  else if (t == "u8") Convert<Dst, uint64_t>(raw, n, out);
-  else if (t == "i4") Convert<Dst, int32_t>(raw, n, out);
-  else if (t == "u4") Convert<Dst, uint32_t>(raw, n, out);
-  else if (t == "i2") Convert<Dst, int16_t>(raw, n, out);
-  else if (t == "u2") Convert<Dst, uint16_t>(raw, n, out);
-  else if (t == "i1") Convert<Dst, int8_t>(raw, n, out);
-  else Convert<Dst, uint8_t>(raw, n, out);
+  if (t == "f8")
+    Convert<Dst, double>(raw, n, out);
+  else if (t == "f4")
+    Convert<Dst, float>(raw, n, out);
+  else if (t == "i8")
+    Convert<Dst, int64_t>(raw, n, out);
+  else if (t == "u8")
+    Convert<Dst, uint64_t>(raw, n, out);
+  else if (t == "i4")
+    Convert<Dst, int32_t>(raw, n, out);
+  else if (t == "u4")
+    Convert<Dst, uint32_t>(raw, n, out);
+  else if (t == "i2")
+    Convert<Dst, int16_t>(raw, n, out);
+  else if (t == "u2")
+    Convert<Dst, uint16_t>(raw, n, out);
+  else if (t == "i1")
+    Convert<Dst, int8_t>(raw, n, out);
+  else
+    Convert<Dst, uint8_t>(raw, n, out);
 }
 
 template <class Dst>
@@ -253,7 +275,8 @@ std::string NpyHeader(const std::string& descr, const std::vector<int64_t>& shap
   for (size_t i = 0; i < shape.size(); ++i) shape_str += std::to_string(shape[i]) + ",";
   if (shape.size() > 1) shape_str.pop_back();
   shape_str += ")";
-  std::string dict = "{'descr': '" + descr + "', 'fortran_order': False, 'shape': " + shape_str + ", }";
+  std::string dict =
+      "{'descr': '" + descr + "', 'fortran_order': False, 'shape': " + shape_str + ", }";
   // Version 1.0: magic(6) + version(2) + len(2) + dict padded with spaces
   // and a newline to a multiple of 64.
   size_t total = 10 + dict.size() + 1;
@@ -277,16 +300,16 @@ int64_t NpyInfo::numel() const {
 
 std::vector<std::string> ListNpzKeys(const std::string& path) {
   return NamingFile(path, [&] {
-  ZipPtr z = OpenZip(path);
-  std::vector<std::string> keys;
-  const zip_int64_t n = zip_get_num_entries(z.get(), 0);
-  for (zip_int64_t i = 0; i < n; ++i) {
-    std::string name = zip_get_name(z.get(), i, 0);
-    if (name.size() > 4 && name.compare(name.size() - 4, 4, ".npy") == 0) {
-      keys.push_back(name.substr(0, name.size() - 4));
+    ZipPtr z = OpenZip(path);
+    std::vector<std::string> keys;
+    const zip_int64_t n = zip_get_num_entries(z.get(), 0);
+    for (zip_int64_t i = 0; i < n; ++i) {
+      std::string name = zip_get_name(z.get(), i, 0);
+      if (name.size() > 4 && name.compare(name.size() - 4, 4, ".npy") == 0) {
+        keys.push_back(name.substr(0, name.size() - 4));
+      }
     }
-  }
-  return keys;
+    return keys;
   });
 }
 
@@ -297,8 +320,7 @@ std::vector<float> ReadNpzFloat(const std::string& path, const std::string& key,
   });
 }
 
-std::vector<uint8_t> ReadNpzUint8(const std::string& path, const std::string& key,
-                                  NpyInfo* info) {
+std::vector<uint8_t> ReadNpzUint8(const std::string& path, const std::string& key, NpyInfo* info) {
   return NamingFile(path, [&] {
     ZipPtr z = OpenZip(path);
     return ReadArray<uint8_t>(z.get(), path, key, info, false);
@@ -307,67 +329,72 @@ std::vector<uint8_t> ReadNpzUint8(const std::string& path, const std::string& ke
 
 Dataset LoadNpzDataset(const std::string& path) {
   return NamingFile(path, [&] {
-  ZipPtr z = OpenZip(path);
-  zip_t* zp = z.get();
-  const NpyInfo obs_info = PeekArray(zp, path, "observations");
-  if (obs_info.shape.empty()) Fail(path, "observations", "scalar array, expected [N, ...]");
-  const int64_t n = obs_info.shape[0];
-  if (n <= 0) Fail(path, "observations", "empty array");
-  const bool obs_is_image = obs_info.descr == "|u1" || obs_info.descr == "<u1";
+    ZipPtr z = OpenZip(path);
+    zip_t* zp = z.get();
+    const NpyInfo obs_info = PeekArray(zp, path, "observations");
+    if (obs_info.shape.empty()) Fail(path, "observations", "scalar array, expected [N, ...]");
+    const int64_t n = obs_info.shape[0];
+    if (n <= 0) Fail(path, "observations", "empty array");
+    const bool obs_is_image = obs_info.descr == "|u1" || obs_info.descr == "<u1";
 
-  std::vector<float> states;
-  std::vector<uint8_t> images;
-  int obs_dim = 0;
-  ImageShape image_shape;
-  auto read_images = [&](const std::string& key, const NpyInfo& info) {
-    if (info.shape.size() != 4 || info.shape[0] != n) {
-      Fail(path, key, "shape " + ShapeString(info.shape) + ", expected [" + std::to_string(n) +
-                          ", H, W, C] uint8");
+    std::vector<float> states;
+    std::vector<uint8_t> images;
+    int obs_dim = 0;
+    ImageShape image_shape;
+    auto read_images = [&](const std::string& key, const NpyInfo& info) {
+      if (info.shape.size() != 4 || info.shape[0] != n) {
+        Fail(path, key,
+             "shape " + ShapeString(info.shape) + ", expected [" + std::to_string(n) +
+                 ", H, W, C] uint8");
+      }
+      for (int d = 1; d < 4; ++d)
+        if (info.shape[d] <= 0 || info.shape[d] > 65535)
+          Fail(path, key, "shape " + ShapeString(info.shape) + ": image dimension out of range");
+      image_shape = {static_cast<int>(info.shape[1]), static_cast<int>(info.shape[2]),
+                     static_cast<int>(info.shape[3])};
+      images = ReadArray<uint8_t>(zp, path, key, nullptr, false);
+    };
+    if (obs_is_image) {
+      read_images("observations", obs_info);
+    } else {
+      if (obs_info.shape.size() != 2) {
+        Fail(path, "observations",
+             "shape " + ShapeString(obs_info.shape) +
+                 ", expected [N, obs_dim] (float) or [N, H, W, C] (uint8)");
+      }
+      if (obs_info.shape[1] <= 0 || obs_info.shape[1] > (1 << 20))
+        Fail(path, "observations",
+             "shape " + ShapeString(obs_info.shape) + ": obs_dim out of range");
+      obs_dim = static_cast<int>(obs_info.shape[1]);
+      states = ReadArray<float>(zp, path, "observations", nullptr, true);
+      CheckFinite(states, obs_dim, path, "observations");
+      if (HasArray(zp, "images")) read_images("images", PeekArray(zp, path, "images"));
     }
-    for (int d = 1; d < 4; ++d)
-      if (info.shape[d] <= 0 || info.shape[d] > 65535)
-        Fail(path, key, "shape " + ShapeString(info.shape) + ": image dimension out of range");
-    image_shape = {static_cast<int>(info.shape[1]), static_cast<int>(info.shape[2]),
-                   static_cast<int>(info.shape[3])};
-    images = ReadArray<uint8_t>(zp, path, key, nullptr, false);
-  };
-  if (obs_is_image) {
-    read_images("observations", obs_info);
-  } else {
-    if (obs_info.shape.size() != 2) {
-      Fail(path, "observations", "shape " + ShapeString(obs_info.shape) +
-                                     ", expected [N, obs_dim] (float) or [N, H, W, C] (uint8)");
-    }
-    if (obs_info.shape[1] <= 0 || obs_info.shape[1] > (1 << 20))
-      Fail(path, "observations", "shape " + ShapeString(obs_info.shape) + ": obs_dim out of range");
-    obs_dim = static_cast<int>(obs_info.shape[1]);
-    states = ReadArray<float>(zp, path, "observations", nullptr, true);
-    CheckFinite(states, obs_dim, path, "observations");
-    if (HasArray(zp, "images")) read_images("images", PeekArray(zp, path, "images"));
-  }
 
-  NpyInfo act_info;
-  std::vector<float> actions = ReadArray<float>(zp, path, "actions", &act_info, true);
-  if (act_info.shape.size() != 2 || act_info.shape[0] != n || act_info.shape[1] <= 0 ||
-      act_info.shape[1] > (1 << 20)) {
-    Fail(path, "actions", "shape " + ShapeString(act_info.shape) + ", expected [" +
-                              std::to_string(n) + ", action_dim]");
-  }
-  CheckFinite(actions, act_info.shape[1], path, "actions");
-  NpyInfo term_info;
-  std::vector<float> term = ReadArray<float>(zp, path, "terminals", &term_info, true);
-  if (term_info.shape.size() != 1 || term_info.shape[0] != n) {
-    Fail(path, "terminals", "shape " + ShapeString(term_info.shape) + ", expected [" +
-                                std::to_string(n) + "]");
-  }
-  std::vector<uint8_t> terminals(n);
-  for (int64_t i = 0; i < n; ++i) terminals[i] = term[i] != 0.0f;
-  try {
-    return Dataset::FromArrays(std::move(states), obs_dim, std::move(images), image_shape,
-                               std::move(actions), static_cast<int>(act_info.shape[1]), terminals);
-  } catch (const DatasetError& e) {
-    Fail(path, "", e.what());
-  }
+    NpyInfo act_info;
+    std::vector<float> actions = ReadArray<float>(zp, path, "actions", &act_info, true);
+    if (act_info.shape.size() != 2 || act_info.shape[0] != n || act_info.shape[1] <= 0 ||
+        act_info.shape[1] > (1 << 20)) {
+      Fail(path, "actions",
+           "shape " + ShapeString(act_info.shape) + ", expected [" + std::to_string(n) +
+               ", action_dim]");
+    }
+    CheckFinite(actions, act_info.shape[1], path, "actions");
+    NpyInfo term_info;
+    std::vector<float> term = ReadArray<float>(zp, path, "terminals", &term_info, true);
+    if (term_info.shape.size() != 1 || term_info.shape[0] != n) {
+      Fail(path, "terminals",
+           "shape " + ShapeString(term_info.shape) + ", expected [" + std::to_string(n) + "]");
+    }
+    std::vector<uint8_t> terminals(n);
+    for (int64_t i = 0; i < n; ++i) terminals[i] = term[i] != 0.0f;
+    try {
+      return Dataset::FromArrays(std::move(states), obs_dim, std::move(images), image_shape,
+                                 std::move(actions), static_cast<int>(act_info.shape[1]),
+                                 terminals);
+    } catch (const DatasetError& e) {
+      Fail(path, "", e.what());
+    }
   });
 }
 

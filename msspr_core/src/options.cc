@@ -102,7 +102,9 @@ void Require(bool ok, const std::string& what) {
 
 }  // namespace
 
-std::vector<std::string> AgentNames() { return {"mspr", "gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"}; }
+std::vector<std::string> AgentNames() {
+  return {"mspr", "gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"};
+}
 
 std::vector<std::string> PresetNames() {
   std::vector<std::string> names{"mspr", "D", "DI", "DIR"};
@@ -210,7 +212,8 @@ YAML::Node ParseOptionsYaml(const std::string& yaml_text, const std::string& sou
   } catch (const YAML::Exception& e) {
     throw OptionsError(source + ": YAML parse error: " + e.what());
   }
-  if (root && !root.IsNull() && !root.IsMap()) throw OptionsError(source + ": top level must be a map");
+  if (root && !root.IsNull() && !root.IsMap())
+    throw OptionsError(source + ": top level must be a map");
   return root;
 }
 
@@ -242,7 +245,8 @@ MsprOptions ApplySections(const YAML::Node& root, MsprOptions o, const std::stri
   return o;
 }
 
-MsprOptions PresetFor(const std::string& preset, const std::string& scale, const std::string& source) {
+MsprOptions PresetFor(const std::string& preset, const std::string& scale,
+                      const std::string& source) {
   try {
     return MakePreset(preset, scale);
   } catch (const OptionsError& e) {
@@ -273,8 +277,9 @@ MsprOptions ApplyOptionsYaml(const std::string& yaml_text, const MsprOptions& ba
 }
 
 MsprOptions ResolveOptions(const std::string& preset, const std::string& scale,
-                           const std::vector<std::string>& config_files, std::vector<std::string>* notes,
-                           const std::string& default_preset, const std::string& default_scale) {
+                           const std::vector<std::string>& config_files,
+                           std::vector<std::string>* notes, const std::string& default_preset,
+                           const std::string& default_scale) {
   std::vector<YAML::Node> roots;
   std::string file_preset, file_scale, preset_source, scale_source;
   for (const std::string& path : config_files) {
@@ -296,12 +301,18 @@ MsprOptions ResolveOptions(const std::string& preset, const std::string& scale,
       scale_source = path;
     }
   }
-  const std::string use_preset = !preset.empty() ? preset : !file_preset.empty() ? file_preset : default_preset;
-  const std::string use_scale = !scale.empty() ? scale : !file_scale.empty() ? file_scale : default_scale;
+  const std::string use_preset = !preset.empty()        ? preset
+                                 : !file_preset.empty() ? file_preset
+                                                        : default_preset;
+  const std::string use_scale = !scale.empty()        ? scale
+                                : !file_scale.empty() ? file_scale
+                                                      : default_scale;
   // An unknown name is reported with the file that gave it, if one did.
   std::string source = "options";
-  if (preset.empty() && !preset_source.empty()) source = preset_source;
-  else if (scale.empty() && !scale_source.empty()) source = scale_source;
+  if (preset.empty() && !preset_source.empty())
+    source = preset_source;
+  else if (scale.empty() && !scale_source.empty())
+    source = scale_source;
   MsprOptions o = PresetFor(use_preset, use_scale, source);
   for (size_t i = 0; i < roots.size(); ++i) o = ApplySections(roots[i], o, config_files[i]);
   return o;
@@ -336,7 +347,8 @@ void ValidateOptions(const MsprOptions& o) {
           "network.cnn must be 'impala' or 'light', got '" + n.cnn + "'");
   Require(n.image_downsample == 1 || n.image_downsample == 2 || n.image_downsample == 4,
           "network.image_downsample must be 1, 2 or 4");
-  Require(n.image_channels > 0 && n.frame_stack > 0, "network.image_channels/frame_stack must be > 0");
+  Require(n.image_channels > 0 && n.frame_stack > 0,
+          "network.image_channels/frame_stack must be > 0");
   Require(n.encoder_hidden > 0 && n.encoder_layers >= 0 && n.zs_dim > 0 && n.za_dim > 0 &&
               n.zsa_hidden > 0 && n.zsa_dim > 0 && n.goal_hidden > 0 && n.goal_dim > 0 &&
               n.critic_hidden > 0 && n.critic_layers > 0 && n.actor_hidden > 0 &&
@@ -352,7 +364,8 @@ void ValidateOptions(const MsprOptions& o) {
           "representation.reward_goals must be 'all' or 'trajectory'");
   Require(r.updates_per_step >= 0, "representation.updates_per_step must be >= 0");
   Require(r.augment_prob >= 0 && r.augment_prob <= 1, "representation.augment_prob in [0, 1]");
-  Require(r.augment_pad >= 0 && r.augment_pad < 32, "representation.augment_pad must be in [0, 32)");
+  Require(r.augment_pad >= 0 && r.augment_pad < 32,
+          "representation.augment_pad must be in [0, 32)");
   const AgentOptions& a = o.agent;
   Require(a.gamma > 0 && a.gamma < 1, "agent.gamma must be in (0, 1)");
   Require(a.n_step >= 1, "agent.n_step must be >= 1");
@@ -368,15 +381,19 @@ void ValidateOptions(const MsprOptions& o) {
   Require(o.trainer.pipeline == "auto" || o.trainer.pipeline == "on" || o.trainer.pipeline == "off",
           "trainer.pipeline must be 'auto', 'on' or 'off', got '" + o.trainer.pipeline + "'");
   Require(o.trainer.policy_ema >= 0 && o.trainer.policy_ema < 1,
-          "trainer.policy_ema must be in [0, 1) (0 = off), got " + std::to_string(o.trainer.policy_ema));
+          "trainer.policy_ema must be in [0, 1) (0 = off), got " +
+              std::to_string(o.trainer.policy_ema));
   const BaselineOptions& b = o.baseline;
   const std::vector<std::string> agents = AgentNames();
   Require(std::find(agents.begin(), agents.end(), b.agent) != agents.end(),
-          "baseline.agent must be one of mspr, gcbc, gcivl, gciql, qrl, crl, hiql; got '" + b.agent + "'");
+          "baseline.agent must be one of mspr, gcbc, gcivl, gciql, qrl, crl, hiql; got '" +
+              b.agent + "'");
   if (b.agent != "mspr") {
-    Require(n.obs_mode == "state", "baseline.agent '" + b.agent +
-                                       "': the baselines take state observations only (network.obs_mode "
-                                       "'state'), got '" + n.obs_mode + "'");
+    Require(n.obs_mode == "state",
+            "baseline.agent '" + b.agent +
+                "': the baselines take state observations only (network.obs_mode "
+                "'state'), got '" +
+                n.obs_mode + "'");
     Require(o.trainer.precision == "fp32",
             "baseline.agent '" + b.agent + "': trainer.precision must be 'fp32' for the baselines");
     Require(o.trainer.policy_ema == 0,
@@ -384,7 +401,8 @@ void ValidateOptions(const MsprOptions& o) {
     Require(b.hidden > 0 && b.layers >= 1, "baseline.hidden must be > 0 and baseline.layers >= 1");
     Require(b.lr > 0, "baseline.lr must be > 0");
     Require(b.tau > 0 && b.tau <= 1, "baseline.tau must be in (0, 1]");
-    Require(b.alpha >= 0 && b.high_alpha >= 0 && b.low_alpha >= 0, "baseline.alpha values must be >= 0");
+    Require(b.alpha >= 0 && b.high_alpha >= 0 && b.low_alpha >= 0,
+            "baseline.alpha values must be >= 0");
     Require(b.expectile > 0 && b.expectile < 1, "baseline.expectile must be in (0, 1)");
     Require(b.latent_dim > 0 && b.iqe_dim > 0 && b.latent_dim % b.iqe_dim == 0,
             "baseline.latent_dim must be a positive multiple of baseline.iqe_dim");

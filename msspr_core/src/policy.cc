@@ -2,8 +2,8 @@
 
 #include <sstream>
 
-#include "msspr_core/checkpoint.h"
 #include "module_io.h"
+#include "msspr_core/checkpoint.h"
 
 namespace msspr {
 namespace core {
@@ -17,7 +17,11 @@ Policy::Policy(const MsprOptions& options, Representation repr, Actor actor, Cri
       device_(device) {}
 
 Policy::Policy(const MsprOptions& options, std::shared_ptr<GcAgentImpl> agent, torch::Device device)
-    : options_(options), repr_(nullptr), actor_(nullptr), critic_(nullptr), agent_(std::move(agent)),
+    : options_(options),
+      repr_(nullptr),
+      actor_(nullptr),
+      critic_(nullptr),
+      agent_(std::move(agent)),
       device_(device) {}
 
 Policy Policy::Load(const std::string& path, torch::Device device) {
@@ -56,7 +60,8 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
     // A trainer checkpoint of a run with trainer.policy_ema holds the moving
     // average beside the raw weights: the policy is the average, as in the
     // run's exports.
-    const std::string prefix = file.kind == "trainer" && options.trainer.policy_ema > 0 ? "ema_" : "";
+    const std::string prefix =
+        file.kind == "trainer" && options.trainer.policy_ema > 0 ? "ema_" : "";
     ReadModule(archive, prefix + "repr", *repr);
     ReadModule(archive, prefix + "actor", *actor);
     ReadModule(archive, prefix + "critic", *critic);
@@ -87,7 +92,8 @@ void AveragePolicies(const std::vector<std::string>& inputs, const std::string& 
     policies.push_back(Policy::Load(path));
     const Policy& p = policies.back();
     if (p.agent_name() != "mspr") {
-      throw CheckpointError(path + ": a " + p.agent_name() + " agent's policy; only Ms.PR policies are averaged");
+      throw CheckpointError(path + ": a " + p.agent_name() +
+                            " agent's policy; only Ms.PR policies are averaged");
     }
     if (network_yaml(p.options()) != network_yaml(policies.front().options())) {
       throw CheckpointError(path + ": network options differ from those of " + inputs.front() +
@@ -111,7 +117,9 @@ void AveragePolicies(const std::vector<std::string>& inputs, const std::string& 
   MsprOptions options = first.options();
   options.trainer.device = "cpu";
   WritePolicyExport(out, options, step,
-                    {{"repr", first.repr().get()}, {"actor", first.actor().get()}, {"critic", first.critic().get()}});
+                    {{"repr", first.repr().get()},
+                     {"actor", first.actor().get()},
+                     {"critic", first.critic().get()}});
 }
 
 bool Policy::Batch(torch::Tensor* obs) const {

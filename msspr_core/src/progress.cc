@@ -1,5 +1,6 @@
 #include "msspr_core/progress.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -9,7 +10,6 @@
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
-#include <sys/stat.h>
 
 namespace msspr {
 namespace core {
@@ -112,9 +112,10 @@ void CsvWriter::WriteRow(const std::vector<std::string>& values) {
   out_ << "\n";
   out_.flush();
   if (!out_) {
-    throw std::runtime_error(path_ + ": cannot write CSV row (" +
-                             (errno ? std::string(std::strerror(errno)) : std::string("stream error")) +
-                             "; disk full?)");
+    throw std::runtime_error(
+        path_ + ": cannot write CSV row (" +
+        (errno ? std::string(std::strerror(errno)) : std::string("stream error")) +
+        "; disk full?)");
   }
 }
 
@@ -146,7 +147,8 @@ int64_t TruncateCsvRows(const std::string& path, int64_t max_step) {
     if (!out) throw std::runtime_error(tmp + ": cannot write CSV file (disk full?)");
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0)
-    throw std::runtime_error(path + ": cannot replace it with " + tmp + ": " + std::strerror(errno));
+    throw std::runtime_error(path + ": cannot replace it with " + tmp + ": " +
+                             std::strerror(errno));
   return dropped;
 }
 

@@ -68,7 +68,8 @@ const char kUsage[] =
     "                     on shared cores)\n"
     "  --quiet            no progress output\n"
     "  --world-size N     data-parallel training over N processes (torch.distributed c10d:\n"
-    "                     Gloo on CPU, NCCL on CUDA where LibTorch has it); default $WORLD_SIZE or 1\n"
+    "                     Gloo on CPU, NCCL on CUDA where LibTorch has it); default $WORLD_SIZE or "
+    "1\n"
     "  --rank R           this process's rank, 0..N-1 (default $RANK or 0); rank 0 alone writes\n"
     "                     DIR's files, logs and evaluates; every rank gets the same --out DIR\n"
     "  --master HOST:PORT rendezvous of the group, rank 0 listens there (default\n"
@@ -148,9 +149,9 @@ std::string Usage(const TrainCliExtensions& ext) {
 // the precision of the update's matrix products (its objective stays; the
 // weights and optimiser state are fp32 either way).
 const std::set<std::string> kResumeMayChange = {
-    "steps",     "time-limit", "eval-every",    "checkpoint-every", "export-every", "log-every",
-    "threads",   "precision",  "quiet",         "eval-episodes",    "eval-tasks",   "eval-seed",
-    "eval-maze", "eval-max-steps", "rank",          "master",           "dist-timeout"};
+    "steps",     "time-limit",     "eval-every", "checkpoint-every", "export-every", "log-every",
+    "threads",   "precision",      "quiet",      "eval-episodes",    "eval-tasks",   "eval-seed",
+    "eval-maze", "eval-max-steps", "rank",       "master",           "dist-timeout"};
 const char kResumeRule[] =
     "; on --resume only --steps, --time-limit, --eval-every, --checkpoint-every, --log-every, "
     "--export-every, --threads, --precision, --quiet and the --eval-* flags may change";
@@ -177,7 +178,8 @@ RunRecord ReadRunRecord(const std::string& path) {
   try {
     const YAML::Node root = YAML::LoadFile(path);
     if (root["flags"])
-      for (const auto& kv : root["flags"]) r.flags[kv.first.as<std::string>()] = kv.second.as<std::string>();
+      for (const auto& kv : root["flags"])
+        r.flags[kv.first.as<std::string>()] = kv.second.as<std::string>();
     if (root["config"])
       for (const auto& c : root["config"]) r.configs.push_back(c.as<std::string>());
   } catch (const YAML::Exception& e) {
@@ -198,9 +200,11 @@ void WriteTextAtomically(const std::string& path, const std::string& text) {
 
 void WriteRunRecord(const std::string& path, const RunRecord& r) {
   YAML::Emitter out;
-  out << YAML::Comment("msspr_train run record: msspr_train --resume --out DIR reads it") << YAML::BeginMap;
+  out << YAML::Comment("msspr_train run record: msspr_train --resume --out DIR reads it")
+      << YAML::BeginMap;
   out << YAML::Key << "flags" << YAML::Value << YAML::BeginMap;
-  for (const auto& [k, v] : r.flags) out << YAML::Key << k << YAML::Value << YAML::DoubleQuoted << v;
+  for (const auto& [k, v] : r.flags)
+    out << YAML::Key << k << YAML::Value << YAML::DoubleQuoted << v;
   out << YAML::EndMap << YAML::Key << "config" << YAML::Value << YAML::BeginSeq;
   for (const auto& c : r.configs) out << YAML::DoubleQuoted << c;
   out << YAML::EndSeq << YAML::EndMap;
@@ -210,10 +214,17 @@ void WriteRunRecord(const std::string& path, const RunRecord& r) {
 }  // namespace
 
 int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
-  static const std::set<std::string> kValued = {"data", "val", "out", "preset", "agent", "scale", "obs-mode", "steps",
-                                                "batch", "device", "precision", "seed", "eval-every", "checkpoint-every", "export-every",
-                                                "log-every", "time-limit", "threads", "world-size", "rank",
-                                                "master", "dist-timeout"};
+  static const std::set<std::string> kValued = {"data",         "val",
+                                                "out",          "preset",
+                                                "agent",        "scale",
+                                                "obs-mode",     "steps",
+                                                "batch",        "device",
+                                                "precision",    "seed",
+                                                "eval-every",   "checkpoint-every",
+                                                "export-every", "log-every",
+                                                "time-limit",   "threads",
+                                                "world-size",   "rank",
+                                                "master",       "dist-timeout"};
   RunRecord given;
   bool resume = false, print_options = false, quiet = false;
   auto usage_error = [&](const std::string& msg) {
@@ -227,15 +238,22 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       if (a == "--help" || a == "-h") {
         std::cout << Usage(ext);
         return 0;
-      } else if (a == "--resume") resume = true;
-      else if (a == "--print-options") print_options = true;
-      else if (a == "--quiet") quiet = true;
+      } else if (a == "--resume")
+        resume = true;
+      else if (a == "--print-options")
+        print_options = true;
+      else if (a == "--quiet")
+        quiet = true;
       else if (kValued.count(key) || key == "config" || ext.extra_options.count(key)) {
         if (i + 1 >= argc) throw cli::CliError("missing value after " + a);
-        if (key == "config") given.configs.push_back(argv[++i]);
-        else given.flags[key] = argv[++i];
-      } else if (a.find(":=") != std::string::npos) continue;  // ROS remappings (rosrun, roslaunch)
-      else throw cli::CliError("unknown argument '" + a + "' (see --help)");
+        if (key == "config")
+          given.configs.push_back(argv[++i]);
+        else
+          given.flags[key] = argv[++i];
+      } else if (a.find(":=") != std::string::npos)
+        continue;  // ROS remappings (rosrun, roslaunch)
+      else
+        throw cli::CliError("unknown argument '" + a + "' (see --help)");
     }
   } catch (const cli::CliError& e) {
     return usage_error(e.what());
@@ -246,7 +264,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     dist_options = DistributedOptions::FromEnvironment();
     dist_options.timeout_s = 1800;
     if (given.flags.count("world-size"))
-      dist_options.world_size = static_cast<int>(cli::ParseInt("world-size", given.flags["world-size"], 1, 4096));
+      dist_options.world_size =
+          static_cast<int>(cli::ParseInt("world-size", given.flags["world-size"], 1, 4096));
     if (given.flags.count("rank"))
       dist_options.rank = static_cast<int>(cli::ParseInt("rank", given.flags["rank"], 0, 4095));
     if (given.flags.count("master")) {
@@ -255,10 +274,12 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       if (colon == std::string::npos || colon == 0)
         throw cli::CliError("--master: expected HOST:PORT, got '" + m + "'");
       dist_options.master_addr = m.substr(0, colon);
-      dist_options.master_port = static_cast<int>(cli::ParseInt("master port", m.substr(colon + 1), 1, 65535));
+      dist_options.master_port =
+          static_cast<int>(cli::ParseInt("master port", m.substr(colon + 1), 1, 65535));
     }
     if (given.flags.count("dist-timeout"))
-      dist_options.timeout_s = static_cast<double>(cli::ParseInt("dist-timeout", given.flags["dist-timeout"], 1, 1 << 30));
+      dist_options.timeout_s = static_cast<double>(
+          cli::ParseInt("dist-timeout", given.flags["dist-timeout"], 1, 1 << 30));
     dist_options.Validate();
   } catch (const cli::CliError& e) {
     return usage_error(e.what());
@@ -289,33 +310,39 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       if (out_dir.empty()) return usage_error("--resume needs --out DIR");
       const bool have_record = FileExists(run_file);
       if (!have_record && !have_checkpoint)
-        return usage_error("--resume: " + out_dir + " holds no run (no run.yaml, no checkpoint.ckpt)");
+        return usage_error("--resume: " + out_dir +
+                           " holds no run (no run.yaml, no checkpoint.ckpt)");
       if (have_record) {
         RunRecord saved = ReadRunRecord(run_file);
         for (const auto& [k, v] : run.flags) {
           if (kResumeMayChange.count(k) || k == "out") continue;
           auto it = saved.flags.find(k);
           if (it == saved.flags.end() || it->second != v)
-            return usage_error("--resume: --" + k + " " + given.flags[k] + " differs from the run in " + run_file +
-                               " (" + (it == saved.flags.end() ? "not given" : it->second) +
-                               ")" + kResumeRule);
+            return usage_error(
+                "--resume: --" + k + " " + given.flags[k] + " differs from the run in " + run_file +
+                " (" + (it == saved.flags.end() ? "not given" : it->second) + ")" + kResumeRule);
         }
         if (!given.configs.empty() && run.configs != saved.configs)
-          return usage_error("--resume: --config differs from the run in " + run_file + kResumeRule);
+          return usage_error("--resume: --config differs from the run in " + run_file +
+                             kResumeRule);
         for (const auto& [k, v] : run.flags) saved.flags[k] = v;
         run = saved;
       }
-    } else if (!follower && !out_dir.empty() && !print_options && (have_checkpoint || FileExists(run_file))) {
-      return usage_error(out_dir + " already holds a training run (" + (have_checkpoint ? ckpt : run_file) +
-                         "); continue it with --resume --out " + out_dir + ", or choose another --out");
+    } else if (!follower && !out_dir.empty() && !print_options &&
+               (have_checkpoint || FileExists(run_file))) {
+      return usage_error(
+          out_dir + " already holds a training run (" + (have_checkpoint ? ckpt : run_file) +
+          "); continue it with --resume --out " + out_dir + ", or choose another --out");
     }
   } catch (const std::exception& e) {
     std::cerr << ext.program << ": error: " << e.what() << "\n";
     return 1;
   }
-  auto flag = [&run](const std::string& k) { return run.flags.count(k) ? run.flags.at(k) : std::string(); };
-  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1, export_every = -1, log_every = -1,
-            time_limit = -1;
+  auto flag = [&run](const std::string& k) {
+    return run.flags.count(k) ? run.flags.at(k) : std::string();
+  };
+  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1,
+            export_every = -1, log_every = -1, time_limit = -1;
   try {
     auto number = [&](const std::string& k, long long lo, long long hi, long long* v) {
       if (run.flags.count(k)) *v = cli::ParseInt(k, run.flags.at(k), lo, hi);
@@ -362,7 +389,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
           return usage_error("--agent " + agent + " conflicts with --preset " + preset);
         if (agent != "mspr") preset = agent;
       }
-      options = ResolveOptions(preset, run.flags.count("scale") ? run.flags["scale"] : "", run.configs, &notes);
+      options = ResolveOptions(preset, run.flags.count("scale") ? run.flags["scale"] : "",
+                               run.configs, &notes);
       for (const std::string& n : notes) std::cerr << "msspr_train: " << n << "\n";
     }
     if (steps >= 0) options.trainer.steps = steps;
@@ -405,11 +433,13 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       return 0;
     }
     if (dist_options.enabled()) {
-      auto dist = std::make_shared<Distributed>(dist_options, torch::Device(trainer.options().trainer.device));
+      auto dist = std::make_shared<Distributed>(dist_options,
+                                                torch::Device(trainer.options().trainer.device));
       trainer.SetDistributed(dist);
       std::cerr << ext.program << ": rank " << dist->rank() << " of " << dist->world_size() << " ("
-                << dist->backend() << ", master " << dist_options.master_addr << ":" << dist_options.master_port
-                << "): batch " << trainer.local_batch() << " of " << trainer.options().trainer.batch_size << "\n";
+                << dist->backend() << ", master " << dist_options.master_addr << ":"
+                << dist_options.master_port << "): batch " << trainer.local_batch() << " of "
+                << trainer.options().trainer.batch_size << "\n";
     }
     // Once the data has loaded: from here on --resume --out DIR needs nothing else.
     if (!follower) WriteRunRecord(run_file, run);
@@ -417,7 +447,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
       trainer.LoadCheckpoint(ckpt);
       std::cerr << ext.program << ": resumed " << ckpt << " at step " << trainer.step() << "\n";
     } else if (resume) {
-      std::cerr << ext.program << ": resumed " << out_dir << " before its first checkpoint: from step 0\n";
+      std::cerr << ext.program << ": resumed " << out_dir
+                << " before its first checkpoint: from step 0\n";
     }
     // The resolved options, for the record.
     if (!follower) WriteTextAtomically(out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
@@ -429,8 +460,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     else if (!follower && ext.default_validation)
       val = ext.default_validation(data_path, trainer.options());
     if (val)
-      std::cerr << ext.program << ": validation: " << val->size() << " steps, " << val->num_trajectories()
-                << " trajectories\n";
+      std::cerr << ext.program << ": validation: " << val->size() << " steps, "
+                << val->num_trajectories() << " trajectories\n";
     Evaluator sim_eval =
         ext.make_evaluator && !follower ? ext.make_evaluator(trainer, extra, out_dir) : Evaluator();
     Evaluator evaluator;
@@ -455,14 +486,20 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     loop.stop_requested = signals.flag();
     if (trainer.Train(loop, evaluator) == TrainEnd::kStopRequested) {
       const int sig = signals.signal();
-      std::cerr << ext.program << ": " << (sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal")
+      std::cerr << ext.program << ": "
+                << (sig == SIGINT    ? "SIGINT"
+                    : sig == SIGTERM ? "SIGTERM"
+                                     : "a signal")
                 << ": stopped at step " << trainer.step() << "; "
-                << (follower ? "" : "wrote " + out_dir + "/checkpoint.ckpt and " + out_dir + "/policy.pt; ")
+                << (follower
+                        ? ""
+                        : "wrote " + out_dir + "/checkpoint.ckpt and " + out_dir + "/policy.pt; ")
                 << "continue with --resume --out " << out_dir << "\n";
       return 128 + (sig > 0 ? sig : SIGTERM);
     }
     if (follower)
-      std::cerr << ext.program << ": rank " << dist_options.rank << " done at step " << trainer.step() << "\n";
+      std::cerr << ext.program << ": rank " << dist_options.rank << " done at step "
+                << trainer.step() << "\n";
     else
       std::cerr << ext.program << ": done at step " << trainer.step() << "; wrote " << out_dir
                 << "/checkpoint.ckpt and " << out_dir << "/policy.pt\n";

@@ -7,8 +7,8 @@
 
 #include <ATen/Parallel.h>
 #include <ATen/autocast_mode.h>
-#include <torch/version.h>
 #include <sys/stat.h>
+#include <torch/version.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
@@ -22,10 +22,10 @@
 #include <iostream>
 
 #include "async_worker.h"
+#include "module_io.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/foreach_adamw.h"
 #include "msspr_core/progress.h"
-#include "module_io.h"
 #include "trainer_internal.h"
 
 namespace msspr {
@@ -55,9 +55,9 @@ void KeepFreedMemoryInHeap() {
 
 std::vector<std::pair<std::string, double>> LossInfo::Named() const {
   if (!agent.empty()) return agent;
-  return {{"repr", repr},   {"dyn", dyn},           {"rew", rew},       {"inv", inv},
-          {"gdyn", goal_dyn}, {"gact", goal_act},   {"critic", critic}, {"q", q_mean},
-          {"actor", actor}, {"bc", bc}};
+  return {{"repr", repr},     {"dyn", dyn},       {"rew", rew},       {"inv", inv},
+          {"gdyn", goal_dyn}, {"gact", goal_act}, {"critic", critic}, {"q", q_mean},
+          {"actor", actor},   {"bc", bc}};
 }
 
 Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data)
@@ -96,8 +96,8 @@ Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data
     agent_ = MakeAgent(options_);
     agent_->to(device_);
     // OGBench: one Adam (no weight decay) over all the agent's parameters.
-    agent_opt_ = std::make_unique<torch::optim::Adam>(agent_->TrainableParameters(),
-                                                      torch::optim::AdamOptions(options_.baseline.lr));
+    agent_opt_ = std::make_unique<torch::optim::Adam>(
+        agent_->TrainableParameters(), torch::optim::AdamOptions(options_.baseline.lr));
     return;
   }
   repr_ = Representation(n);
@@ -119,7 +119,8 @@ Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data
     ema_repr_ = Representation(n);
     ema_critic_ = Critic(n);
     ema_actor_ = Actor(n);
-    for (torch::nn::Module* m : std::vector<torch::nn::Module*>{ema_repr_.get(), ema_critic_.get(), ema_actor_.get()}) {
+    for (torch::nn::Module* m :
+         std::vector<torch::nn::Module*>{ema_repr_.get(), ema_critic_.get(), ema_actor_.get()}) {
       m->to(device_);
       SetRequiresGrad(*m, false);
     }
@@ -153,10 +154,12 @@ void Trainer::SetDistributed(std::shared_ptr<Distributed> dist) {
   }
   dist_ = std::move(dist);
   // Each rank's own streams: batches and target-policy noise.
-  std::seed_seq seq{static_cast<uint32_t>(options_.trainer.seed), static_cast<uint32_t>(options_.trainer.seed >> 32),
-                    static_cast<uint32_t>(rank), 0x6d737072u};
+  std::seed_seq seq{static_cast<uint32_t>(options_.trainer.seed),
+                    static_cast<uint32_t>(options_.trainer.seed >> 32), static_cast<uint32_t>(rank),
+                    0x6d737072u};
   rng_.seed(seq);
-  gen_ = at::make_generator<at::CPUGeneratorImpl>(options_.trainer.seed * 1000003ULL + static_cast<uint64_t>(rank));
+  gen_ = at::make_generator<at::CPUGeneratorImpl>(options_.trainer.seed * 1000003ULL +
+                                                  static_cast<uint64_t>(rank));
   // Identical starting weights (targets included) on every rank.
   std::vector<torch::Tensor> tensors;
   for (const auto& [name, m] : CheckpointModules()) {
@@ -196,12 +199,13 @@ LossInfo Trainer::EmptyLossInfo() const {
 
 std::vector<std::pair<std::string, torch::nn::Module*>> Trainer::CheckpointModules() {
   if (agent_) return {{"agent", agent_.get()}};
-  std::vector<std::pair<std::string, torch::nn::Module*>> modules{{"repr", repr_.get()},
-                                                                  {"critic", critic_.get()},
-                                                                  {"actor", actor_.get()},
-                                                                  {"target_repr", target_repr_.get()},
-                                                                  {"target_critic", target_critic_.get()},
-                                                                  {"target_actor", target_actor_.get()}};
+  std::vector<std::pair<std::string, torch::nn::Module*>> modules{
+      {"repr", repr_.get()},
+      {"critic", critic_.get()},
+      {"actor", actor_.get()},
+      {"target_repr", target_repr_.get()},
+      {"target_critic", target_critic_.get()},
+      {"target_actor", target_actor_.get()}};
   if (ema_repr_) {
     modules.emplace_back("ema_repr", ema_repr_.get());
     modules.emplace_back("ema_critic", ema_critic_.get());
@@ -313,7 +317,9 @@ void Trainer::UpdatePolicyAverage() {
   torch::NoGradGuard no_grad;
   std::vector<torch::Tensor> avg, raw;
   const std::vector<std::pair<torch::nn::Module*, torch::nn::Module*>> pairs{
-      {ema_repr_.get(), repr_.get()}, {ema_critic_.get(), critic_.get()}, {ema_actor_.get(), actor_.get()}};
+      {ema_repr_.get(), repr_.get()},
+      {ema_critic_.get(), critic_.get()},
+      {ema_actor_.get(), actor_.get()}};
   for (const auto& [e, o] : pairs) {
     for (const auto& p : e->parameters()) avg.push_back(p);
     for (const auto& p : o->parameters()) raw.push_back(p.detach());

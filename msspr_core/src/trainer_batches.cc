@@ -1,11 +1,10 @@
 // The trainer's batch builder: sampled indices to device tensors (gathered
 // observations and actions, masks, returns) with DrQ random shifts for pixels.
-#include "msspr_core/trainer.h"
-
 #include <algorithm>
 #include <cstring>
 #include <vector>
 
+#include "msspr_core/trainer.h"
 #include "trainer_internal.h"
 
 namespace msspr {
@@ -95,7 +94,8 @@ TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool 
   const Dataset& d = data ? *data : *data_;
   const int64_t b = static_cast<int64_t>(idx.idx.size());
   torch::Tensor obs = GatherObs(d, idx.idx), next_obs = GatherObs(d, idx.next_idx);
-  torch::Tensor value_goal = GatherObs(d, idx.value_goal), actor_goal = GatherObs(d, idx.actor_goal);
+  torch::Tensor value_goal = GatherObs(d, idx.value_goal),
+                actor_goal = GatherObs(d, idx.actor_goal);
   if (augment) {
     // One shift per sample, shared by its observation, next observation and goals.
     ShiftSampleImages(DrawShifts(b), {&obs, &next_obs, &value_goal, &actor_goal});
@@ -108,9 +108,10 @@ TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool 
   torch::Tensor act = torch::empty({b, d.action_dim()}, torch::kFloat32);
   d.GatherActions(idx.idx.data(), b, act.data_ptr<float>());
   batch.action = ToDevice(act);
-  batch.ret = ToDevice(torch::from_blob(const_cast<float*>(idx.ret.data()), {b}, torch::kFloat32).clone());
-  batch.discount =
-      ToDevice(torch::from_blob(const_cast<float*>(idx.discount.data()), {b}, torch::kFloat32).clone());
+  batch.ret =
+      ToDevice(torch::from_blob(const_cast<float*>(idx.ret.data()), {b}, torch::kFloat32).clone());
+  batch.discount = ToDevice(
+      torch::from_blob(const_cast<float*>(idx.discount.data()), {b}, torch::kFloat32).clone());
   if (!idx.low_goal.empty()) {
     batch.low_goal = ToDevice(GatherObs(d, idx.low_goal));
     batch.high_goal = ToDevice(GatherObs(d, idx.high_goal));
@@ -134,8 +135,9 @@ ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const 
   torch::Tensor act = torch::empty({b * a, d.action_dim()}, torch::kFloat32);
   d.GatherActions(idx.actions.data(), b * a, act.data_ptr<float>());
   batch.actions = ToDevice(act.view({b, a, d.action_dim()}));
-  batch.action_mask = ToDevice(
-      torch::from_blob(const_cast<float*>(idx.action_mask.data()), {b, a}, torch::kFloat32).clone());
+  batch.action_mask =
+      ToDevice(torch::from_blob(const_cast<float*>(idx.action_mask.data()), {b, a}, torch::kFloat32)
+                   .clone());
   batch.goal = ToDevice(goal);
   batch.mc_return = ToDevice(
       torch::from_blob(const_cast<float*>(idx.mc_return.data()), {b, idx.horizon}, torch::kFloat32)

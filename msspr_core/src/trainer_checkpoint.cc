@@ -1,13 +1,11 @@
 // The trainer's checkpoint I/O: training state (weights, optimisers, random
 // streams, per-rank states) written atomically and restored bit-exact, and
 // policy exports.
-#include "msspr_core/trainer.h"
-
 #include <sstream>
 
-#include "msspr_core/checkpoint.h"
 #include "module_io.h"
-
+#include "msspr_core/checkpoint.h"
+#include "msspr_core/trainer.h"
 #include "trainer_internal.h"
 
 namespace msspr {
@@ -87,7 +85,8 @@ void Trainer::SaveCheckpoint(const std::string& path) {
       return;
     }
     rank_states.push_back(RandomStateText());
-    for (int r = 1; r < dist_->world_size(); ++r) rank_states.push_back(dist_->Get(key + std::to_string(r)));
+    for (int r = 1; r < dist_->world_size(); ++r)
+      rank_states.push_back(dist_->Get(key + std::to_string(r)));
   }
   std::vector<torch::nn::Module*> modules;
   for (const auto& [name, m] : CheckpointModules()) modules.push_back(m);
@@ -134,14 +133,15 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
   const CheckpointFile file = ReadCheckpointFileOrPrevious(newest, "trainer", &path);
   const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
   if (NetworkYaml(header.options) != NetworkYaml(options_)) {
-    throw CheckpointError(path + ": network or baseline options differ from this trainer's (agent '" +
-                          header.options.baseline.agent + "' in the file, '" + options_.baseline.agent +
-                          "' here)");
+    throw CheckpointError(
+        path + ": network or baseline options differ from this trainer's (agent '" +
+        header.options.baseline.agent + "' in the file, '" + options_.baseline.agent + "' here)");
   }
   if ((header.options.trainer.policy_ema > 0) != (options_.trainer.policy_ema > 0)) {
-    throw CheckpointError(path + ": trainer.policy_ema is " + std::to_string(header.options.trainer.policy_ema) +
-                          " in the file and " + std::to_string(options_.trainer.policy_ema) +
-                          " here (a run keeps or lacks the policy's moving average from its start)");
+    throw CheckpointError(
+        path + ": trainer.policy_ema is " + std::to_string(header.options.trainer.policy_ema) +
+        " in the file and " + std::to_string(options_.trainer.policy_ema) +
+        " here (a run keeps or lacks the policy's moving average from its start)");
   }
   try {
     torch::serialize::InputArchive archive;
@@ -171,14 +171,15 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
   if (dist_) {
     const int world = dist_->world_size();
     if (static_cast<int>(header.rank_states.size()) != world) {
-      throw CheckpointError(path + ": written by a group of " + std::to_string(header.rank_states.size()) +
-                            " rank(s), resumed by " + std::to_string(world) +
-                            " (resume with the same world size)");
+      throw CheckpointError(path + ": written by a group of " +
+                            std::to_string(header.rank_states.size()) + " rank(s), resumed by " +
+                            std::to_string(world) + " (resume with the same world size)");
     }
     RestoreRandomState(header.rank_states[dist_->rank()], path);
   } else if (!header.rank_states.empty()) {
-    throw CheckpointError(path + ": written by a group of " + std::to_string(header.rank_states.size()) +
-                          " ranks; resume it with --world-size " + std::to_string(header.rank_states.size()));
+    throw CheckpointError(
+        path + ": written by a group of " + std::to_string(header.rank_states.size()) +
+        " ranks; resume it with --world-size " + std::to_string(header.rank_states.size()));
   }
   step_ = header.step;
   repr_credit_ = header.repr_credit;

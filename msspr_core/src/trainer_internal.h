@@ -56,18 +56,24 @@ class PrecisionScope {
 #if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
   static bool Enabled(at::DeviceType t) { return at::autocast::is_autocast_enabled(t); }
   static void SetEnabled(at::DeviceType t, bool on) { at::autocast::set_autocast_enabled(t, on); }
-  static void SetDtype(at::DeviceType t, at::ScalarType d) { at::autocast::set_autocast_dtype(t, d); }
+  static void SetDtype(at::DeviceType t, at::ScalarType d) {
+    at::autocast::set_autocast_dtype(t, d);
+  }
 #else
   static bool Enabled(at::DeviceType t) {
     return t == at::kCUDA ? at::autocast::is_enabled() : at::autocast::is_cpu_enabled();
   }
   static void SetEnabled(at::DeviceType t, bool on) {
-    if (t == at::kCUDA) at::autocast::set_enabled(on);
-    else at::autocast::set_cpu_enabled(on);
+    if (t == at::kCUDA)
+      at::autocast::set_enabled(on);
+    else
+      at::autocast::set_cpu_enabled(on);
   }
   static void SetDtype(at::DeviceType t, at::ScalarType d) {
-    if (t == at::kCUDA) at::autocast::set_autocast_gpu_dtype(d);
-    else at::autocast::set_autocast_cpu_dtype(d);
+    if (t == at::kCUDA)
+      at::autocast::set_autocast_gpu_dtype(d);
+    else
+      at::autocast::set_autocast_cpu_dtype(d);
   }
 #endif
   bool bf16_;
@@ -82,8 +88,10 @@ class ThreadCountScope {
   explicit ThreadCountScope(int n) {
     if (n <= 0 || omp_set_num_threads == nullptr || omp_get_max_threads == nullptr) return;
     prev_ = omp_get_max_threads();
-    if (prev_ != n) omp_set_num_threads(n);
-    else prev_ = 0;
+    if (prev_ != n)
+      omp_set_num_threads(n);
+    else
+      prev_ = 0;
   }
   ~ThreadCountScope() {
     if (prev_ > 0) omp_set_num_threads(prev_);

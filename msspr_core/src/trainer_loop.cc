@@ -1,7 +1,5 @@
 // The training loop: steps, progress, metrics.csv and eval.csv, periodic
 // evaluation, checkpoints and policy exports, time limits and stop requests.
-#include "msspr_core/trainer.h"
-
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -9,7 +7,7 @@
 #include <iostream>
 
 #include "msspr_core/progress.h"
-
+#include "msspr_core/trainer.h"
 #include "trainer_internal.h"
 
 namespace msspr {
@@ -34,8 +32,9 @@ void CheckFiniteLosses(const LossInfo& info, bool repr_updated, int64_t step) {
       bad += " " + name + "=" + std::to_string(v);
   }
   if (!bad.empty())
-    throw std::runtime_error("training diverged: non-finite loss at step " + std::to_string(step) + ":" +
-                             bad + "; stopped without writing a checkpoint (the last good one is kept)");
+    throw std::runtime_error("training diverged: non-finite loss at step " + std::to_string(step) +
+                             ":" + bad +
+                             "; stopped without writing a checkpoint (the last good one is kept)");
 }
 
 void NotifyEvalWritten(const TrainLoopOptions& loop) {
@@ -78,15 +77,18 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
     std::string line = "eval step " + std::to_string(step_) + ":";
     for (const auto& kv : res) {
       line += " " + kv.first + "=" + std::to_string(kv.second);
-      if (eval_csv) eval_csv->WriteRow({std::to_string(step_), kv.first, std::to_string(kv.second)});
+      if (eval_csv)
+        eval_csv->WriteRow({std::to_string(step_), kv.first, std::to_string(kv.second)});
     }
     if (!quiet) bar.Message(line);
     NotifyEvalWritten(loop);
   };
   LossInfo last;
   auto out_of_time = [&]() {
-    const bool mine = t.time_limit_s > 0 &&
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= t.time_limit_s;
+    const bool mine =
+        t.time_limit_s > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >=
+            t.time_limit_s;
     // Every rank stops at the same step: as soon as one is out of time.
     return (dist_ && t.time_limit_s > 0) ? dist_->Any(mine) : mine;
   };
@@ -138,7 +140,9 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
           if (named.size() > 4) named.resize(4);
           bar.Update(step_, named);
         } else {
-          bar.Update(step_, {{"critic", merged.critic}, {"actor", merged.actor}, {"repr", merged.repr},
+          bar.Update(step_, {{"critic", merged.critic},
+                             {"actor", merged.actor},
+                             {"repr", merged.repr},
                              {"q", merged.q_mean}});
         }
       }
@@ -157,11 +161,13 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
     }
     if (writer && !loop.out_dir.empty() && t.export_every > 0 && step_ % t.export_every == 0) {
       ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + ".pt");
-      if (ema_repr_) ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + "_raw.pt", true);
+      if (ema_repr_)
+        ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + "_raw.pt", true);
     }
   }
   if (!quiet) bar.Finish();
-  if (evaluator && end != TrainEnd::kStopRequested && (t.eval_every <= 0 || step_ % t.eval_every != 0))
+  if (evaluator && end != TrainEnd::kStopRequested &&
+      (t.eval_every <= 0 || step_ % t.eval_every != 0))
     run_eval();
   if (!loop.out_dir.empty()) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
@@ -172,9 +178,10 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
   if (dist_ && step_ > first_step) {
     const Distributed::Stats& st = dist_->stats();
     const double steps = static_cast<double>(step_ - first_step);
-    std::fprintf(stderr, "rank %d: all-reduce %.3f ms and %.2f MB per step (%s, %lld collectives)\n", dist_->rank(),
-                 1e3 * st.seconds / steps, st.bytes / steps / 1e6, dist_->backend().c_str(),
-                 static_cast<long long>(st.allreduces));
+    std::fprintf(stderr,
+                 "rank %d: all-reduce %.3f ms and %.2f MB per step (%s, %lld collectives)\n",
+                 dist_->rank(), 1e3 * st.seconds / steps, st.bytes / steps / 1e6,
+                 dist_->backend().c_str(), static_cast<long long>(st.allreduces));
   }
   return end;
 }

@@ -1,15 +1,13 @@
 // The trainer's step schedules: the sequential step, the pipelined step
 // (actor-critic update on a worker thread beside the representation update)
 // and its variant with the critic's gradient into the encoders.
-#include "msspr_core/trainer.h"
-
 #include <ATen/Parallel.h>
 
 #include <algorithm>
 #include <optional>
 
 #include "async_worker.h"
-
+#include "msspr_core/trainer.h"
 #include "trainer_internal.h"
 
 namespace msspr {
@@ -34,7 +32,9 @@ void Trainer::Sync() {
   // the worker with its thread count, as the next step would have.
   TransitionBatch batch = std::move(*pending_actor_);
   pending_actor_.reset();
-  RunOnWorker(pending_threads_, [this, b = std::move(batch)] { UpdateActor(b, EncodeTransitionsForUpdate(b), nullptr); });
+  RunOnWorker(pending_threads_, [this, b = std::move(batch)] {
+    UpdateActor(b, EncodeTransitionsForUpdate(b), nullptr);
+  });
   worker_->Wait();
 }
 
@@ -68,7 +68,8 @@ LossInfo Trainer::Step(bool collect_info) {
   const int threads = at::get_num_threads();
   const int worker_threads = std::max(1, threads / 2);
   const ThreadCountScope main_threads(pipe ? std::max(1, threads - threads / 2) : 0);
-  if (pipe && options_.agent.critic_grad_to_encoder) return CriticGradPipelinedStep(collect_info, worker_threads);
+  if (pipe && options_.agent.critic_grad_to_encoder)
+    return CriticGradPipelinedStep(collect_info, worker_threads);
   ++step_;
   if (step_ % options_.agent.target_update_every == 0) {
     Sync();
@@ -85,7 +86,8 @@ LossInfo Trainer::Step(bool collect_info) {
     repr_credit_ -= 1.0;
   }
   TransitionBatch batch = SampleTransitions();
-  torch::Tensor noise = torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+  torch::Tensor noise =
+      torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
   Sync();
   // Every update so far is done (this step's representation update, the
   // previous step's actor and critic): the average takes them in.
@@ -104,7 +106,9 @@ LossInfo Trainer::Step(bool collect_info) {
     UpdateActor(b, lat, o);
   };
   if (pipe && !collect_info) {
-    RunOnWorker(worker_threads, [actor_critic, b = std::move(batch), n = std::move(noise)] { actor_critic(b, n, nullptr); });
+    RunOnWorker(worker_threads, [actor_critic, b = std::move(batch), n = std::move(noise)] {
+      actor_critic(b, n, nullptr);
+    });
     return info;
   }
   actor_critic(batch, noise, out);
@@ -129,9 +133,11 @@ LossInfo Trainer::CriticGradPipelinedStep(bool collect_info, int worker_threads)
   }
   repr_credit_ += options_.representation.updates_per_step;
   std::vector<ChunkBatch> chunks;
-  for (double credit = repr_credit_; CreditDue(credit); credit -= 1.0) chunks.push_back(SampleChunks());
+  for (double credit = repr_credit_; CreditDue(credit); credit -= 1.0)
+    chunks.push_back(SampleChunks());
   TransitionBatch batch = SampleTransitions();
-  torch::Tensor noise = torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+  torch::Tensor noise =
+      torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
   std::optional<TransitionBatch> actor_batch = std::move(pending_actor_);
   pending_actor_.reset();
   RunOnWorker(worker_threads, [this, actor_batch = std::move(actor_batch), batch, noise] {

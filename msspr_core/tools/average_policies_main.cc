@@ -46,7 +46,8 @@ int main(int argc, char** argv) {
   }
   try {
     msspr::core::AveragePolicies(inputs, out);
-    std::cerr << "msspr_average_policies: wrote " << out << ", the mean of " << inputs.size() << " policies\n";
+    std::cerr << "msspr_average_policies: wrote " << out << ", the mean of " << inputs.size()
+              << " policies\n";
   } catch (const std::exception& e) {
     std::cerr << "msspr_average_policies: error: " << e.what() << "\n";
     return 1;

@@ -1,6 +1,7 @@
 // msspr_bench_core: training throughput and inference latency of the core
 // on synthetic data, written as JSON.
 #include <sys/resource.h>
+#include <torch/csrc/autograd/profiler_legacy.h>
 
 #include <algorithm>
 #include <chrono>
@@ -14,8 +15,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <torch/csrc/autograd/profiler_legacy.h>
 
 #include "msspr_core/cli_args.h"
 #include "msspr_core/process_env.h"
@@ -171,12 +170,12 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
   std::ostringstream j;
   j.precision(6);
   j << "{\"device\": \"" << device << "\", \"threads\": " << torch::get_num_threads()
-    << ", \"precision\": \"" << o.trainer.precision << "\", \"pipelined\": " << (r.pipelined ? "true" : "false")
-    << ", \"obs_mode\": \"" << o.network.obs_mode
-    << "\", \"batch\": " << r.batch << ", \"updates_per_step\": "
-    << o.representation.updates_per_step << ", \"timed_steps\": " << r.steps
-    << ", \"warmup_steps\": " << warmup << ", \"ms_per_step\": " << r.ms_per_step
-    << ", \"peak_rss_mb\": " << PeakRssMb() << "}\n";
+    << ", \"precision\": \"" << o.trainer.precision
+    << "\", \"pipelined\": " << (r.pipelined ? "true" : "false") << ", \"obs_mode\": \""
+    << o.network.obs_mode << "\", \"batch\": " << r.batch
+    << ", \"updates_per_step\": " << o.representation.updates_per_step
+    << ", \"timed_steps\": " << r.steps << ", \"warmup_steps\": " << warmup
+    << ", \"ms_per_step\": " << r.ms_per_step << ", \"peak_rss_mb\": " << PeakRssMb() << "}\n";
   return WriteJson(out, j.str());
 }
 
@@ -195,7 +194,8 @@ int main(int argc, char** argv) {
       std::cout << kUsage;
       return 0;
     }
-    if (!args.positional().empty()) throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    if (!args.positional().empty())
+      throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
     out = args.Get("out", "");
     if (out.empty()) throw cli::CliError("--out FILE.json is required");
     device = args.Get("device", "cpu");
@@ -239,7 +239,8 @@ int main(int argc, char** argv) {
     // Algorithm 1 read literally: one representation update every K = 250 steps.
     MsprOptions cpu_state_sparse = cpu_state;
     cpu_state_sparse.representation.updates_per_step = 1.0 / 250.0;
-    train.push_back(TimeTraining("cpu_scale_states_repr_every_250", cpu_state_sparse, states, 2, n));
+    train.push_back(
+        TimeTraining("cpu_scale_states_repr_every_250", cpu_state_sparse, states, 2, n));
     MsprOptions paper_state = MakePreset("mspr", "paper");
     paper_state.trainer.device = device;
     if (!precision.empty()) paper_state.trainer.precision = precision;
@@ -305,9 +306,9 @@ int main(int argc, char** argv) {
       const TrainResult& r = train[i];
       j << "    {\"name\": \"" << r.name << "\", \"batch\": " << r.batch
         << ", \"timed_steps\": " << r.steps << ", \"steps_per_s\": " << r.steps_per_s
-        << ", \"ms_per_step\": " << r.ms_per_step << ", \"pipelined\": " << (r.pipelined ? "true" : "false")
-        << "}" << (i + 1 < train.size() ? "," : "")
-        << "\n";
+        << ", \"ms_per_step\": " << r.ms_per_step
+        << ", \"pipelined\": " << (r.pipelined ? "true" : "false") << "}"
+        << (i + 1 < train.size() ? "," : "") << "\n";
     }
     j << "  ],\n  \"cpu_scale_states_breakdown_ms\": {";
     for (size_t i = 0; i < breakdown.size(); ++i) {

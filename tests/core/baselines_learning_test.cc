@@ -39,7 +39,8 @@ TEST_P(BaselineLearningTest, PointInSquareReachesGoals) {
   o.trainer.seed = 7;
   o.trainer.log_every = 500;
   if (const char* s = std::getenv("MSSPR_LEARNING_STEPS")) o.trainer.steps = std::atoll(s);
-  if (const char* s = std::getenv("MSSPR_LEARNING_SEED")) o.trainer.seed = std::strtoull(s, nullptr, 10);
+  if (const char* s = std::getenv("MSSPR_LEARNING_SEED"))
+    o.trainer.seed = std::strtoull(s, nullptr, 10);
   Trainer trainer(o, point_square::ExpertDataset(300, 40, 1));
   Policy policy = trainer.MakePolicy();
   const double untrained = point_square::SuccessRate(policy, 100, 123);
@@ -47,22 +48,24 @@ TEST_P(BaselineLearningTest, PointInSquareReachesGoals) {
   TrainLoopOptions loop;
   loop.quiet = std::getenv("MSSPR_LEARNING_VERBOSE") == nullptr;
   trainer.Train(loop);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double trained = point_square::SuccessRate(policy, 100, 123);
-  std::printf("baseline learning test (%s): %lld steps in %.1f s; success untrained %.2f, trained %.2f\n",
-              c.agent.c_str(), static_cast<long long>(o.trainer.steps), seconds, untrained, trained);
+  std::printf(
+      "baseline learning test (%s): %lld steps in %.1f s; success untrained %.2f, trained %.2f\n",
+      c.agent.c_str(), static_cast<long long>(o.trainer.steps), seconds, untrained, trained);
   RecordProperty("untrained_success", std::to_string(untrained));
   RecordProperty("trained_success", std::to_string(trained));
   EXPECT_LT(untrained, 0.5);
   EXPECT_GE(trained, c.min_success);
 }
 
-INSTANTIATE_TEST_SUITE_P(Agents, BaselineLearningTest,
-                         // The DDPG+BC agents (small BC weights) learn through their critics: slower.
-                         testing::Values(Case{"gcbc", 2000, 0.9}, Case{"gcivl", 2000, 0.9},
-                                         Case{"gciql", 4000, 0.9}, Case{"qrl", 2000, 0.9},
-                                         Case{"crl", 8000, 0.7}, Case{"hiql", 2000, 0.9}),
-                         [](const testing::TestParamInfo<Case>& info) { return info.param.agent; });
+INSTANTIATE_TEST_SUITE_P(
+    Agents, BaselineLearningTest,
+    // The DDPG+BC agents (small BC weights) learn through their critics: slower.
+    testing::Values(Case{"gcbc", 2000, 0.9}, Case{"gcivl", 2000, 0.9}, Case{"gciql", 4000, 0.9},
+                    Case{"qrl", 2000, 0.9}, Case{"crl", 8000, 0.7}, Case{"hiql", 2000, 0.9}),
+    [](const testing::TestParamInfo<Case>& info) { return info.param.agent; });
 
 }  // namespace
 }  // namespace core

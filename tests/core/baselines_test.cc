@@ -1,13 +1,14 @@
 // OGBench's baseline agents: losses on hand-made batches against values
 // computed by hand or by an independent formula, where gradients flow,
 // presets, the sampler's OGBench transitions, checkpoints and export.
+#include "msspr_core/baselines.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
 
-#include "msspr_core/baselines.h"
 #include "msspr_core/batch_sampler.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/trainer.h"
@@ -67,7 +68,8 @@ void MakeConstant(OgMlp& mlp, double c) {
 }
 
 // Twin value heads (online and target) made constant: head 1 is c1, head 2 is c2.
-void MakeTwinConstant(OgMlp& v1, OgMlp& v2, OgMlp& target_v1, OgMlp& target_v2, double c1, double c2) {
+void MakeTwinConstant(OgMlp& v1, OgMlp& v2, OgMlp& target_v1, OgMlp& target_v2, double c1,
+                      double c2) {
   MakeConstant(v1, c1);
   MakeConstant(v2, c2);
   MakeConstant(target_v1, c1);
@@ -126,7 +128,8 @@ TEST(IqeDistance, EqualsTheUnionOfIntervalsMixedByMeanAndMax) {
   std::mt19937_64 rng(5);
   std::normal_distribution<double> n01(0, 1);
   const int64_t b = 6, c = 3, k = 4;
-  torch::Tensor x = torch::empty({b, c * k}, torch::kFloat64), y = torch::empty({b, c * k}, torch::kFloat64);
+  torch::Tensor x = torch::empty({b, c * k}, torch::kFloat64),
+                y = torch::empty({b, c * k}, torch::kFloat64);
   for (int64_t i = 0; i < b * c * k; ++i) {
     x.view(-1)[i] = n01(rng);
     y.view(-1)[i] = n01(rng);
@@ -155,7 +158,8 @@ TEST(IqeDistance, EqualsTheUnionOfIntervalsMixedByMeanAndMax) {
 TEST(IqeDistance, IsAQuasimetric) {
   torch::manual_seed(1);
   const torch::Tensor alpha = torch::zeros({1}, torch::kFloat64);
-  const torch::Tensor x = torch::randn({200, 16}, torch::kFloat64), y = torch::randn({200, 16}, torch::kFloat64),
+  const torch::Tensor x = torch::randn({200, 16}, torch::kFloat64),
+                      y = torch::randn({200, 16}, torch::kFloat64),
                       z = torch::randn({200, 16}, torch::kFloat64);
   EXPECT_EQ(IqeDistance(x, x, 8, alpha).abs().max().item<double>(), 0.0);
   const torch::Tensor dxy = IqeDistance(x, y, 8, alpha), dyz = IqeDistance(y, z, 8, alpha),
@@ -243,10 +247,10 @@ TEST(BaselineLoss, CrlIsBinaryNceOverAllPairs) {
   EXPECT_NEAR(Value(info, "critic"), expected, 1e-5);
   // The diagonal of the pair logits is the value of each row's own (s, a, g).
   const torch::Tensor v = agent->Value(b.obs, b.action, b.value_goal);
-  EXPECT_TRUE(torch::allclose(v.select(-1, 0), agent->PairLogits(0, b.obs, b.action, b.value_goal).diagonal(),
-                              1e-5, 1e-6));
-  EXPECT_TRUE(torch::allclose(v.select(-1, 1), agent->PairLogits(1, b.obs, b.action, b.value_goal).diagonal(),
-                              1e-5, 1e-6));
+  EXPECT_TRUE(torch::allclose(
+      v.select(-1, 0), agent->PairLogits(0, b.obs, b.action, b.value_goal).diagonal(), 1e-5, 1e-6));
+  EXPECT_TRUE(torch::allclose(
+      v.select(-1, 1), agent->PairLogits(1, b.obs, b.action, b.value_goal).diagonal(), 1e-5, 1e-6));
 }
 
 TEST(BaselineLoss, QrlLagrangianAndDynamics) {
@@ -260,7 +264,8 @@ TEST(BaselineLoss, QrlLagrangianAndDynamics) {
   NamedValues info;
   const torch::Tensor loss = agent->Loss(b, &info);
   // By formula from the agent's own distances.
-  const torch::Tensor z = agent->phi(b.obs), zn = agent->phi(b.next_obs), zg = agent->phi(b.value_goal);
+  const torch::Tensor z = agent->phi(b.obs), zn = agent->phi(b.next_obs),
+                      zg = agent->phi(b.value_goal);
   const torch::Tensor d_neg = agent->Distance(z, zg), d_pos = agent->Distance(z, zn);
   const double neg = (100.0 * torch::log1p(torch::exp(5.0 - d_neg / 100.0))).mean().item<double>();
   const double c = torch::relu(d_pos - 1).pow(2).mean().item<double>();
@@ -268,7 +273,8 @@ TEST(BaselineLoss, QrlLagrangianAndDynamics) {
   EXPECT_NEAR(Value(info, "constraint"), c, 1e-6);
   EXPECT_NEAR(Value(info, "lambda"), 2.0, 1e-6);
   const torch::Tensor zh = z + agent->dynamics(torch::cat({z, b.action}, -1));
-  EXPECT_NEAR(Value(info, "dyn"), ((agent->Distance(zn, zh) + agent->Distance(zh, zn)) / 2).mean().item<double>(),
+  EXPECT_NEAR(Value(info, "dyn"),
+              ((agent->Distance(zn, zh) + agent->Distance(zh, zn)) / 2).mean().item<double>(),
               1e-5);
   // d loss / d log_lambda = lambda (eps - C): lambda grows while the constraint is violated.
   agent->zero_grad();
@@ -287,7 +293,8 @@ TEST(BaselineLoss, HiqlWithConstantHeads) {
   EXPECT_NEAR(Value(info, "value"), TwinExpectileByHand(b, c1, c2, 0.7), 1e-5);  // expectile 0.7
   // Constant V: both advantages 0, weights 1: the actors' losses are their NLLs.
   const torch::Tensor low_in = torch::cat({b.obs, agent->GoalRep(b.obs, b.low_goal)}, -1);
-  EXPECT_NEAR(Value(info, "low_actor"), Nll(b.action, agent->low_actor->Mean(low_in)).mean().item<double>(), 1e-4);
+  EXPECT_NEAR(Value(info, "low_actor"),
+              Nll(b.action, agent->low_actor->Mean(low_in)).mean().item<double>(), 1e-4);
   const torch::Tensor z_star = agent->GoalRep(b.obs, b.high_target);
   const torch::Tensor high_mu = agent->high_actor->Mean(torch::cat({b.obs, b.high_goal}, -1));
   EXPECT_NEAR(Value(info, "high_actor"), Nll(z_star, high_mu).mean().item<double>(), 1e-4);
@@ -303,7 +310,8 @@ std::map<std::string, torch::Tensor> Grads(GcAgentImpl& agent, const TransitionB
   agent.Loss(b, nullptr).backward();
   std::map<std::string, torch::Tensor> g;
   for (const auto& p : agent.named_parameters()) {
-    g[p.key()] = p.value().grad().defined() ? p.value().grad().clone() : torch::zeros_like(p.value());
+    g[p.key()] =
+        p.value().grad().defined() ? p.value().grad().clone() : torch::zeros_like(p.value());
   }
   return g;
 }
@@ -337,7 +345,8 @@ void CheckGradientFlow(const std::string& name, const std::vector<std::string>& 
       actor_grad |= g.abs().sum().item<double>() > 0;
       continue;
     }
-    EXPECT_TRUE(torch::allclose(g, after.at(key), 1e-5, 1e-7)) << key << ": the actors' loss reaches it";
+    EXPECT_TRUE(torch::allclose(g, after.at(key), 1e-5, 1e-7))
+        << key << ": the actors' loss reaches it";
     if (key.rfind("target_", 0) == 0 || StartsWithAny(key, no_grad)) {
       EXPECT_EQ(g.abs().sum().item<double>(), 0.0) << key << " got a gradient";
     } else {
@@ -507,13 +516,16 @@ TEST_P(BaselineTrainer, ResumesExactlyAndExportsAPolicy) {
     wrong.LoadCheckpoint(dir.File("c.ckpt"));
     FAIL() << "loaded another agent's checkpoint";
   } catch (const CheckpointError& e) {
-    EXPECT_NE(std::string(e.what()).find("agent '" + GetParam() + "'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("agent '" + GetParam() + "'"), std::string::npos)
+        << e.what();
   }
 }
 
 INSTANTIATE_TEST_SUITE_P(Agents, BaselineTrainer,
                          testing::Values("gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"),
-                         [](const testing::TestParamInfo<std::string>& info) { return info.param; });
+                         [](const testing::TestParamInfo<std::string>& info) {
+                           return info.param;
+                         });
 
 }  // namespace
 }  // namespace core

@@ -29,9 +29,12 @@ TEST(BatchSamplerTest, ValueGoalProportions) {
   for (int k = 0; k < n; ++k) {
     const int64_t i = s.SampleStart(rng);
     const int64_t g = s.SampleValueGoal(i, rng);
-    if (g == i) ++cur;
-    else if (d.trajectory_of(g) == d.trajectory_of(i) && g > i) ++traj;
-    else ++other;
+    if (g == i)
+      ++cur;
+    else if (d.trajectory_of(g) == d.trajectory_of(i) && g > i)
+      ++traj;
+    else
+      ++other;
   }
   // Random goals land in the same trajectory's future ~0.5% of the time.
   EXPECT_NEAR(cur / double(n), 0.2, 0.01);

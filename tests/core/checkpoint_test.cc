@@ -23,7 +23,7 @@ using testing_util::WriteText;
 
 MsprOptions ResumeOptions() {
   MsprOptions o = TinyOptions();
-  o.agent.target_update_every = 3;         // target copies inside both halves
+  o.agent.target_update_every = 3;          // target copies inside both halves
   o.representation.updates_per_step = 0.5;  // fractional credit carried over
   return o;
 }
@@ -176,7 +176,8 @@ TEST(CheckpointTest, ContainerRejectsWrongVersionAndKind) {
   EXPECT_EQ(back.kind, "policy");
   EXPECT_EQ(back.header, f.header);
   EXPECT_EQ(back.payload, f.payload);
-  ExpectErrorNamesFile(dir.File("c.ckpt"), [&] { ReadCheckpointFile(dir.File("c.ckpt"), "trainer"); });
+  ExpectErrorNamesFile(dir.File("c.ckpt"),
+                       [&] { ReadCheckpointFile(dir.File("c.ckpt"), "trainer"); });
   std::string bytes = ReadText(dir.File("c.ckpt"));
   bytes[8] = 99;  // format version
   WriteText(dir.File("v.ckpt"), bytes);
@@ -262,7 +263,8 @@ TEST(CheckpointTest, NonFiniteWeightsNeverOverwriteTheLastGoodCheckpoint) {
     u.Train(loop, nullptr);
     FAIL() << "training went on with non-finite losses";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("non-finite loss at step 1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("non-finite loss at step 1"), std::string::npos)
+        << e.what();
   }
   EXPECT_FALSE(std::filesystem::exists(out.File("checkpoint.ckpt")));
   EXPECT_FALSE(std::filesystem::exists(out.File("policy.pt")));

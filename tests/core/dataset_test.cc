@@ -61,7 +61,8 @@ TEST(DatasetTest, ImagesAndFrameStacking) {
     const int T = 3;
     std::vector<float> act(T, 0.5f);
     std::vector<uint8_t> img;
-    for (int t = 0; t < T; ++t) img.insert(img.end(), shape.numel(), static_cast<uint8_t>(10 * e + t));
+    for (int t = 0; t < T; ++t)
+      img.insert(img.end(), shape.numel(), static_cast<uint8_t>(10 * e + t));
     b.AddEpisode({}, act, img);
   }
   const Dataset d = b.Build();
@@ -101,7 +102,8 @@ TEST(DatasetTest, RejectsBadSizes) {
 TEST(DatasetTest, FromArraysTakesOwnershipWithoutCopy) {
   std::vector<float> states(6, 1.0f), actions(3, 0.0f);
   const float* p = states.data();
-  const Dataset d = Dataset::FromArrays(std::move(states), 2, {}, {}, std::move(actions), 1, {0, 0, 1});
+  const Dataset d =
+      Dataset::FromArrays(std::move(states), 2, {}, {}, std::move(actions), 1, {0, 0, 1});
   EXPECT_EQ(d.state(0), p);
 }
 

@@ -3,13 +3,14 @@
 // group) average gradients to the whole batch's and keep identical
 // parameters. The two-process runs of msspr_train (checkpoint, resume,
 // export, a killed rank) are in tests/ros/agent_ros_test.cc.
+#include "msspr_core/distributed.h"
+
 #include <gtest/gtest.h>
 
 #include <functional>
 #include <mutex>
 #include <thread>
 
-#include "msspr_core/distributed.h"
 #include "msspr_core/trainer.h"
 #include "point_square.h"
 #include "test_util.h"
@@ -67,7 +68,8 @@ MsprOptions TinyBaseline(const std::string& agent) {
 
 std::vector<torch::Tensor> GradsOf(torch::nn::Module& m) {
   std::vector<torch::Tensor> g;
-  for (const auto& p : m.parameters()) g.push_back(p.grad().defined() ? p.grad().clone() : torch::Tensor());
+  for (const auto& p : m.parameters())
+    g.push_back(p.grad().defined() ? p.grad().clone() : torch::Tensor());
   return g;
 }
 
@@ -78,7 +80,8 @@ void ExpectSameGrads(const std::vector<torch::Tensor>& a, const std::vector<torc
     ASSERT_EQ(a[i].defined(), b[i].defined()) << what << " parameter " << i;
     if (a[i].defined()) {
       EXPECT_TRUE(torch::allclose(a[i], b[i], 1e-4, 1e-6))
-          << what << " parameter " << i << ": max diff " << (a[i] - b[i]).abs().max().item<double>();
+          << what << " parameter " << i << ": max diff "
+          << (a[i] - b[i]).abs().max().item<double>();
     }
   }
 }
@@ -86,7 +89,9 @@ void ExpectSameGrads(const std::vector<torch::Tensor>& a, const std::vector<torc
 // The first or second half of a batch's rows.
 TransitionBatch Half(const TransitionBatch& b, int half) {
   const int64_t n = b.obs.size(0) / 2;
-  auto h = [&](const torch::Tensor& t) { return t.defined() ? t.narrow(0, half * n, n).clone() : t; };
+  auto h = [&](const torch::Tensor& t) {
+    return t.defined() ? t.narrow(0, half * n, n).clone() : t;
+  };
   TransitionBatch o;
   o.obs = h(b.obs);
   o.action = h(b.action);
@@ -170,16 +175,20 @@ TEST_P(TwoRanks, TrainWithIdenticalParametersOnDifferentBatches) {
     }
     // Each rank draws its own part of the batch.
     const TransitionBatch b = t->baseline() ? t->SampleBaselineBatch() : t->SampleTransitions();
-    for (int64_t i = 0; i < b.obs.size(0); ++i) first_obs[rank].push_back(static_cast<int64_t>(1e6 * b.obs[i][0].item<float>()));
+    for (int64_t i = 0; i < b.obs.size(0); ++i)
+      first_obs[rank].push_back(static_cast<int64_t>(1e6 * b.obs[i][0].item<float>()));
   });
   ASSERT_EQ(params[0].size(), params[1].size());
   ASSERT_FALSE(params[0].empty());
-  for (size_t i = 0; i < params[0].size(); ++i) EXPECT_TRUE(torch::equal(params[0][i], params[1][i])) << "parameter " << i;
+  for (size_t i = 0; i < params[0].size(); ++i)
+    EXPECT_TRUE(torch::equal(params[0][i], params[1][i])) << "parameter " << i;
   EXPECT_NE(first_obs[0], first_obs[1]) << "both ranks sampled the same batch";
 }
 
 INSTANTIATE_TEST_SUITE_P(Agents, TwoRanks, testing::Values("mspr", "gcivl", "hiql"),
-                         [](const testing::TestParamInfo<std::string>& info) { return info.param; });
+                         [](const testing::TestParamInfo<std::string>& info) {
+                           return info.param;
+                         });
 
 TEST(Distributed, RejectsBadOptionsAndABatchThatDoesNotSplit) {
   DistributedOptions o;

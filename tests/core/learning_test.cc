@@ -37,7 +37,8 @@ TEST_P(LearningTest, PointInSquareReachesGoals) {
   o.trainer.seed = 7;
   // Overrides for experiments (the asserted configuration uses neither).
   if (const char* s = std::getenv("MSSPR_LEARNING_STEPS")) o.trainer.steps = std::atoll(s);
-  if (const char* s = std::getenv("MSSPR_LEARNING_SEED")) o.trainer.seed = std::strtoull(s, nullptr, 10);
+  if (const char* s = std::getenv("MSSPR_LEARNING_SEED"))
+    o.trainer.seed = std::strtoull(s, nullptr, 10);
   o.trainer.log_every = 500;  // before the Trainer, which copies its options
   Trainer trainer(o, ExpertDataset(300, 40, 1));
   Policy policy = trainer.MakePolicy();
@@ -51,10 +52,11 @@ TEST_P(LearningTest, PointInSquareReachesGoals) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double trained = SuccessRate(policy, 100, 123);
-  std::printf("learning test (%s): %lld steps in %.1f s (%.1f steps/s); success untrained %.2f, "
-              "trained %.2f\n",
-              o.trainer.precision.c_str(), static_cast<long long>(o.trainer.steps), seconds, o.trainer.steps / seconds,
-              untrained, trained);
+  std::printf(
+      "learning test (%s): %lld steps in %.1f s (%.1f steps/s); success untrained %.2f, "
+      "trained %.2f\n",
+      o.trainer.precision.c_str(), static_cast<long long>(o.trainer.steps), seconds,
+      o.trainer.steps / seconds, untrained, trained);
   RecordProperty("untrained_success", std::to_string(untrained));
   RecordProperty("trained_success", std::to_string(trained));
   EXPECT_LT(untrained, 0.5);
@@ -62,7 +64,9 @@ TEST_P(LearningTest, PointInSquareReachesGoals) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Precision, LearningTest, testing::Values("fp32", "bf16"),
-                         [](const testing::TestParamInfo<std::string>& info) { return info.param; });
+                         [](const testing::TestParamInfo<std::string>& info) {
+                           return info.param;
+                         });
 
 }  // namespace
 }  // namespace core

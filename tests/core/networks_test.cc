@@ -99,7 +99,8 @@ TEST(NetworksTest, LightCnnAndDownsampling) {
     EXPECT_EQ(enc->forward(img).sizes(), (std::vector<int64_t>{3, n.zs_dim}));
     // Three stride-2 convolutions: (64 / ds / 8)^2 x 32 features.
     const int64_t side = 64 / ds / 8;
-    EXPECT_EQ(enc->light_cnn->fc->net->ptr(0)->as<torch::nn::Linear>()->weight.size(1), 32 * side * side);
+    EXPECT_EQ(enc->light_cnn->fc->net->ptr(0)->as<torch::nn::Linear>()->weight.size(1),
+              32 * side * side);
     // Downsampling averages each ds x ds block of the image scaled to [0, 1].
     torch::Tensor x = img.permute({0, 3, 1, 2}).to(torch::kFloat32) / 255.0;
     x = x.view({3, 3, 64 / ds, ds, 64 / ds, ds}).mean({3, 5});
@@ -128,7 +129,9 @@ TEST(NetworksTest, CnnFeatureNormMakesTheLatentScaleFree) {
     const torch::Tensor img = torch::randint(0, 256, {2, 64, 64, 3}, torch::kUInt8);
     const torch::Tensor z = enc->forward(img);
     EXPECT_EQ(z.sizes(), (std::vector<int64_t>{2, n.zs_dim})) << cnn;
-    ASSERT_TRUE(static_cast<bool>(enc->light_cnn ? enc->light_cnn->feature_norm : enc->cnn->feature_norm)) << cnn;
+    ASSERT_TRUE(
+        static_cast<bool>(enc->light_cnn ? enc->light_cnn->feature_norm : enc->cnn->feature_norm))
+        << cnn;
     if (!enc->light_cnn) continue;  // Impala: the shape and the norm are there
     {
       torch::NoGradGuard no_grad;
@@ -158,7 +161,8 @@ TEST(NetworksTest, GoalVectorsHaveNormSqrtDim) {
   torch::manual_seed(1);
   const NetworkOptions n = StateNet();
   GoalHead psi(n);
-  const torch::Tensor g = psi->forward(torch::randn({10, n.zs_dim}) * 5, torch::randn({10, n.zs_dim}));
+  const torch::Tensor g =
+      psi->forward(torch::randn({10, n.zs_dim}) * 5, torch::randn({10, n.zs_dim}));
   const torch::Tensor norms = g.norm(2, -1);
   EXPECT_TRUE(torch::allclose(norms, torch::full({10}, std::sqrt(double(n.goal_dim))), 1e-5, 1e-5));
 }
@@ -187,11 +191,11 @@ TEST(NetworksTest, StableCheckpointKeys) {
   Representation repr(StateNet());
   std::vector<std::string> keys;
   for (const auto& kv : repr->named_parameters()) keys.push_back(kv.key());
-  for (const char* k : {"state_encoder.mlp.net.0.weight", "goal_head.mlp.net.2.weight",
-                        "action_encoder.linear.weight", "sa_encoder.mlp.net.0.weight",
-                        "predictors.dynamics.weight", "predictors.reward.bias",
-                        "predictors.inverse.weight", "predictors.goal_dynamics.weight",
-                        "predictors.goal_action.weight"}) {
+  for (const char* k :
+       {"state_encoder.mlp.net.0.weight", "goal_head.mlp.net.2.weight",
+        "action_encoder.linear.weight", "sa_encoder.mlp.net.0.weight", "predictors.dynamics.weight",
+        "predictors.reward.bias", "predictors.inverse.weight", "predictors.goal_dynamics.weight",
+        "predictors.goal_action.weight"}) {
     EXPECT_NE(std::find(keys.begin(), keys.end(), k), keys.end()) << k;
   }
   Critic critic(StateNet());

@@ -182,7 +182,9 @@ TEST_F(NpzTest, ExportRoundTripsAndNumpyReadsIt) {
     EXPECT_EQ(back.actions(), d.actions());
     const std::string check =
         "import numpy as np\n"
-        "z = np.load('" + out + "')\n"
+        "z = np.load('" +
+        out +
+        "')\n"
         "assert z['observations'].shape == (12, 2) and z['observations'].dtype == np.float32\n"
         "assert z['actions'].shape == (12, 3)\n"
         "assert list(np.nonzero(z['terminals'])[0]) == [2, 6, 11]\n"

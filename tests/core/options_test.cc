@@ -168,7 +168,8 @@ TEST(OptionsTest, ExplicitPresetWinsOverTheConfigsPreset) {
   EXPECT_NE(notes[0].find("--preset D overrides 'preset: mspr'"), std::string::npos) << notes[0];
   // An explicit scale wins too.
   notes.clear();
-  EXPECT_EQ(ResolveOptions("", "paper", {task}, &notes).network.zs_dim, MakePreset("mspr", "paper").network.zs_dim);
+  EXPECT_EQ(ResolveOptions("", "paper", {task}, &notes).network.zs_dim,
+            MakePreset("mspr", "paper").network.zs_dim);
   EXPECT_EQ(notes.size(), 1u);
 }
 
@@ -179,16 +180,17 @@ TEST(OptionsTest, ConfigsLayerInOrderWithoutResettingEachOther) {
   WriteText(b, "preset: DIR\ntrainer:\n  batch_size: 32\n");  // names a preset
   WriteText(c, "trainer:\n  steps: 7\n");
   const MsprOptions o = ResolveOptions("", "", {a, b, c});
-  EXPECT_EQ(o.network.zs_dim, 256);          // a's scale
+  EXPECT_EQ(o.network.zs_dim, 256);           // a's scale
   EXPECT_DOUBLE_EQ(o.agent.bc_weight, 0.02);  // a's key survives b's preset
-  EXPECT_EQ(o.trainer.batch_size, 32);       // b overrides a key by key
+  EXPECT_EQ(o.trainer.batch_size, 32);        // b overrides a key by key
   EXPECT_EQ(o.trainer.steps, 7);
   EXPECT_EQ(o.representation.weight_goal_act, 0.0);  // DIR
   EXPECT_GT(o.representation.weight_rew, 0.0);
   // No preset anywhere: the defaults (mspr, paper).
   const MsprOptions plain = ResolveOptions("", "", {c});
   EXPECT_EQ(plain.network.zs_dim, MakePreset("mspr", "paper").network.zs_dim);
-  EXPECT_EQ(plain.representation.weight_goal_act, MakePreset("mspr", "paper").representation.weight_goal_act);
+  EXPECT_EQ(plain.representation.weight_goal_act,
+            MakePreset("mspr", "paper").representation.weight_goal_act);
   // A bad name in a file names the file.
   const std::string bad = dir.File("bad.yaml");
   WriteText(bad, "preset: DX\n");
@@ -270,7 +272,8 @@ TEST(OptionsTest, EveryShippedConfigLoads) {
     // lists): a file is an options file when a top-level key is one of ours.
     const YAML::Node root = YAML::LoadFile(std::string(MSSPR_CONFIG_DIR) + "/" + f);
     bool ours = false;
-    for (const char* key : {"preset", "scale", "network", "representation", "agent", "relabel", "trainer"}) {
+    for (const char* key :
+         {"preset", "scale", "network", "representation", "agent", "relabel", "trainer"}) {
       ours |= root.IsMap() && root[key].IsDefined();
     }
     if (!ours) continue;

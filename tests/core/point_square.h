@@ -26,7 +26,9 @@ inline void EnvStep(float* s, const float* a) {
   for (int d = 0; d < 2; ++d) s[d] = Clip(s[d] + kStepSize * Clip(a[d], -1.f, 1.f), -1.f, 1.f);
 }
 
-inline float Distance(const float* a, const float* b) { return std::hypot(a[0] - b[0], a[1] - b[1]); }
+inline float Distance(const float* a, const float* b) {
+  return std::hypot(a[0] - b[0], a[1] - b[1]);
+}
 
 // Expert: straight toward its own goal, Gaussian noise (std 0.3), a new goal
 // whenever the current one is reached.
@@ -46,7 +48,8 @@ inline std::shared_ptr<const Dataset> ExpertDataset(int episodes, int length, ui
       const float dx = g[0] - s[0], dy = g[1] - s[1];
       const float dist = std::hypot(dx, dy);
       const float scale = dist > kStepSize ? 1.f / dist : 1.f / kStepSize;
-      float a[2] = {Clip(dx * scale + noise(rng), -1.f, 1.f), Clip(dy * scale + noise(rng), -1.f, 1.f)};
+      float a[2] = {Clip(dx * scale + noise(rng), -1.f, 1.f),
+                    Clip(dy * scale + noise(rng), -1.f, 1.f)};
       obs[2 * t] = s[0];
       obs[2 * t + 1] = s[1];
       act[2 * t] = a[0];

@@ -5,7 +5,6 @@
 #include <filesystem>
 
 #include "msspr_core/checkpoint.h"
-
 #include "msspr_core/trainer.h"
 #include "test_util.h"
 #include "torch_test_util.h"
@@ -35,11 +34,10 @@ TEST(PolicyTest, StateActSingleAndBatch) {
   const torch::Tensor a3 = p.Act(obs[3], goal[3]);
   EXPECT_EQ(a3.sizes(), (std::vector<int64_t>{2}));
   EXPECT_TRUE(torch::allclose(a3, a[3], 1e-5, 1e-6));
-  const std::vector<float> v = p.Act(std::vector<float>{obs[3][0].item<float>(), obs[3][1].item<float>(),
-                                                        obs[3][2].item<float>()},
-                                     std::vector<float>{goal[3][0].item<float>(),
-                                                        goal[3][1].item<float>(),
-                                                        goal[3][2].item<float>()});
+  const std::vector<float> v = p.Act(
+      std::vector<float>{obs[3][0].item<float>(), obs[3][1].item<float>(), obs[3][2].item<float>()},
+      std::vector<float>{goal[3][0].item<float>(), goal[3][1].item<float>(),
+                         goal[3][2].item<float>()});
   ASSERT_EQ(v.size(), 2u);
   EXPECT_NEAR(v[0], a[3][0].item<float>(), 1e-5);
   const torch::Tensor q = p.Q(obs, a, goal);
@@ -61,7 +59,8 @@ TEST(PolicyTest, ExportLoadsAndActsTheSame) {
   // Bit-exact on the CPU; a trainer on a GPU (MSSPR_TEST_DEVICE=cuda) against
   // the CPU export within float tolerance.
   auto same = [](const torch::Tensor& x, const torch::Tensor& y) {
-    return x.device() == y.device() ? torch::equal(x, y) : torch::allclose(x.cpu(), y.cpu(), 1e-4, 1e-5);
+    return x.device() == y.device() ? torch::equal(x, y)
+                                    : torch::allclose(x.cpu(), y.cpu(), 1e-4, 1e-5);
   };
   EXPECT_TRUE(same(live.Act(obs, goal), loaded.Act(obs, goal)));
   EXPECT_TRUE(same(live.Act(obs, goal), from_ckpt.Act(obs, goal)));
@@ -83,15 +82,19 @@ TEST(PolicyTest, AveragePoliciesIsTheMeanOfTheWeights) {
   }
   AveragePolicies({dir.File("p1.pt"), dir.File("p2.pt"), dir.File("p3.pt")}, dir.File("avg.pt"));
   Policy avg = Policy::Load(dir.File("avg.pt"));
-  EXPECT_TRUE(torch::allclose(testing_util::Flat(*avg.repr()), torch::stack(repr).mean(0), 1e-5, 1e-7));
-  EXPECT_TRUE(torch::allclose(testing_util::Flat(*avg.actor()), torch::stack(actor).mean(0), 1e-5, 1e-7));
-  EXPECT_TRUE(torch::allclose(testing_util::Flat(*avg.critic()), torch::stack(critic).mean(0), 1e-5, 1e-7));
+  EXPECT_TRUE(
+      torch::allclose(testing_util::Flat(*avg.repr()), torch::stack(repr).mean(0), 1e-5, 1e-7));
+  EXPECT_TRUE(
+      torch::allclose(testing_util::Flat(*avg.actor()), torch::stack(actor).mean(0), 1e-5, 1e-7));
+  EXPECT_TRUE(
+      torch::allclose(testing_util::Flat(*avg.critic()), torch::stack(critic).mean(0), 1e-5, 1e-7));
   EXPECT_FALSE(torch::allclose(testing_util::Flat(*avg.actor()), actor.back(), 1e-4, 1e-6));
   const MsprOptions stored = ReadCheckpointOptions(dir.File("avg.pt"));
   EXPECT_EQ(stored.network.obs_dim, 3);
   // One input: the same weights.
   AveragePolicies({dir.File("p2.pt")}, dir.File("one.pt"));
-  EXPECT_TRUE(torch::equal(testing_util::Flat(*Policy::Load(dir.File("one.pt")).actor()), actor[1]));
+  EXPECT_TRUE(
+      torch::equal(testing_util::Flat(*Policy::Load(dir.File("one.pt")).actor()), actor[1]));
 
   // Another network shape, a missing file: errors naming the input.
   MsprOptions wider = TinyOptions();

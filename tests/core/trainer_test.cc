@@ -42,8 +42,8 @@ double HuberValue(double d) { return std::abs(d) <= 1.0 ? 0.5 * d * d : std::abs
 
 // On `device` (MSSPR_TEST_DEVICE=cuda runs these on a GPU).
 TransitionBatch ToDevice(TransitionBatch b, const torch::Device& device) {
-  for (torch::Tensor* t : {&b.obs, &b.next_obs, &b.value_goal, &b.actor_goal, &b.action, &b.ret,
-                           &b.discount}) {
+  for (torch::Tensor* t :
+       {&b.obs, &b.next_obs, &b.value_goal, &b.actor_goal, &b.action, &b.ret, &b.discount}) {
     *t = t->to(device);
   }
   return b;
@@ -98,7 +98,8 @@ TEST(TrainerTest, CriticTargetIsClippedToReturnRange) {
   b.ret = torch::tensor({-1.0f, -1.0f, -1.0f, -1.0f});
   b.discount = torch::tensor({0.5f, 0.5f, 0.5f, 0.5f});
   // y = -1 - 5 = -6, clipped to -2: Huber(2) = 1.5 per head.
-  EXPECT_NEAR(t.CriticLoss(ToDevice(b, t.device()), torch::zeros({4, 2})).item<double>(), 3.0, 1e-5);
+  EXPECT_NEAR(t.CriticLoss(ToDevice(b, t.device()), torch::zeros({4, 2})).item<double>(), 3.0,
+              1e-5);
 }
 
 TEST(TrainerTest, ActorLossEqualsHandComputedValue) {
@@ -128,7 +129,7 @@ TEST(TrainerTest, TargetsGetNoGradientsAndEqualOnlineAfterHardUpdate) {
   o.agent.target_update_every = 4;
   Trainer t(o, RandomStateDataset());
   for (auto* m : std::vector<torch::nn::Module*>{t.target_repr().get(), t.target_critic().get(),
-                                                  t.target_actor().get()}) {
+                                                 t.target_actor().get()}) {
     for (const auto& p : m->parameters()) EXPECT_FALSE(p.requires_grad());
   }
   EXPECT_TRUE(torch::equal(Flat(*t.repr()), Flat(*t.target_repr())));
@@ -138,7 +139,7 @@ TEST(TrainerTest, TargetsGetNoGradientsAndEqualOnlineAfterHardUpdate) {
   EXPECT_FALSE(torch::equal(Flat(*t.repr()), Flat(*t.target_repr())));
   const torch::Tensor target_before = Flat(*t.target_actor());
   for (auto* m : std::vector<torch::nn::Module*>{t.target_repr().get(), t.target_critic().get(),
-                                                  t.target_actor().get()}) {
+                                                 t.target_actor().get()}) {
     for (const auto& p : m->parameters()) EXPECT_FALSE(p.grad().defined());
   }
   // Step 4: hard copy before the updates of that step.
@@ -195,8 +196,10 @@ TEST(TrainerTest, RepresentationLossTermsAndMasks) {
       EXPECT_TRUE(std::isfinite(v));
       EXPECT_GT(v, 0.0);
     }
-    EXPECT_NEAR(info.repr, 1.0 * info.dyn + 0.3 * info.rew + 0.1 * info.inv + 0.1 * info.goal_dyn +
-                               0.1 * info.goal_act, 1e-4 * std::abs(info.repr) + 1e-6);
+    EXPECT_NEAR(info.repr,
+                1.0 * info.dyn + 0.3 * info.rew + 0.1 * info.inv + 0.1 * info.goal_dyn +
+                    0.1 * info.goal_act,
+                1e-4 * std::abs(info.repr) + 1e-6);
     // Fully masked chunks contribute nothing.
     c.state_mask.zero_();
     c.action_mask.zero_();
@@ -329,7 +332,8 @@ TEST(TrainerTest, AugmentationIsDrawnOncePerBatch) {
   for (int rep = 0; rep < batches; ++rep) {
     const TransitionBatch tb = t.SampleTransitions();
     int shifted = 0;
-    for (int64_t k = 0; k < tb.obs.size(0); ++k) shifted += ShiftOf(tb.obs[k]) != std::make_pair(0, 0);
+    for (int64_t k = 0; k < tb.obs.size(0); ++k)
+      shifted += ShiftOf(tb.obs[k]) != std::make_pair(0, 0);
     // All or nothing: a batch drawn for augmentation has most samples shifted
     // (a sample's shift is (0, 0) with probability 1/49).
     EXPECT_TRUE(shifted == 0 || shifted >= tb.obs.size(0) / 2) << shifted;
@@ -341,7 +345,8 @@ TEST(TrainerTest, AugmentationIsDrawnOncePerBatch) {
   Trainer none(PixelOptions(0.0), PatternImageDataset(4, 30));
   for (int rep = 0; rep < 5; ++rep) {
     const TransitionBatch tb = none.SampleTransitions();
-    for (int64_t k = 0; k < tb.obs.size(0); ++k) EXPECT_EQ(ShiftOf(tb.obs[k]), std::make_pair(0, 0));
+    for (int64_t k = 0; k < tb.obs.size(0); ++k)
+      EXPECT_EQ(ShiftOf(tb.obs[k]), std::make_pair(0, 0));
   }
 }
 
@@ -371,21 +376,24 @@ double StepByStepRepresentationLoss(Trainer& t, const ChunkBatch& batch) {
     const torch::Tensor z_next = pred->Dynamics(zsa);
     const torch::Tensor tn = targets.select(1, h + 1);
     const double dyn = masked_mean((z_next - tn).pow(2).mean(-1), m_h).item<double>();
-    const double inv = masked_mean((pred->Inverse(z, tn) - a_h).pow(2).mean(-1), m_h).item<double>();
+    const double inv =
+        masked_mean((pred->Inverse(z, tn) - a_h).pow(2).mean(-1), m_h).item<double>();
     const torch::Tensor two_hot = TwoHotEncode(batch.mc_return.select(1, h), bins);
     const double rew =
         masked_mean(-(two_hot * torch::log_softmax(pred->Reward(zsa, grep), -1)).sum(-1), m_h)
             .item<double>();
-    const double gdyn = masked_mean((pred->GoalDynamics(z, grep) - targets.select(1, h + k)).pow(2).mean(-1),
-                                    batch.state_mask.select(1, h + k))
-                            .item<double>();
+    const double gdyn =
+        masked_mean((pred->GoalDynamics(z, grep) - targets.select(1, h + k)).pow(2).mean(-1),
+                    batch.state_mask.select(1, h + k))
+            .item<double>();
     const torch::Tensor ga_mask = batch.action_mask.narrow(1, h, k);
-    const double gact = ((pred->GoalActions(z, grep) - batch.actions.narrow(1, h, k)).pow(2).mean(-1) * ga_mask)
-                            .sum()
-                            .item<double>() /
-                        std::max(1.0, ga_mask.sum().item<double>());
-    total += r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv + r.weight_goal_dyn * gdyn +
-             r.weight_goal_act * gact;
+    const double gact =
+        ((pred->GoalActions(z, grep) - batch.actions.narrow(1, h, k)).pow(2).mean(-1) * ga_mask)
+            .sum()
+            .item<double>() /
+        std::max(1.0, ga_mask.sum().item<double>());
+    total += r.weight_dyn * dyn + r.weight_rew * rew + r.weight_inv * inv +
+             r.weight_goal_dyn * gdyn + r.weight_goal_act * gact;
     z = z_next;
   }
   return total;
@@ -416,7 +424,8 @@ TEST(TrainerTest, RewardGoalsTrajectoryMasksGoalsOutsideTheTrajectory) {
   ChunkBatch c = t.SampleChunks();
   const float ahead = c.goal_ahead.sum().item<float>();
   ASSERT_GT(ahead, 0.0f);
-  ASSERT_LT(ahead, static_cast<float>(c.goal_ahead.numel())) << "the batch needs goals of both kinds";
+  ASSERT_LT(ahead, static_cast<float>(c.goal_ahead.numel()))
+      << "the batch needs goals of both kinds";
   torch::NoGradGuard no_grad;
   LossInfo before, after, all_info;
   t.RepresentationLoss(c, &before);
@@ -513,57 +522,58 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
   if (!torch::Device(TinyOptions().trainer.device).is_cpu()) GTEST_SKIP() << "CPU only";
   ThreadCountGuard guard;
   for (bool through : {false, true})
-  for (const char* precision : {"fp32", "bf16"}) {
-    for (double updates : {1.0, 0.5, 2.0}) {
-      for (bool pixels : {false, true}) {
-        if (updates == 2.0 && (pixels || !through)) continue;
-        MsprOptions o = pixels ? PixelOptions(0.5) : TinyOptions();
-        o.trainer.precision = precision;
-        o.representation.updates_per_step = updates;
-        o.agent.critic_grad_to_encoder = through;
-        o.trainer.policy_ema = through ? 0.9 : 0.0;
-        o.agent.target_update_every = 4;  // target copies inside the run
-        auto data = pixels ? testing_util::RandomImageDataset() : RandomStateDataset();
-        // 10 steps, losses read back on every third; the trainer and those losses.
-        auto run = [&](const char* pipeline, int threads, std::vector<LossInfo>* info) {
-          o.trainer.pipeline = pipeline;
-          torch::set_num_threads(threads);
-          auto t = std::make_unique<Trainer>(o, data);
-          EXPECT_EQ(t->pipelined(), threads > 1);
-          for (int i = 0; i < 10; ++i) info->push_back(t->Step(i % 3 == 2));
-          return t;
-        };
-        std::vector<LossInfo> seq_info, pipe_info;
-        const auto seq_trainer = run("off", 1, &seq_info);
-        const auto pipe_trainer = run("auto", 2, &pipe_info);
-        Trainer& sequential = *seq_trainer;
-        Trainer& pipelined = *pipe_trainer;
-        const std::string what = std::string(precision) + " updates_per_step " + std::to_string(updates) +
-                                 (pixels ? " pixels" : " state") + (through ? " critic_grad_to_encoder" : "");
-        EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
-        if (through) {
-          // The moving average took in the same weights at the same points.
-          EXPECT_TRUE(torch::equal(Flat(*sequential.ema_actor()), Flat(*pipelined.ema_actor())))
-              << what;
+    for (const char* precision : {"fp32", "bf16"}) {
+      for (double updates : {1.0, 0.5, 2.0}) {
+        for (bool pixels : {false, true}) {
+          if (updates == 2.0 && (pixels || !through)) continue;
+          MsprOptions o = pixels ? PixelOptions(0.5) : TinyOptions();
+          o.trainer.precision = precision;
+          o.representation.updates_per_step = updates;
+          o.agent.critic_grad_to_encoder = through;
+          o.trainer.policy_ema = through ? 0.9 : 0.0;
+          o.agent.target_update_every = 4;  // target copies inside the run
+          auto data = pixels ? testing_util::RandomImageDataset() : RandomStateDataset();
+          // 10 steps, losses read back on every third; the trainer and those losses.
+          auto run = [&](const char* pipeline, int threads, std::vector<LossInfo>* info) {
+            o.trainer.pipeline = pipeline;
+            torch::set_num_threads(threads);
+            auto t = std::make_unique<Trainer>(o, data);
+            EXPECT_EQ(t->pipelined(), threads > 1);
+            for (int i = 0; i < 10; ++i) info->push_back(t->Step(i % 3 == 2));
+            return t;
+          };
+          std::vector<LossInfo> seq_info, pipe_info;
+          const auto seq_trainer = run("off", 1, &seq_info);
+          const auto pipe_trainer = run("auto", 2, &pipe_info);
+          Trainer& sequential = *seq_trainer;
+          Trainer& pipelined = *pipe_trainer;
+          const std::string what = std::string(precision) + " updates_per_step " +
+                                   std::to_string(updates) + (pixels ? " pixels" : " state") +
+                                   (through ? " critic_grad_to_encoder" : "");
+          EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
+          if (through) {
+            // The moving average took in the same weights at the same points.
+            EXPECT_TRUE(torch::equal(Flat(*sequential.ema_actor()), Flat(*pipelined.ema_actor())))
+                << what;
+          }
+          for (int i = 2; i < 10; i += 3) {
+            EXPECT_TRUE(std::isfinite(pipe_info[i].critic)) << what;
+            EXPECT_EQ(seq_info[i].critic, pipe_info[i].critic) << what << " step " << i;
+            EXPECT_EQ(seq_info[i].actor, pipe_info[i].actor) << what << " step " << i;
+          }
+          // Steps without losses return before their actor-critic update is done;
+          // the accessors wait for it (and it ran: the critic moved).
+          const torch::Tensor before = Flat(*pipelined.critic()).clone();
+          const torch::Tensor actor_before = Flat(*pipelined.actor()).clone();
+          pipelined.Step(false);
+          EXPECT_FALSE(torch::equal(before, Flat(*pipelined.critic()))) << what;
+          // A deferred actor update (critic_grad_to_encoder) is run by the accessor.
+          EXPECT_FALSE(torch::equal(actor_before, Flat(*pipelined.actor()))) << what;
+          // Threads as the user set them, after the step.
+          EXPECT_EQ(torch::get_num_threads(), 2);
         }
-        for (int i = 2; i < 10; i += 3) {
-          EXPECT_TRUE(std::isfinite(pipe_info[i].critic)) << what;
-          EXPECT_EQ(seq_info[i].critic, pipe_info[i].critic) << what << " step " << i;
-          EXPECT_EQ(seq_info[i].actor, pipe_info[i].actor) << what << " step " << i;
-        }
-        // Steps without losses return before their actor-critic update is done;
-        // the accessors wait for it (and it ran: the critic moved).
-        const torch::Tensor before = Flat(*pipelined.critic()).clone();
-        const torch::Tensor actor_before = Flat(*pipelined.actor()).clone();
-        pipelined.Step(false);
-        EXPECT_FALSE(torch::equal(before, Flat(*pipelined.critic()))) << what;
-        // A deferred actor update (critic_grad_to_encoder) is run by the accessor.
-        EXPECT_FALSE(torch::equal(actor_before, Flat(*pipelined.actor()))) << what;
-        // Threads as the user set them, after the step.
-        EXPECT_EQ(torch::get_num_threads(), 2);
       }
     }
-  }
 }
 
 // trainer.pipeline: "auto" pipelines on a CPU with 2 or more threads (with
@@ -642,7 +652,8 @@ TEST(TrainerTest, PolicyAverageIsTheRunningMeanThenAnEma) {
     EXPECT_FALSE(torch::equal(Flat(*t.actor()), raw)) << "step " << s << " did not train the actor";
     const double d = std::min(0.8, s / (s + 1.0));
     expected = d * expected + (1 - d) * raw.to(torch::kFloat64);
-    EXPECT_TRUE(torch::allclose(Flat(*t.ema_actor()).to(torch::kFloat64), expected, 1e-5, 1e-7)) << "step " << s;
+    EXPECT_TRUE(torch::allclose(Flat(*t.ema_actor()).to(torch::kFloat64), expected, 1e-5, 1e-7))
+        << "step " << s;
     if (s == 3) {
       // The plain mean of the initial copy and the actors of steps 0, 1, 2.
       const torch::Tensor mean = torch::stack(seen).mean(0);

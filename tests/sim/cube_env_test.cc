@@ -375,7 +375,8 @@ TEST(CubeEnvTest, SetGoalObservationRendersItsGoalImageAndKeepsTheState) {
   ASSERT_GT(moved.count, 0);
   ASSERT_GT(before.count, 0);
   EXPECT_GT(std::hypot(moved.col - before.col, moved.row - before.row), 5.0);
-  // The episode is untouched: both envs (the twin's marker moved the plain way) step on identically.
+  // The episode is untouched: both envs (the twin's marker moved the plain way) step on
+  // identically.
   twin.SetGoal(CubePositionFromObservation(g.data()), CubeYawFromObservation(g.data()));
   for (int k = 0; k < 5; ++k) {
     env.Step(a);

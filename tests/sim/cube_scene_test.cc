@@ -1,7 +1,6 @@
 #include "msspr_sim/cube_scene.h"
 
 #include <gtest/gtest.h>
-
 #include <mujoco/mujoco.h>
 
 #include <algorithm>

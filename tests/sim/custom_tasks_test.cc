@@ -1,6 +1,4 @@
 #include "msspr_sim/custom_tasks.h"
-#include "msspr_sim/eval_protocol.h"
-#include "msspr_sim/maze_plot.h"
 
 #include <gtest/gtest.h>
 
@@ -9,6 +7,9 @@
 #include <iterator>
 #include <set>
 #include <stdexcept>
+
+#include "msspr_sim/eval_protocol.h"
+#include "msspr_sim/maze_plot.h"
 
 namespace msspr::sim {
 namespace {
@@ -62,7 +63,8 @@ TEST(CustomTasksTest, RandomTasksAreDeterministicFreeAndFarEnoughApart) {
 TEST(CustomTasksTest, YamlRoundTripsExactly) {
   const MazeMap map = MazeMap::FromName("large");
   const auto tasks = RandomCustomTasks(map, 20, 11, 2, 0.8);
-  const std::string path = TmpFile("round_trip.yaml", CustomTasksYaml(map, tasks, "made by a test\nsecond line"));
+  const std::string path =
+      TmpFile("round_trip.yaml", CustomTasksYaml(map, tasks, "made by a test\nsecond line"));
   const auto back = LoadCustomTasks(path, &map);
   ASSERT_EQ(back.size(), tasks.size());
   for (size_t k = 0; k < tasks.size(); ++k) {
@@ -72,26 +74,36 @@ TEST(CustomTasksTest, YamlRoundTripsExactly) {
   }
   // The shipped example file loads.
   const MazeMap medium = MazeMap::FromName("medium");
-  EXPECT_EQ(LoadCustomTasks(std::string(MSSPR_SOURCE_DIR) + "/config/eval_tasks_medium_easy.yaml", &medium).size(), 3u);
+  EXPECT_EQ(LoadCustomTasks(std::string(MSSPR_SOURCE_DIR) + "/config/eval_tasks_medium_easy.yaml",
+                            &medium)
+                .size(),
+            3u);
 }
 
 TEST(CustomTasksTest, BadFilesSayWhatIsWrong) {
   const MazeMap map = MazeMap::FromName("medium");
   EXPECT_NE(LoadError("tasks: []\n", &map).find("non-empty list 'tasks'"), std::string::npos);
-  EXPECT_NE(LoadError("tasks:\n  - {id: 1, start: [0, 0], goal: [4, 0], speed: 2}\n", &map).find("unknown key 'speed'"),
+  EXPECT_NE(LoadError("tasks:\n  - {id: 1, start: [0, 0], goal: [4, 0], speed: 2}\n", &map)
+                .find("unknown key 'speed'"),
             std::string::npos);
-  EXPECT_NE(LoadError("tasks:\n  - {id: 1, start: [0, 0], goal: [4, 0]}\n  - {id: 1, start: [0, 0], goal: [4, 0]}\n",
-                      &map).find("appears twice"),
+  EXPECT_NE(LoadError("tasks:\n  - {id: 1, start: [0, 0], goal: [4, 0]}\n  - {id: 1, start: [0, "
+                      "0], goal: [4, 0]}\n",
+                      &map)
+                .find("appears twice"),
             std::string::npos);
-  EXPECT_NE(LoadError("tasks:\n  - {id: 2, start: [0, 0, 1], goal: [4, 0]}\n", &map).find("task 2: start"),
+  EXPECT_NE(LoadError("tasks:\n  - {id: 2, start: [0, 0, 1], goal: [4, 0]}\n", &map)
+                .find("task 2: start"),
             std::string::npos);
-  EXPECT_NE(LoadError("tasks:\n  - {id: 3, start: [0, 0], goal: [-4, 0]}\n", &map).find("task 3: goal (-4.000, 0.000) is inside a wall"),
+  EXPECT_NE(LoadError("tasks:\n  - {id: 3, start: [0, 0], goal: [-4, 0]}\n", &map)
+                .find("task 3: goal (-4.000, 0.000) is inside a wall"),
             std::string::npos);
-  EXPECT_NE(LoadError("maze: giant\ntasks:\n  - {id: 1, start: [0, 0], goal: [4, 0]}\n", &map).find("'giant', not 'medium'"),
+  EXPECT_NE(LoadError("maze: giant\ntasks:\n  - {id: 1, start: [0, 0], goal: [4, 0]}\n", &map)
+                .find("'giant', not 'medium'"),
             std::string::npos);
   EXPECT_NE(LoadError("tasks: [\n", &map), "");
   // Without a map, walls and the maze name are not checked.
-  EXPECT_EQ(LoadError("maze: giant\ntasks:\n  - {id: 3, start: [0, 0], goal: [-4, 0]}\n", nullptr), "");
+  EXPECT_EQ(LoadError("maze: giant\ntasks:\n  - {id: 3, start: [0, 0], goal: [-4, 0]}\n", nullptr),
+            "");
   EXPECT_THROW(LoadCustomTasks("/nonexistent/tasks.yaml"), std::runtime_error);
 }
 
@@ -106,14 +118,17 @@ TEST(CustomTasksTest, ScalarFieldPlotWritesAPngAndRejectsBadInput) {
   }
   SaveScalarFieldPlot(map, xy, v, 4.0, -20, 0, ColorScale::kSequential, {0, 0}, "test", path, 16);
   std::ifstream f(path, std::ios::binary);
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)),
+                                         std::istreambuf_iterator<char>());
   ASSERT_GT(bytes.size(), 100u);
   EXPECT_EQ(bytes[1], 'P');
-  EXPECT_THROW(SaveScalarFieldPlot(map, xy, {1.0}, 4.0, -20, 0, ColorScale::kSequential, {0, 0}, "", path),
-               std::invalid_argument);
+  EXPECT_THROW(
+      SaveScalarFieldPlot(map, xy, {1.0}, 4.0, -20, 0, ColorScale::kSequential, {0, 0}, "", path),
+      std::invalid_argument);
   EXPECT_THROW(SaveScalarFieldPlot(map, xy, v, 4.0, 0, 0, ColorScale::kDiverging, {0, 0}, "", path),
                std::invalid_argument);
-  EXPECT_THROW(SaveScalarFieldPlot(map, xy, v, 4.0, -1, 1, ColorScale::kDiverging, {0, 0}, "", "/nonexistent/x.png"),
+  EXPECT_THROW(SaveScalarFieldPlot(map, xy, v, 4.0, -1, 1, ColorScale::kDiverging, {0, 0}, "",
+                                   "/nonexistent/x.png"),
                std::runtime_error);
 }
 

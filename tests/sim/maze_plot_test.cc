@@ -1,5 +1,4 @@
 #include "msspr_sim/maze_plot.h"
-#include "msspr_sim/learning_curve.h"
 
 #include <gtest/gtest.h>
 
@@ -8,6 +7,8 @@
 #include <fstream>
 #include <iterator>
 #include <stdexcept>
+
+#include "msspr_sim/learning_curve.h"
 
 namespace msspr::sim {
 namespace {
@@ -48,12 +49,14 @@ TEST(LearningCurveTest, DrawsTheCsvsOfARunAndRejectsABadRow) {
   std::remove(metrics.c_str());
   EXPECT_FALSE(SaveLearningCurvePlot(eval, metrics, png));
   EXPECT_FALSE(std::filesystem::exists(png));
-  std::ofstream(eval) << "step,name,value\n10,val_critic,1.5\n10,success_task1,0.2\n10,mean_success,0.1\n"
-                      << "20,success_task1,0.6\n20,mean_success,0.4\n";
+  std::ofstream(eval)
+      << "step,name,value\n10,val_critic,1.5\n10,success_task1,0.2\n10,mean_success,0.1\n"
+      << "20,success_task1,0.6\n20,mean_success,0.4\n";
   std::ofstream(metrics) << "step,wall_s,repr,critic\n1,0.1,5,nan\n2,0.2,4.5,2.25\n20,2,0.5,0.01\n";
   ASSERT_TRUE(SaveLearningCurvePlot(eval, metrics, png));
   std::ifstream f(png, std::ios::binary);
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)),
+                                         std::istreambuf_iterator<char>());
   ASSERT_GT(bytes.size(), 24u);
   EXPECT_EQ(bytes[1], 'P');
   EXPECT_EQ(BigEndian(bytes, 16), 760u);  // width

@@ -111,7 +111,8 @@ class GcAgentImpl : public torch::nn::Module {
   std::vector<int64_t> Sizes(int64_t in, int64_t out) const;
   // The DDPG+BC actor loss shared by gciql, qrl and crl:
   // -E[q] / sg(E|q| + 1e-6) - alpha * E[log pi(a | s, g)].
-  torch::Tensor DdpgBcLoss(const torch::Tensor& q, const torch::Tensor& log_prob, NamedValues* info);
+  torch::Tensor DdpgBcLoss(const torch::Tensor& q, const torch::Tensor& log_prob,
+                           NamedValues* info);
 
   MsprOptions options_;
   int64_t obs_dim_, action_dim_;
@@ -193,10 +194,10 @@ class QrlAgent : public GcActorAgent {
   // phi(s) + f([phi(s), a]).
   torch::Tensor PredictLatent(const torch::Tensor& z, const torch::Tensor& action);
 
-  OgMlp phi{nullptr};           // the encoder of states and goals
-  OgMlp dynamics{nullptr};      // f([z, a]) -> latent residual
-  torch::Tensor alpha_raw;      // IQE mix sigmoid(alpha_raw), init 0
-  torch::Tensor log_lambda;     // Lagrange multiplier, init 0
+  OgMlp phi{nullptr};        // the encoder of states and goals
+  OgMlp dynamics{nullptr};   // f([z, a]) -> latent residual
+  torch::Tensor alpha_raw;   // IQE mix sigmoid(alpha_raw), init 0
+  torch::Tensor log_lambda;  // Lagrange multiplier, init 0
 };
 
 class CrlAgent : public GcActorAgent {

@@ -16,8 +16,9 @@ namespace core {
 
 // A batch of B transitions for the critic and actor.
 struct TransitionIndices {
-  std::vector<int64_t> idx;         // [B] state s_t (and action a_t)
-  std::vector<int64_t> next_idx;    // [B] bootstrap state s_{t+m}, m = min(n, steps to trajectory end)
+  std::vector<int64_t> idx;  // [B] state s_t (and action a_t)
+  std::vector<int64_t>
+      next_idx;  // [B] bootstrap state s_{t+m}, m = min(n, steps to trajectory end)
   std::vector<int64_t> value_goal;  // [B] goal of the critic
   std::vector<int64_t> actor_goal;  // [B] goal of the actor
   std::vector<float> ret;           // [B] n-step return R^(n) to value_goal, rewards in {-1, 0}
@@ -36,19 +37,19 @@ struct TransitionIndices {
 // L = max(H, H - 1 + k) + 1 and A = max(H, H - 1 + k) (k = goal horizon);
 // indices past the trajectory's end are clamped to it and masked out.
 struct ChunkIndices {
-  int batch = 0;                     // B
-  int horizon = 0;                   // H
-  int num_states = 0;                // L
-  int num_actions = 0;               // A
-  std::vector<int64_t> states;       // [B, L]
-  std::vector<float> state_mask;     // [B, L] 1 when s_{t+j} is in the trajectory
-  std::vector<int64_t> actions;      // [B, A]
-  std::vector<float> action_mask;    // [B, A] 1 when a_{t+j} has a next state in the trajectory
-  std::vector<int64_t> goal;         // [B] value-relabelled goal of the chunk
-  std::vector<float> mc_return;      // [B, H] Monte Carlo return from s_{t+h} to the goal along
-                                     //        the trajectory; -1/(1-gamma) when never reached
-  std::vector<float> goal_ahead;     // [B, H] 1 when the goal lies ahead of s_{t+h} in its own
-                                     //        trajectory (so mc_return is its true return)
+  int batch = 0;                   // B
+  int horizon = 0;                 // H
+  int num_states = 0;              // L
+  int num_actions = 0;             // A
+  std::vector<int64_t> states;     // [B, L]
+  std::vector<float> state_mask;   // [B, L] 1 when s_{t+j} is in the trajectory
+  std::vector<int64_t> actions;    // [B, A]
+  std::vector<float> action_mask;  // [B, A] 1 when a_{t+j} has a next state in the trajectory
+  std::vector<int64_t> goal;       // [B] value-relabelled goal of the chunk
+  std::vector<float> mc_return;    // [B, H] Monte Carlo return from s_{t+h} to the goal along
+                                   //        the trajectory; -1/(1-gamma) when never reached
+  std::vector<float> goal_ahead;   // [B, H] 1 when the goal lies ahead of s_{t+h} in its own
+                                   //        trajectory (so mc_return is its true return)
 };
 
 class BatchSampler {

@@ -28,7 +28,7 @@ class CheckpointError : public std::runtime_error {
 constexpr uint32_t kCheckpointFormatVersion = 1;
 
 struct CheckpointFile {
-  std::string kind;     // "trainer" or "policy"
+  std::string kind;  // "trainer" or "policy"
   uint32_t version = 0;
   std::string header;   // YAML text
   std::string payload;  // LibTorch archive bytes
@@ -38,8 +38,8 @@ struct CheckpointFile {
 struct CheckpointHeader {
   MsprOptions options;
   int64_t step = 0;
-  double repr_credit = 0.0;   // fractional representation updates carried over
-  std::string sampler_rng;    // std::mt19937_64 state as text (trainer checkpoints)
+  double repr_credit = 0.0;  // fractional representation updates carried over
+  std::string sampler_rng;   // std::mt19937_64 state as text (trainer checkpoints)
   // Data-parallel runs: every rank's random state (sampler RNG and torch
   // generator, as Trainer writes them), index = rank; empty otherwise.
   std::vector<std::string> rank_states;
@@ -60,14 +60,16 @@ CheckpointHeader ParseCheckpointHeader(const std::string& yaml, const std::strin
 // (pid + random suffix), fsync, rename over `path`, fsync of the directory.
 // keep_previous: the file being replaced stays as `path`.prev. Leftover
 // temporaries of killed writers are removed. Throws CheckpointError.
-void WriteCheckpointFile(const std::string& path, const CheckpointFile& file, bool keep_previous = false);
+void WriteCheckpointFile(const std::string& path, const CheckpointFile& file,
+                         bool keep_previous = false);
 // Reads and verifies (magic, version, lengths, CRC). When expected_kind is
 // not empty the kind must match. Throws CheckpointError naming the file.
 CheckpointFile ReadCheckpointFile(const std::string& path, const std::string& expected_kind = "");
 // As ReadCheckpointFile; when `path` is missing, truncated or fails its CRC
 // and `path`.prev exists, says so on stderr and reads that instead.
 // used_path (optional) receives the file actually read.
-CheckpointFile ReadCheckpointFileOrPrevious(const std::string& path, const std::string& expected_kind = "",
+CheckpointFile ReadCheckpointFileOrPrevious(const std::string& path,
+                                            const std::string& expected_kind = "",
                                             std::string* used_path = nullptr);
 
 // An exclusive flock on DIR/.lock for as long as the object lives (the kernel

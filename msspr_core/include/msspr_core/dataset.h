@@ -44,24 +44,30 @@ class Dataset {
                             ImageShape image_shape, std::vector<float> actions, int action_dim,
                             const std::vector<uint8_t>& terminals);
 
-  int64_t size() const { return size_; }                     // N steps
+  int64_t size() const { return size_; }  // N steps
   int64_t num_trajectories() const { return static_cast<int64_t>(traj_starts_.size()); }
-  int obs_dim() const { return obs_dim_; }                    // 0 when no states
+  int obs_dim() const { return obs_dim_; }  // 0 when no states
   int action_dim() const { return action_dim_; }
   bool has_states() const { return obs_dim_ > 0; }
   bool has_images() const { return !image_shape_.empty(); }
   const ImageShape& image_shape() const { return image_shape_; }
 
-  const float* state(int64_t i) const { return states_.data() + i * obs_dim_; }    // [obs_dim]
-  const uint8_t* image(int64_t i) const { return images_.data() + i * image_shape_.numel(); }  // [H, W, C]
-  const float* action(int64_t i) const { return actions_.data() + i * action_dim_; }  // [action_dim]
-  const std::vector<float>& states() const { return states_; }     // [N, obs_dim]
-  const std::vector<uint8_t>& images() const { return images_; }   // [N, H, W, C]
-  const std::vector<float>& actions() const { return actions_; }   // [N, action_dim]
+  const float* state(int64_t i) const { return states_.data() + i * obs_dim_; }  // [obs_dim]
+  const uint8_t* image(int64_t i) const {
+    return images_.data() + i * image_shape_.numel();
+  }  // [H, W, C]
+  const float* action(int64_t i) const {
+    return actions_.data() + i * action_dim_;
+  }                                                               // [action_dim]
+  const std::vector<float>& states() const { return states_; }    // [N, obs_dim]
+  const std::vector<uint8_t>& images() const { return images_; }  // [N, H, W, C]
+  const std::vector<float>& actions() const { return actions_; }  // [N, action_dim]
 
   int64_t trajectory_of(int64_t i) const { return traj_id_[i]; }
   int64_t trajectory_start(int64_t i) const { return traj_starts_[traj_id_[i]]; }
-  int64_t trajectory_end(int64_t i) const { return traj_ends_[traj_id_[i]]; }  // last step (inclusive)
+  int64_t trajectory_end(int64_t i) const {
+    return traj_ends_[traj_id_[i]];
+  }  // last step (inclusive)
   const std::vector<int64_t>& trajectory_starts() const { return traj_starts_; }
   const std::vector<int64_t>& trajectory_ends() const { return traj_ends_; }
   // Steps that have a next state (all but each trajectory's last): the
@@ -84,13 +90,13 @@ class Dataset {
   int obs_dim_ = 0;
   int action_dim_ = 0;
   ImageShape image_shape_;
-  std::vector<float> states_;    // [N, obs_dim]
-  std::vector<uint8_t> images_;  // [N, H, W, C]
-  std::vector<float> actions_;   // [N, action_dim]
-  std::vector<int32_t> traj_id_;       // [N]
-  std::vector<int64_t> traj_starts_;   // [num_trajectories]
-  std::vector<int64_t> traj_ends_;     // [num_trajectories] inclusive
-  std::vector<int64_t> valid_;         // non-terminal steps
+  std::vector<float> states_;         // [N, obs_dim]
+  std::vector<uint8_t> images_;       // [N, H, W, C]
+  std::vector<float> actions_;        // [N, action_dim]
+  std::vector<int32_t> traj_id_;      // [N]
+  std::vector<int64_t> traj_starts_;  // [num_trajectories]
+  std::vector<int64_t> traj_ends_;    // [num_trajectories] inclusive
+  std::vector<int64_t> valid_;        // non-terminal steps
 };
 
 // Fills a Dataset episode by episode (e.g. from a ROS bag); the data are

@@ -32,7 +32,8 @@ TORCH_MODULE(Mlp);
 class ResidualBlockImpl : public torch::nn::Module {
  public:
   ResidualBlockImpl(int64_t in_channels, int64_t features);
-  torch::Tensor forward(const torch::Tensor& x);  // [B, in, H, W] -> [B, features, H/2, W/2] float32
+  torch::Tensor forward(
+      const torch::Tensor& x);  // [B, in, H, W] -> [B, features, H/2, W/2] float32
 
   torch::nn::Conv2d cnn1{nullptr}, cnn2{nullptr}, cnn3{nullptr};
   torch::nn::MaxPool2d max_pool{nullptr};
@@ -81,10 +82,10 @@ class StateEncoderImpl : public torch::nn::Module {
   // obs: [B, obs_dim] float32 or [B, 64, 64, C] uint8 -> z_s [B, zs_dim] float32
   torch::Tensor forward(const torch::Tensor& obs);
 
-  Mlp mlp{nullptr};              // "mlp" (state mode)
-  ImpalaCnn cnn{nullptr};        // "cnn" (pixels mode, network.cnn = impala)
-  LightCnn light_cnn{nullptr};   // "light_cnn" (pixels mode, network.cnn = light)
-  int64_t downsample = 1;        // network.image_downsample
+  Mlp mlp{nullptr};             // "mlp" (state mode)
+  ImpalaCnn cnn{nullptr};       // "cnn" (pixels mode, network.cnn = impala)
+  LightCnn light_cnn{nullptr};  // "light_cnn" (pixels mode, network.cnn = light)
+  int64_t downsample = 1;       // network.image_downsample
 };
 TORCH_MODULE(StateEncoder);
 
@@ -139,8 +140,8 @@ class PredictorsImpl : public torch::nn::Module {
   // [B, zs_dim], [B, goal_dim] -> a_t..a_{t+k-1} [B, k, action_dim]
   torch::Tensor GoalActions(const torch::Tensor& zs, const torch::Tensor& grep);
 
-  torch::nn::Linear dynamics{nullptr}, reward{nullptr}, inverse{nullptr},
-      goal_dynamics{nullptr}, goal_action{nullptr};
+  torch::nn::Linear dynamics{nullptr}, reward{nullptr}, inverse{nullptr}, goal_dynamics{nullptr},
+      goal_action{nullptr};
   int64_t goal_horizon, action_dim;
 };
 TORCH_MODULE(Predictors);
@@ -152,11 +153,11 @@ class RepresentationImpl : public torch::nn::Module {
   // z_sa of a state latent and a raw action: [B, zs_dim], [B, action_dim] -> [B, zsa_dim]
   torch::Tensor Zsa(const torch::Tensor& zs, const torch::Tensor& action);
 
-  StateEncoder state_encoder{nullptr};  // "state_encoder"
-  GoalHead goal_head{nullptr};          // "goal_head"
-  ActionEncoder action_encoder{nullptr};  // "action_encoder"
+  StateEncoder state_encoder{nullptr};     // "state_encoder"
+  GoalHead goal_head{nullptr};             // "goal_head"
+  ActionEncoder action_encoder{nullptr};   // "action_encoder"
   StateActionEncoder sa_encoder{nullptr};  // "sa_encoder"
-  Predictors predictors{nullptr};       // "predictors"
+  Predictors predictors{nullptr};          // "predictors"
 };
 TORCH_MODULE(Representation);
 

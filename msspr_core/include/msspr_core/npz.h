@@ -26,11 +26,11 @@ class NpzError : public std::runtime_error {
 
 // One array of an .npz, converted on request.
 struct NpyInfo {
-  std::string descr;            // numpy dtype string, e.g. "<f4", "|u1"
+  std::string descr;  // numpy dtype string, e.g. "<f4", "|u1"
   bool fortran_order = false;
   std::vector<int64_t> shape;
-  int64_t data_offset = 0;      // bytes of the .npy header before the data
-  int64_t numel() const;        // -1 for a negative dimension or an overflow
+  int64_t data_offset = 0;  // bytes of the .npy header before the data
+  int64_t numel() const;    // -1 for a negative dimension or an overflow
 };
 
 // Lists the array names (without ".npy") of an .npz file.

@@ -36,23 +36,23 @@ struct NetworkOptions {
   // projection (the MLP block's Pre-LN applied to the projection, which the
   // paper's sketch leaves without one: it bounds the latents' scale).
   bool cnn_feature_norm = false;
-                                   // inside the encoder, before the CNN (the data stays 64x64)
-  int encoder_hidden = 512;        // E_s MLP hidden width (state mode)
-  int encoder_layers = 2;          // E_s hidden layers
-  int zs_dim = 512;                // z_s
-  int za_dim = 256;                // z_a (action encoder output)
-  int zsa_hidden = 512;            // E_sa hidden width
-  int zsa_dim = 512;               // z_sa
-  int goal_hidden = 512;           // psi hidden width
-  int goal_dim = 128;              // g_rep
-  bool length_normalize = true;    // g_rep = x / ||x|| * sqrt(goal_dim)
-  int critic_hidden = 512;         // Q hidden width
-  int critic_layers = 3;           // Q hidden layers
-  int actor_hidden = 512;          // pi hidden width
-  int actor_layers = 3;            // pi hidden layers
-  int num_bins = 21;               // f_rew two-hot bins over [-1/(1-gamma), 0]
-  int goal_horizon = 5;            // k: f_g-dyn predicts z_s(t+k), f_g-act a_t..a_{t+k-1}
-  double layer_norm_eps = 1e-6;    // Pre-LN epsilon (paper appendix A.2)
+  // inside the encoder, before the CNN (the data stays 64x64)
+  int encoder_hidden = 512;      // E_s MLP hidden width (state mode)
+  int encoder_layers = 2;        // E_s hidden layers
+  int zs_dim = 512;              // z_s
+  int za_dim = 256;              // z_a (action encoder output)
+  int zsa_hidden = 512;          // E_sa hidden width
+  int zsa_dim = 512;             // z_sa
+  int goal_hidden = 512;         // psi hidden width
+  int goal_dim = 128;            // g_rep
+  bool length_normalize = true;  // g_rep = x / ||x|| * sqrt(goal_dim)
+  int critic_hidden = 512;       // Q hidden width
+  int critic_layers = 3;         // Q hidden layers
+  int actor_hidden = 512;        // pi hidden width
+  int actor_layers = 3;          // pi hidden layers
+  int num_bins = 21;             // f_rew two-hot bins over [-1/(1-gamma), 0]
+  int goal_horizon = 5;          // k: f_g-dyn predicts z_s(t+k), f_g-act a_t..a_{t+k-1}
+  double layer_norm_eps = 1e-6;  // Pre-LN epsilon (paper appendix A.2)
 
   template <class V>
   void Visit(V& v) {
@@ -87,25 +87,25 @@ struct NetworkOptions {
 
 // Representation loss (Eq. 1) and its optimiser.
 struct RepresentationOptions {
-  int horizon = 5;                 // H: unroll length of the chunk
-  double weight_dyn = 1.0;         // lambda_dyn
-  double weight_rew = 0.3;         // lambda_rew (0.5 pixels)
-  double weight_inv = 0.1;         // lambda_inv
-  double weight_goal_dyn = 0.1;    // lambda_g-dyn (0.3 pixel manipulation)
-  double weight_goal_act = 0.1;    // lambda_g-act
+  int horizon = 5;                      // H: unroll length of the chunk
+  double weight_dyn = 1.0;              // lambda_dyn
+  double weight_rew = 0.3;              // lambda_rew (0.5 pixels)
+  double weight_inv = 0.1;              // lambda_inv
+  double weight_goal_dyn = 0.1;         // lambda_g-dyn (0.3 pixel manipulation)
+  double weight_goal_act = 0.1;         // lambda_g-act
   std::string reward_loss = "two_hot";  // "two_hot" (cross-entropy) or "mse" (on the decoded value)
   // Which chunk goals train f_rew: "all" (the paper: a goal outside the
   // chunk's trajectory, or behind it, gets the return -1/(1-gamma)) or
   // "trajectory" (only goals ahead in the chunk's own trajectory, whose
   // return is known; on stitch data most other goals are reachable).
   std::string reward_goals = "all";
-  double lr = 1e-4;                // AdamW learning rate of encoders + predictors
-  double weight_decay = 1e-4;      // AdamW weight decay
-  double updates_per_step = 1.0;   // representation updates per training step (fractions accumulate)
-  double augment_prob = 0.0;       // pixels: probability that a batch is augmented (one draw per
-                                   // batch, as OGBench); 0.5 for OGBench's visual tasks
-  int augment_pad = 3;             // random-shift padding in pixels (edge padding, then a crop;
-                                   // one shift per sample, shared by all of the sample's images)
+  double lr = 1e-4;               // AdamW learning rate of encoders + predictors
+  double weight_decay = 1e-4;     // AdamW weight decay
+  double updates_per_step = 1.0;  // representation updates per training step (fractions accumulate)
+  double augment_prob = 0.0;      // pixels: probability that a batch is augmented (one draw per
+                                  // batch, as OGBench); 0.5 for OGBench's visual tasks
+  int augment_pad = 3;            // random-shift padding in pixels (edge padding, then a crop;
+                                  // one shift per sample, shared by all of the sample's images)
 
   template <class V>
   void Visit(V& v) {
@@ -137,7 +137,7 @@ struct AgentOptions {
   double lr = 3e-4;                // AdamW learning rate of critic and actor
   double weight_decay = 1e-4;      // AdamW weight decay
   bool critic_grad_to_encoder = false;  // let the critic loss train the encoders too
-  int target_update_every = 250;   // K: hard copy of all target networks
+  int target_update_every = 250;        // K: hard copy of all target networks
 
   template <class V>
   void Visit(V& v) {
@@ -158,10 +158,10 @@ struct AgentOptions {
 // Goal relabelling as OGBench's GCDataset. Proportions of each group must
 // sum to 1. Geometric offsets use p = 1 - gamma (AgentOptions::gamma).
 struct RelabelOptions {
-  double value_p_curgoal = 0.2;    // goal = current state
-  double value_p_trajgoal = 0.5;   // goal = future state of the same trajectory
-  double value_p_randomgoal = 0.3; // goal = random dataset state
-  bool value_geom_sample = true;   // future offset geometric (true) or uniform (false)
+  double value_p_curgoal = 0.2;     // goal = current state
+  double value_p_trajgoal = 0.5;    // goal = future state of the same trajectory
+  double value_p_randomgoal = 0.3;  // goal = random dataset state
+  bool value_geom_sample = true;    // future offset geometric (true) or uniform (false)
   double actor_p_curgoal = 0.0;
   double actor_p_trajgoal = 1.0;
   double actor_p_randomgoal = 0.0;
@@ -235,21 +235,22 @@ struct TrainerOptions {
 // steps / seed / device, network.obs_dim / action_dim (state observations
 // only), 1-step targets and one Adam optimiser over the sum of their losses.
 struct BaselineOptions {
-  std::string agent = "mspr";      // mspr | gcbc | gcivl | gciql | qrl | crl | hiql
-  int hidden = 512;                // width of every MLP hidden layer
-  int layers = 3;                  // hidden layers of every MLP
-  double lr = 3e-4;                // Adam learning rate (no weight decay)
-  double tau = 0.005;              // Polyak rate of the target networks (gcivl, gciql, hiql)
-  double alpha = 0.0;              // AWR temperature (gcivl) or BC coefficient (gciql, qrl, crl)
-  double expectile = 0.9;          // expectile of the value loss (gcivl, gciql; hiql 0.7)
-  int latent_dim = 512;            // qrl: quasimetric latent; crl: contrastive latent
-  int iqe_dim = 8;                 // qrl: dimensions per IQE component (latent_dim / iqe_dim components)
-  double qrl_eps = 0.05;           // qrl: the constraint E[relu(d(s, s') - 1)^2] <= eps
-  int rep_dim = 10;                // hiql: subgoal representation size
-  int subgoal_steps = 25;          // hiql: k, the low-level goal s_{t+k} (10 for manipulation)
-  double high_alpha = 3.0;         // hiql: AWR temperature of the high-level actor
-  double low_alpha = 3.0;          // hiql: AWR temperature of the low-level actor
-  bool low_actor_rep_grad = false; // hiql: the low actor's loss also trains the subgoal representation
+  std::string agent = "mspr";  // mspr | gcbc | gcivl | gciql | qrl | crl | hiql
+  int hidden = 512;            // width of every MLP hidden layer
+  int layers = 3;              // hidden layers of every MLP
+  double lr = 3e-4;            // Adam learning rate (no weight decay)
+  double tau = 0.005;          // Polyak rate of the target networks (gcivl, gciql, hiql)
+  double alpha = 0.0;          // AWR temperature (gcivl) or BC coefficient (gciql, qrl, crl)
+  double expectile = 0.9;      // expectile of the value loss (gcivl, gciql; hiql 0.7)
+  int latent_dim = 512;        // qrl: quasimetric latent; crl: contrastive latent
+  int iqe_dim = 8;          // qrl: dimensions per IQE component (latent_dim / iqe_dim components)
+  double qrl_eps = 0.05;    // qrl: the constraint E[relu(d(s, s') - 1)^2] <= eps
+  int rep_dim = 10;         // hiql: subgoal representation size
+  int subgoal_steps = 25;   // hiql: k, the low-level goal s_{t+k} (10 for manipulation)
+  double high_alpha = 3.0;  // hiql: AWR temperature of the high-level actor
+  double low_alpha = 3.0;   // hiql: AWR temperature of the low-level actor
+  bool low_actor_rep_grad =
+      false;  // hiql: the low actor's loss also trains the subgoal representation
 
   template <class V>
   void Visit(V& v) {
@@ -288,7 +289,7 @@ std::vector<std::string> AgentNames();
 // Names accepted by MakePreset: the Ms.PR presets {"mspr", "D", "DI",
 // "DIR"} and every baseline agent of AgentNames().
 std::vector<std::string> PresetNames();
-std::vector<std::string> ScaleNames();   // {"paper", "cpu"}
+std::vector<std::string> ScaleNames();  // {"paper", "cpu"}
 
 // Returns the options of a preset ("mspr" full; ablations "D", "DI", "DIR"
 // differ only in the representation loss weights) at a scale ("paper": the

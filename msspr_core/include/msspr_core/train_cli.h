@@ -30,7 +30,8 @@ struct TrainCliExtensions {
       load_dataset;
   // When no --val is given: the validation data to use for this training data
   // (e.g. the "val" split of the same bags), or nullptr.
-  std::function<std::shared_ptr<const Dataset>(const std::string& data_path, const MsprOptions& options)>
+  std::function<std::shared_ptr<const Dataset>(const std::string& data_path,
+                                               const MsprOptions& options)>
       default_validation;
   // An extra evaluator (e.g. success rates in a simulator), run with the core's
   // validation losses every trainer.eval_every steps; nullptr for none.

@@ -281,7 +281,8 @@ class Trainer {
   torch::Tensor CriticTarget(const TransitionBatch& batch, const torch::Tensor& noise);
   torch::Tensor CriticLossFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
                                      const torch::Tensor& y, LossInfo* info);
-  torch::Tensor ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
+  torch::Tensor ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat,
+                          LossInfo* info);
   void UpdateCritic(const TransitionBatch& batch, const TransitionLatents* lat,
                     const torch::Tensor& noise, LossInfo* info);
   // The critic update against a TD target computed beforehand (its
@@ -311,8 +312,8 @@ class Trainer {
   std::shared_ptr<const Dataset> data_;
   torch::Device device_;
   std::unique_ptr<BatchSampler> sampler_;
-  std::mt19937_64 rng_;       // batch sampling and augmentation
-  torch::Generator gen_;      // target policy noise (CPU)
+  std::mt19937_64 rng_;   // batch sampling and augmentation
+  torch::Generator gen_;  // target policy noise (CPU)
   int64_t step_ = 0;
   double repr_credit_ = 0.0;  // accumulated fractional representation updates
   torch::Tensor bins_;        // [num_bins] float32 on device
@@ -325,14 +326,14 @@ class Trainer {
   Critic ema_critic_{nullptr};
   Actor ema_actor_{nullptr};
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
-  std::shared_ptr<GcAgentImpl> agent_;           // baseline agent, or null (Ms.PR)
+  std::shared_ptr<GcAgentImpl> agent_;  // baseline agent, or null (Ms.PR)
   std::unique_ptr<torch::optim::Adam> agent_opt_;
-  std::shared_ptr<Distributed> dist_;            // data-parallel group, or null
+  std::shared_ptr<Distributed> dist_;  // data-parallel group, or null
   // Pipelined with agent.critic_grad_to_encoder: the actor update of the
   // last step, deferred so that the worker runs it beside the next step's
   // representation update; Sync() runs it when anything else comes first.
   std::optional<TransitionBatch> pending_actor_;
-  int pending_threads_ = 1;  // the worker's torch threads for it
+  int pending_threads_ = 1;      // the worker's torch threads for it
   torch::Tensor worker_target_;  // the TD target the worker computed
   // The pipelined actor-critic update's thread (trainer.pipeline); created
   // on first use. Last member: destroyed (and joined) first.

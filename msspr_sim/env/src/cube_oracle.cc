@@ -22,7 +22,6 @@ double Yaw(const Eigen::Quaterniond& q) {
   return std::atan2(2 * (q.w() * q.z() + q.x() * q.y()), 1 - 2 * (q.y() * q.y() + q.z() * q.z()));
 }
 
-
 // Index under SciPy's "reflect" boundary (d c b a | a b c d | d c b a).
 int Reflect(int i, int n) {
   const int period = 2 * n;

@@ -52,7 +52,8 @@ std::vector<CustomTask> LoadCustomTasks(const std::string& path, const MazeMap* 
   if (map && root["maze"]) {
     const std::string maze = root["maze"].as<std::string>();
     if (maze != map->name())
-      throw std::runtime_error(path + ": the tasks are for maze '" + maze + "', not '" + map->name() + "'");
+      throw std::runtime_error(path + ": the tasks are for maze '" + maze + "', not '" +
+                               map->name() + "'");
   }
   if (!root["tasks"] || !root["tasks"].IsSequence() || root["tasks"].size() == 0)
     throw std::runtime_error(path + ": needs a non-empty list 'tasks'");
@@ -63,7 +64,8 @@ std::vector<CustomTask> LoadCustomTasks(const std::string& path, const MazeMap* 
     for (const auto& kv : t) {
       const std::string k = kv.first.as<std::string>();
       if (k != "id" && k != "start" && k != "goal")
-        throw std::runtime_error(path + ": unknown key '" + k + "' in a task (expected id, start, goal)");
+        throw std::runtime_error(path + ": unknown key '" + k +
+                                 "' in a task (expected id, start, goal)");
     }
     if (!t["id"] || !t["start"] || !t["goal"])
       throw std::runtime_error(path + ": every task needs id, start and goal");
@@ -76,9 +78,11 @@ std::vector<CustomTask> LoadCustomTasks(const std::string& path, const MazeMap* 
     const std::string where = path + ": task " + std::to_string(task.id);
     task.start = ReadPoint(t["start"], where + ": start");
     task.goal = ReadPoint(t["goal"], where + ": goal");
-    if (!ids.insert(task.id).second) throw std::runtime_error(path + ": task id " + std::to_string(task.id) + " appears twice");
+    if (!ids.insert(task.id).second)
+      throw std::runtime_error(path + ": task id " + std::to_string(task.id) + " appears twice");
     if (map) {
-      for (const auto& [name, p] : {std::make_pair("start", task.start), std::make_pair("goal", task.goal)})
+      for (const auto& [name, p] :
+           {std::make_pair("start", task.start), std::make_pair("goal", task.goal)})
         if (map->IsWall(map->XYToCell(p)))
           throw std::runtime_error(where + ": " + name + " (" + Fmt(p.x()) + ", " + Fmt(p.y()) +
                                    ") is inside a wall of maze " + map->name());
@@ -93,7 +97,8 @@ std::vector<CustomTask> RandomCustomTasks(const MazeMap& map, int n, uint64_t se
   if (n < 1) throw std::invalid_argument("RandomCustomTasks: n must be at least 1");
   if (min_cells < 1) throw std::invalid_argument("RandomCustomTasks: min_cells must be at least 1");
   if (!(noise >= 0.0) || noise > kCellSize / 2)
-    throw std::invalid_argument("RandomCustomTasks: noise must be in [0, " + Fmt(kCellSize / 2) + "] metres");
+    throw std::invalid_argument("RandomCustomTasks: noise must be in [0, " + Fmt(kCellSize / 2) +
+                                "] metres");
   const auto free = map.FreeCells();
   // Ordered pairs of free cells at least min_cells moves apart.
   std::vector<std::pair<Cell, Cell>> pairs;
@@ -105,8 +110,9 @@ std::vector<CustomTask> RandomCustomTasks(const MazeMap& map, int n, uint64_t se
     }
   }
   if (pairs.empty())
-    throw std::invalid_argument("RandomCustomTasks: maze " + map.name() + " has no two free cells " +
-                                std::to_string(min_cells) + " or more moves apart");
+    throw std::invalid_argument("RandomCustomTasks: maze " + map.name() +
+                                " has no two free cells " + std::to_string(min_cells) +
+                                " or more moves apart");
   std::mt19937_64 rng(internal::Mix64(seed ^ 0x7A5C5EEDULL));
   // Keep the point off the walls: the agent's sphere has radius kAgentRadius.
   const double lim = std::min(noise, kCellSize / 2 - kAgentRadius);
@@ -141,9 +147,9 @@ std::string CustomTasksYaml(const MazeMap& map, const std::vector<CustomTask>& t
   os << "tasks:\n";
   for (const auto& t : tasks) {
     const Cell a = map.XYToCell(t.start), b = map.XYToCell(t.goal);
-    os << "  - {id: " << t.id << ", start: [" << Fmt(t.start.x()) << ", " << Fmt(t.start.y()) << "], goal: ["
-       << Fmt(t.goal.x()) << ", " << Fmt(t.goal.y()) << "]}  # cell (" << a.i << "," << a.j << ") -> (" << b.i
-       << "," << b.j << "), " << map.BfsDistance(a, b) << " moves\n";
+    os << "  - {id: " << t.id << ", start: [" << Fmt(t.start.x()) << ", " << Fmt(t.start.y())
+       << "], goal: [" << Fmt(t.goal.x()) << ", " << Fmt(t.goal.y()) << "]}  # cell (" << a.i << ","
+       << a.j << ") -> (" << b.i << "," << b.j << "), " << map.BfsDistance(a, b) << " moves\n";
   }
   return os.str();
 }

@@ -4,11 +4,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
-#include <sstream>
-#include <stdexcept>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <stdexcept>
 
 namespace msspr::sim {
 
@@ -19,7 +18,9 @@ void MakeParentDirs(const std::string& path) {
   if (dir.empty()) return;
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) throw std::runtime_error(path + ": cannot create directory " + dir.string() + ": " + ec.message());
+  if (ec)
+    throw std::runtime_error(path + ": cannot create directory " + dir.string() + ": " +
+                             ec.message());
 }
 
 std::string Escape(const std::string& s) {
@@ -53,9 +54,10 @@ std::string ReportJson(const MazeMap* map, const EvalReport& r) {
     const auto& t = r.tasks[i];
     j << "    {\"task_id\": " << t.task_id;
     if (t.start.size() == 2 && t.goal.size() == 2) {
-      j << ", \"start\": [" << t.start[0] << ", " << t.start[1] << "], \"goal\": [" << t.goal[0] << ", "
-        << t.goal[1] << "]";
-    } else if (map != nullptr && t.task_id >= 1 && t.task_id <= static_cast<int>(map->Tasks().size())) {
+      j << ", \"start\": [" << t.start[0] << ", " << t.start[1] << "], \"goal\": [" << t.goal[0]
+        << ", " << t.goal[1] << "]";
+    } else if (map != nullptr && t.task_id >= 1 &&
+               t.task_id <= static_cast<int>(map->Tasks().size())) {
       const auto& task = map->Tasks()[static_cast<size_t>(t.task_id - 1)];
       j << ", \"start_cell\": [" << task.start.i << ", " << task.start.j << "], \"goal_cell\": ["
         << task.goal.i << ", " << task.goal.j << "]";
@@ -64,7 +66,8 @@ std::string ReportJson(const MazeMap* map, const EvalReport& r) {
       << ", \"mean_steps_successful\": " << t.mean_steps_successful << "}"
       << (i + 1 < r.tasks.size() ? "," : "") << "\n";
   }
-  j << "  ],\n  \"mean_success\": " << r.mean_success << ",\n  \"stalled_episodes\": " << r.stalled_episodes
+  j << "  ],\n  \"mean_success\": " << r.mean_success
+    << ",\n  \"stalled_episodes\": " << r.stalled_episodes
     << ",\n  \"wall_time_s\": " << r.wall_time_s << "\n}\n";
   return j.str();
 }
@@ -77,19 +80,22 @@ std::string ReportTable(const MazeMap* map, const EvalReport& r) {
   for (const auto& x : r.tasks) {
     std::string cells = "";
     if (x.start.size() == 2 && x.goal.size() == 2) {
-      std::snprintf(line, sizeof line, "(%.2f,%.2f)->(%.2f,%.2f)", x.start[0], x.start[1], x.goal[0], x.goal[1]);
+      std::snprintf(line, sizeof line, "(%.2f,%.2f)->(%.2f,%.2f)", x.start[0], x.start[1],
+                    x.goal[0], x.goal[1]);
       cells = line;
-    } else if (map != nullptr && x.task_id >= 1 && x.task_id <= static_cast<int>(map->Tasks().size())) {
+    } else if (map != nullptr && x.task_id >= 1 &&
+               x.task_id <= static_cast<int>(map->Tasks().size())) {
       const auto& task = map->Tasks()[static_cast<size_t>(x.task_id - 1)];
-      std::snprintf(line, sizeof line, "(%d,%d) -> (%d,%d)", task.start.i, task.start.j, task.goal.i,
-                    task.goal.j);
+      std::snprintf(line, sizeof line, "(%d,%d) -> (%d,%d)", task.start.i, task.start.j,
+                    task.goal.i, task.goal.j);
       cells = line;
     }
     std::snprintf(line, sizeof line, "  %4d  %-16s %6.1f%%   %8.1f\n", x.task_id, cells.c_str(),
                   100 * x.success, x.mean_steps_successful);
     t << line;
   }
-  std::snprintf(line, sizeof line, "  mean success: %.1f%%   (%.1f s)\n", 100 * r.mean_success, r.wall_time_s);
+  std::snprintf(line, sizeof line, "  mean success: %.1f%%   (%.1f s)\n", 100 * r.mean_success,
+                r.wall_time_s);
   t << line;
   return t.str();
 }
@@ -98,7 +104,9 @@ std::string ReportTable(const MazeMap* map, const EvalReport& r) {
 
 std::string EvalReportJson(const MazeMap& map, const EvalReport& r) { return ReportJson(&map, r); }
 std::string EvalReportJson(const EvalReport& r) { return ReportJson(nullptr, r); }
-std::string EvalReportTable(const MazeMap& map, const EvalReport& r) { return ReportTable(&map, r); }
+std::string EvalReportTable(const MazeMap& map, const EvalReport& r) {
+  return ReportTable(&map, r);
+}
 std::string EvalReportTable(const EvalReport& r) { return ReportTable(nullptr, r); }
 
 void WriteTextFile(const std::string& path, const std::string& text) {
@@ -119,7 +127,8 @@ void SaveSuccessPlot(const EvalReport& r, const std::string& png_path) {
   for (int k = 0; k <= 4; ++k) {  // grid at 0, 25, 50, 75, 100 %
     const int y = top + height - k * height / 4;
     cv::line(img, {left, y}, {width - 100, y}, {220, 220, 220}, 1);
-    cv::putText(img, std::to_string(25 * k), {left - 32, y + 4}, font, 0.4, {80, 80, 80}, 1, cv::LINE_AA);
+    cv::putText(img, std::to_string(25 * k), {left - 32, y + 4}, font, 0.4, {80, 80, 80}, 1,
+                cv::LINE_AA);
   }
   for (int i = 0; i < n; ++i) {
     const int x = left + gap + i * (bar + gap);
@@ -128,8 +137,8 @@ void SaveSuccessPlot(const EvalReport& r, const std::string& png_path) {
     char label[32];
     std::snprintf(label, sizeof label, "%.0f%%", 100 * r.tasks[i].success);
     cv::putText(img, label, {x + 8, top + height - h - 6}, font, 0.45, {0, 0, 0}, 1, cv::LINE_AA);
-    cv::putText(img, "task " + std::to_string(r.tasks[i].task_id), {x + 4, top + height + 20}, font, 0.45,
-                {0, 0, 0}, 1, cv::LINE_AA);
+    cv::putText(img, "task " + std::to_string(r.tasks[i].task_id), {x + 4, top + height + 20}, font,
+                0.45, {0, 0, 0}, 1, cv::LINE_AA);
   }
   const int ym = top + height - static_cast<int>(r.mean_success * height + 0.5);
   cv::line(img, {left, ym}, {width - 100, ym}, {40, 40, 200}, 2);

@@ -7,13 +7,12 @@
 #include <initializer_list>
 #include <limits>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 namespace msspr::sim {
 namespace {
@@ -50,14 +49,16 @@ std::map<std::string, Series> ReadEval(const std::string& path) {
     ++line_no;
     if (line_no == 1 || line.empty()) continue;  // header
     const auto cells = SplitCsv(line);
-    if (cells.size() != 3) throw std::runtime_error(path + ":" + std::to_string(line_no) + ": expected step,name,value");
+    if (cells.size() != 3)
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": expected step,name,value");
     out[cells[1]][ParseNumber(cells[0], path, line_no)] = ParseNumber(cells[2], path, line_no);
   }
   return out;
 }
 
 // metrics.csv: the named columns' series.
-std::map<std::string, Series> ReadMetrics(const std::string& path, const std::vector<std::string>& names) {
+std::map<std::string, Series> ReadMetrics(const std::string& path,
+                                          const std::vector<std::string>& names) {
   std::map<std::string, Series> out;
   std::ifstream in(path);
   if (!in) return out;
@@ -68,15 +69,17 @@ std::map<std::string, Series> ReadMetrics(const std::string& path, const std::ve
     return static_cast<int>(std::find(header.begin(), header.end(), n) - header.begin());
   };
   const int step_col = col("step");
-  if (step_col >= static_cast<int>(header.size())) throw std::runtime_error(path + ": no 'step' column");
+  if (step_col >= static_cast<int>(header.size()))
+    throw std::runtime_error(path + ": no 'step' column");
   int line_no = 1;
   while (std::getline(in, line)) {
     ++line_no;
     if (line.empty()) continue;
     const auto cells = SplitCsv(line);
     if (cells.size() != header.size())
-      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " + std::to_string(cells.size()) +
-                               " cells, the header has " + std::to_string(header.size()));
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": " +
+                               std::to_string(cells.size()) + " cells, the header has " +
+                               std::to_string(header.size()));
     const double step = ParseNumber(cells[step_col], path, line_no);
     for (const auto& n : names) {
       const int c = col(n);
@@ -99,8 +102,8 @@ struct Panel {
   }
 };
 
-void DrawSeries(cv::Mat& img, const Panel& p, const Series& s, const cv::Scalar& color, int thickness,
-                bool log_y) {
+void DrawSeries(cv::Mat& img, const Panel& p, const Series& s, const cv::Scalar& color,
+                int thickness, bool log_y) {
   std::vector<cv::Point> pts;
   for (const auto& [x, y] : s) {
     const double v = log_y ? std::log10(std::max(y, 1e-12)) : y;
@@ -126,7 +129,8 @@ bool SaveLearningCurvePlot(const std::string& eval_csv, const std::string& metri
   std::map<std::string, Series> success;
   for (const auto& [name, s] : eval) {
     // Official tasks one by one, and the mean over custom tasks (--eval-tasks-file) as one line.
-    if (name == "mean_success" || name == "mean_success_custom" || name.rfind("success_task", 0) == 0)
+    if (name == "mean_success" || name == "mean_success_custom" ||
+        name.rfind("success_task", 0) == 0)
       success[name] = s;
   }
   if (success.empty() && metrics.empty()) return false;
@@ -152,7 +156,8 @@ bool SaveLearningCurvePlot(const std::string& eval_csv, const std::string& metri
   const Panel lp{{left, top + panel_h + gap, width - left - right, panel_h}, 0, x_max, lo, hi};
   const cv::Scalar grid(225, 225, 225), text(60, 60, 60);
   cv::putText(img, "success (%) by step", {left, top - 12}, font, 0.5, {0, 0, 0}, 1, cv::LINE_AA);
-  cv::putText(img, "losses (log10) by step", {left, lp.area.y - 12}, font, 0.5, {0, 0, 0}, 1, cv::LINE_AA);
+  cv::putText(img, "losses (log10) by step", {left, lp.area.y - 12}, font, 0.5, {0, 0, 0}, 1,
+              cv::LINE_AA);
   for (int k = 0; k <= 4; ++k) {
     const cv::Point a = sp.At(0, 25 * k), b = sp.At(x_max, 25 * k);
     cv::line(img, a, b, grid, 1);
@@ -171,8 +176,8 @@ bool SaveLearningCurvePlot(const std::string& eval_csv, const std::string& metri
       cv::putText(img, Fmt("%.0f", x), {a.x - 16, a.y + 18}, font, 0.4, text, 1, cv::LINE_AA);
     }
   }
-  const cv::Scalar task_colors[] = {{200, 120, 40}, {40, 160, 40}, {40, 40, 200}, {160, 60, 160}, {20, 160, 200},
-                                    {120, 120, 20}, {90, 90, 90}};
+  const cv::Scalar task_colors[] = {{200, 120, 40}, {40, 160, 40},  {40, 40, 200}, {160, 60, 160},
+                                    {20, 160, 200}, {120, 120, 20}, {90, 90, 90}};
   int legend_y = top + 10, i = 0;
   for (const auto& [name, s] : success) {
     if (name == "mean_success") continue;
@@ -180,9 +185,9 @@ bool SaveLearningCurvePlot(const std::string& eval_csv, const std::string& metri
     for (const auto& [x, y] : s) pct[x] = 100 * y;
     const cv::Scalar c = task_colors[i++ % 7];
     DrawSeries(img, sp, pct, c, 1, false);
-    const std::string label = name == "mean_success_custom" ? "custom" : name.substr(std::string("success_").size());
-    cv::putText(img, label, {width - right + 12, legend_y}, font, 0.42, c,
-                1, cv::LINE_AA);
+    const std::string label =
+        name == "mean_success_custom" ? "custom" : name.substr(std::string("success_").size());
+    cv::putText(img, label, {width - right + 12, legend_y}, font, 0.42, c, 1, cv::LINE_AA);
     legend_y += 18;
   }
   if (success.count("mean_success")) {
@@ -190,16 +195,16 @@ bool SaveLearningCurvePlot(const std::string& eval_csv, const std::string& metri
     for (const auto& [x, y] : success.at("mean_success")) pct[x] = 100 * y;
     DrawSeries(img, sp, pct, {0, 0, 0}, 3, false);
     const double last = pct.rbegin()->second;
-    cv::putText(img, "mean " + Fmt("%.0f%%", last), {width - right + 12, legend_y + 6}, font, 0.5, {0, 0, 0}, 1,
-                cv::LINE_AA);
+    cv::putText(img, "mean " + Fmt("%.0f%%", last), {width - right + 12, legend_y + 6}, font, 0.5,
+                {0, 0, 0}, 1, cv::LINE_AA);
   }
   const cv::Scalar loss_colors[] = {{40, 40, 200}, {200, 120, 40}};
   for (size_t k = 0; k < losses.size(); ++k) {
     auto it = metrics.find(losses[k]);
     if (it == metrics.end()) continue;
     DrawSeries(img, lp, it->second, loss_colors[k], 1, true);
-    cv::putText(img, losses[k], {width - right + 12, lp.area.y + 14 + 18 * static_cast<int>(k)}, font, 0.45,
-                loss_colors[k], 1, cv::LINE_AA);
+    cv::putText(img, losses[k], {width - right + 12, lp.area.y + 14 + 18 * static_cast<int>(k)},
+                font, 0.45, loss_colors[k], 1, cv::LINE_AA);
   }
   // Written beside and renamed: a viewer never sees half a file.
   const std::string tmp = png_path + ".tmp.png";

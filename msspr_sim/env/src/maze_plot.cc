@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <cstdio>
 #include <stdexcept>
 
 namespace msspr::sim {
@@ -82,7 +82,9 @@ cv::Vec3b ScaleColor(double t, ColorScale scale) {
   t = std::clamp(t, 0.0, 1.0);
   if (scale == ColorScale::kDiverging) {  // blue -> white -> red
     const double u = std::abs(2.0 * t - 1.0);
-    const auto mix = [&](double from, double to) { return static_cast<uchar>(std::lround(from + (to - from) * u)); };
+    const auto mix = [&](double from, double to) {
+      return static_cast<uchar>(std::lround(from + (to - from) * u));
+    };
     return t < 0.5 ? cv::Vec3b(mix(255, 180), mix(255, 60), mix(255, 30))
                    : cv::Vec3b(mix(255, 30), mix(255, 40), mix(255, 200));
   }
@@ -104,8 +106,8 @@ void SaveScalarFieldPlot(const MazeMap& map, const std::vector<Eigen::Vector2d>&
                          ColorScale scale, const Eigen::Vector2d& goal, const std::string& title,
                          const std::string& png_path, int pixels_per_cell) {
   if (points.size() != values.size())
-    throw std::invalid_argument("SaveScalarFieldPlot: " + std::to_string(points.size()) + " points but " +
-                                std::to_string(values.size()) + " values");
+    throw std::invalid_argument("SaveScalarFieldPlot: " + std::to_string(points.size()) +
+                                " points but " + std::to_string(values.size()) + " values");
   if (!(lo < hi)) throw std::invalid_argument("SaveScalarFieldPlot: needs lo < hi");
   if (pixels_per_cell < 8) throw std::invalid_argument("SaveScalarFieldPlot: pixels_per_cell < 8");
   const int ppc = pixels_per_cell, top = 34, bar_w = 22, right = 90;
@@ -116,7 +118,8 @@ void SaveScalarFieldPlot(const MazeMap& map, const std::vector<Eigen::Vector2d>&
   for (int i = 0; i < map.rows(); ++i)
     for (int j = 0; j < map.cols(); ++j)
       cv::rectangle(maze, cv::Rect(j * ppc, i * ppc, ppc, ppc),
-                    map.IsWall({i, j}) ? cv::Scalar(70, 70, 70) : cv::Scalar(225, 225, 225), cv::FILLED);
+                    map.IsWall({i, j}) ? cv::Scalar(70, 70, 70) : cv::Scalar(225, 225, 225),
+                    cv::FILLED);
   const auto to_px = [&](const Eigen::Vector2d& p) {
     return cv::Point2d((p.x() + 1.5 * kCellSize) * ppm, (p.y() + 1.5 * kCellSize) * ppm);
   };
@@ -126,25 +129,30 @@ void SaveScalarFieldPlot(const MazeMap& map, const std::vector<Eigen::Vector2d>&
     const cv::Point2d c = to_px(points[k]);
     const cv::Vec3b col = ScaleColor((values[k] - lo) / (hi - lo), scale);
     cv::rectangle(maze,
-                  cv::Rect(cv::Point(static_cast<int>(std::lround(c.x - half)), static_cast<int>(std::lround(c.y - half))),
-                           cv::Point(static_cast<int>(std::lround(c.x + half)), static_cast<int>(std::lround(c.y + half)))),
+                  cv::Rect(cv::Point(static_cast<int>(std::lround(c.x - half)),
+                                     static_cast<int>(std::lround(c.y - half))),
+                           cv::Point(static_cast<int>(std::lround(c.x + half)),
+                                     static_cast<int>(std::lround(c.y + half)))),
                   cv::Scalar(col[0], col[1], col[2]), cv::FILLED);
   }
   // Walls again on top, so that patches never hide them.
   for (int i = 0; i < map.rows(); ++i)
     for (int j = 0; j < map.cols(); ++j)
-      if (map.IsWall({i, j})) cv::rectangle(maze, cv::Rect(j * ppc, i * ppc, ppc, ppc), cv::Scalar(70, 70, 70), cv::FILLED);
+      if (map.IsWall({i, j}))
+        cv::rectangle(maze, cv::Rect(j * ppc, i * ppc, ppc, ppc), cv::Scalar(70, 70, 70),
+                      cv::FILLED);
   const cv::Point2d g = to_px(goal);
   const int r = std::max(4, ppc / 6);
   cv::drawMarker(maze, cv::Point(static_cast<int>(g.x), static_cast<int>(g.y)), cv::Scalar(0, 0, 0),
                  cv::MARKER_STAR, 2 * r, 2, cv::LINE_AA);
-  cv::circle(maze, cv::Point(static_cast<int>(g.x), static_cast<int>(g.y)), r, cv::Scalar(255, 255, 255), 1,
-             cv::LINE_AA);
+  cv::circle(maze, cv::Point(static_cast<int>(g.x), static_cast<int>(g.y)), r,
+             cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   // Colour bar: hi at the top.
   const int bx = mw + 10;
   for (int y = 0; y < mh; ++y) {
     const cv::Vec3b col = ScaleColor(1.0 - static_cast<double>(y) / std::max(1, mh - 1), scale);
-    cv::line(img, cv::Point(bx, top + y), cv::Point(bx + bar_w, top + y), cv::Scalar(col[0], col[1], col[2]));
+    cv::line(img, cv::Point(bx, top + y), cv::Point(bx + bar_w, top + y),
+             cv::Scalar(col[0], col[1], col[2]));
   }
   cv::rectangle(img, cv::Rect(bx, top, bar_w, mh), cv::Scalar(0, 0, 0), 1);
   const auto text = [&](const std::string& s, cv::Point at, double size) {

@@ -41,7 +41,8 @@ void OffscreenRenderer::Render(const mjModel* m, mjData* d, uint8_t* rgb) {
   gl_->Release();
   // mjr_readPixels gives the bottom row first; images are top row first.
   const size_t row = static_cast<size_t>(size_) * 3;
-  for (int r = 0; r < size_; ++r) std::memcpy(rgb + r * row, flip_.data() + (size_ - 1 - r) * row, row);
+  for (int r = 0; r < size_; ++r)
+    std::memcpy(rgb + r * row, flip_.data() + (size_ - 1 - r) * row, row);
 }
 
 }  // namespace msspr::sim::internal

@@ -176,10 +176,18 @@ std::vector<PointMaze::AgentJoint> PointMaze::AgentJoints() const {
     const char* name = mj_id2name(m, mjOBJ_JOINT, j);
     a.name = name ? name : "";
     switch (m->jnt_type[j]) {
-      case mjJNT_SLIDE: a.type = "slide"; break;
-      case mjJNT_HINGE: a.type = "hinge"; break;
-      case mjJNT_BALL: a.type = "ball"; break;
-      default: a.type = "free"; break;
+      case mjJNT_SLIDE:
+        a.type = "slide";
+        break;
+      case mjJNT_HINGE:
+        a.type = "hinge";
+        break;
+      case mjJNT_BALL:
+        a.type = "ball";
+        break;
+      default:
+        a.type = "free";
+        break;
     }
     a.axis = Eigen::Vector3d(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1], m->jnt_axis[3 * j + 2]);
     a.limited = m->jnt_limited[j] != 0;

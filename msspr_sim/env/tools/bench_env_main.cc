@@ -27,7 +27,8 @@ int main(int argc, char** argv) {
   try {
     const msspr::cli::CliArgs args(argc, argv, {"help"}, {"out", "maze"});
     if (args.Has("help") || !args.positional().empty())
-      throw msspr::cli::CliError(args.Has("help") ? "" : "unexpected argument '" + args.positional()[0] + "'");
+      throw msspr::cli::CliError(
+          args.Has("help") ? "" : "unexpected argument '" + args.positional()[0] + "'");
     out = args.Get("out", "");
     maze = args.GetChoice("maze", "medium", {"arena", "medium", "large", "giant"});
   } catch (const msspr::cli::CliError& e) {

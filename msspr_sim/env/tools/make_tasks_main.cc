@@ -32,9 +32,11 @@ int main(int argc, char** argv) {
   uint64_t seed = 0;
   double noise = 1.0;
   try {
-    const msspr::cli::CliArgs args(argc, argv, {"help"}, {"maze", "n", "seed", "min-cells", "noise", "out"});
+    const msspr::cli::CliArgs args(argc, argv, {"help"},
+                                   {"maze", "n", "seed", "min-cells", "noise", "out"});
     if (args.Has("help") || !args.positional().empty())
-      throw msspr::cli::CliError(args.Has("help") ? "" : "unexpected argument '" + args.positional()[0] + "'");
+      throw msspr::cli::CliError(
+          args.Has("help") ? "" : "unexpected argument '" + args.positional()[0] + "'");
     const auto names = sim::MazeMap::Names();
     maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
     n = static_cast<int>(args.GetInt("n", 10, 1, 100000));
@@ -50,15 +52,17 @@ int main(int argc, char** argv) {
   try {
     const auto map = sim::MazeMap::FromName(maze);
     const auto tasks = sim::RandomCustomTasks(map, n, seed, min_cells, noise);
-    const std::string yaml = sim::CustomTasksYaml(
-        map, tasks,
-        "msspr_make_tasks --maze " + maze + " --n " + std::to_string(n) + " --seed " + std::to_string(seed) +
-            " --min-cells " + std::to_string(min_cells) + " --noise " + std::to_string(noise));
+    const std::string yaml =
+        sim::CustomTasksYaml(map, tasks,
+                             "msspr_make_tasks --maze " + maze + " --n " + std::to_string(n) +
+                                 " --seed " + std::to_string(seed) + " --min-cells " +
+                                 std::to_string(min_cells) + " --noise " + std::to_string(noise));
     if (out.empty()) {
       std::cout << yaml;
     } else {
       sim::WriteTextFile(out, yaml);
-      std::cerr << "msspr_make_tasks: " << tasks.size() << " tasks on maze " << maze << " -> " << out << "\n";
+      std::cerr << "msspr_make_tasks: " << tasks.size() << " tasks on maze " << maze << " -> "
+                << out << "\n";
     }
   } catch (const std::exception& e) {
     std::cerr << "msspr_make_tasks: " << e.what() << "\n";

@@ -1,11 +1,11 @@
 #include "msspr_eval/cube_evaluator.h"
 
+#include <torch/torch.h>
+
 #include <algorithm>
 #include <chrono>
 #include <memory>
 #include <stdexcept>
-
-#include <torch/torch.h>
 
 #include "msspr_core/policy.h"
 #include "msspr_sim/cube_env.h"
@@ -18,19 +18,23 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
   constexpr int kObs = sim::CubeEnv::kObservationSize, kAct = sim::CubeEnv::kActionSize;
   if (policy.pixels())
     throw std::invalid_argument(
-        "EvaluateOnCube: a pixels policy; evaluate it over ROS (msspr_eval --env cube-single, the sim in "
+        "EvaluateOnCube: a pixels policy; evaluate it over ROS (msspr_eval --env cube-single, the "
+        "sim in "
         "observation_mode pixels)");
   if (policy.obs_dim() != kObs)
-    throw std::invalid_argument("EvaluateOnCube: the policy expects " + std::to_string(policy.obs_dim()) +
+    throw std::invalid_argument("EvaluateOnCube: the policy expects " +
+                                std::to_string(policy.obs_dim()) +
                                 "-dimensional observations, cube-single gives 28");
   if (policy.action_dim() != kAct)
-    throw std::invalid_argument("EvaluateOnCube: the policy has " + std::to_string(policy.action_dim()) +
+    throw std::invalid_argument("EvaluateOnCube: the policy has " +
+                                std::to_string(policy.action_dim()) +
                                 " action dimensions, cube-single takes 5");
   const int n_tasks = static_cast<int>(sim::CubeSingleTasks().size());
   for (int t : options.tasks)
     if (t < 1 || t > n_tasks)
-      throw std::invalid_argument("EvaluateOnCube: task " + std::to_string(t) + " is not a task of cube-single (1 to " +
-                                  std::to_string(n_tasks) + ")");
+      throw std::invalid_argument("EvaluateOnCube: task " + std::to_string(t) +
+                                  " is not a task of cube-single (1 to " + std::to_string(n_tasks) +
+                                  ")");
   if (options.episodes < 1 || options.max_steps < 1)
     throw std::invalid_argument("EvaluateOnCube: episodes and max_steps must be at least 1");
 
@@ -62,7 +66,8 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
       if (!s.done) active.push_back(&s);
     if (active.empty()) break;
     const int64_t B = static_cast<int64_t>(active.size());
-    torch::Tensor obs = torch::empty({B, kObs}, torch::kFloat32), goal = torch::empty({B, kObs}, torch::kFloat32);
+    torch::Tensor obs = torch::empty({B, kObs}, torch::kFloat32),
+                  goal = torch::empty({B, kObs}, torch::kFloat32);
     for (int64_t b = 0; b < B; ++b) {
       std::copy(active[b]->obs.begin(), active[b]->obs.end(), obs[b].data_ptr<float>());
       const auto& g = active[b]->env->goal_observation();
@@ -104,9 +109,10 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
 
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
                                    const std::string& agent) {
-  sim::EvalReport report =
-      MakeTaskReport(result, "cube-single", agent, options.episodes, options.max_steps, options.seed);
-  for (auto& t : report.tasks) {  // the cube's start and goal xy (m), as msspr_eval --env cube-single
+  sim::EvalReport report = MakeTaskReport(result, "cube-single", agent, options.episodes,
+                                          options.max_steps, options.seed);
+  for (auto& t :
+       report.tasks) {  // the cube's start and goal xy (m), as msspr_eval --env cube-single
     const auto& ct = sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];
     t.start = {ct.start.x(), ct.start.y()};
     t.goal = {ct.goal.x(), ct.goal.y()};
@@ -114,8 +120,8 @@ sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalO
   return report;
 }
 
-void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options, const std::string& agent,
-                          const std::string& path) {
+void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options,
+                          const std::string& agent, const std::string& path) {
   sim::WriteTextFile(path, sim::EvalReportJson(MakeCubeEvalReport(result, options, agent)));
 }
 

@@ -1,5 +1,7 @@
 #include "msspr_eval/maze_evaluator.h"
 
+#include <torch/torch.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,8 +13,6 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
-
-#include <torch/torch.h>
 
 #include "msspr_core/frame_stack.h"
 #include "msspr_core/policy.h"
@@ -54,10 +54,12 @@ struct Slot {
 // Checks that the policy fits the point maze; throws std::invalid_argument.
 void CheckPolicyFitsMaze(const core::Policy& policy, const char* who) {
   if (!policy.pixels() && policy.obs_dim() != sim::PointMaze::kObsDim)
-    throw std::invalid_argument(std::string(who) + ": the policy expects " + std::to_string(policy.obs_dim()) +
+    throw std::invalid_argument(std::string(who) + ": the policy expects " +
+                                std::to_string(policy.obs_dim()) +
                                 "-dimensional observations, the point maze gives 2");
   if (policy.action_dim() != sim::PointMaze::kActionDim)
-    throw std::invalid_argument(std::string(who) + ": the policy has " + std::to_string(policy.action_dim()) +
+    throw std::invalid_argument(std::string(who) + ": the policy has " +
+                                std::to_string(policy.action_dim()) +
                                 " action dimensions, the point maze takes 2");
   const auto& net = policy.options().network;
   if (policy.pixels() && (net.image_width != net.image_height || net.image_channels != 3))
@@ -66,8 +68,9 @@ void CheckPolicyFitsMaze(const core::Policy& policy, const char* who) {
 
 // Runs the episodes side by side (one batched forward pass per control step);
 // pixels policies get renders from one rendering context on this thread.
-std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string& maze, int max_steps,
-                                        bool keep_paths, bool want_q0, const std::vector<EpisodeSpec>& specs) {
+std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string& maze,
+                                        int max_steps, bool keep_paths, bool want_q0,
+                                        const std::vector<EpisodeSpec>& specs) {
   const bool pixels = policy.pixels();
   const auto& net = policy.options().network;
   const int stack = std::max(1, net.frame_stack);
@@ -85,8 +88,8 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
   auto render = [&](const Eigen::Vector2d& xy) {
     const auto img = renderer->RenderAt(xy);
     if (img.size() != stacker->frame_bytes())
-      throw std::runtime_error("EvaluateOnMaze: a render of " + std::to_string(img.size()) + " bytes, expected " +
-                               std::to_string(stacker->frame_bytes()));
+      throw std::runtime_error("EvaluateOnMaze: a render of " + std::to_string(img.size()) +
+                               " bytes, expected " + std::to_string(stacker->frame_bytes()));
     return img;
   };
   auto push_frame = [&](Slot& s, const Eigen::Vector2d& xy, bool fill) {
@@ -104,7 +107,8 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
   for (const auto& spec : specs) {
     Slot s;
     s.env = std::make_unique<sim::PointMaze>(eo);
-    s.start = spec.task > 0 ? s.env->ResetToTask(spec.task, spec.seed) : s.env->Reset(spec.start, spec.goal);
+    s.start = spec.task > 0 ? s.env->ResetToTask(spec.task, spec.seed)
+                            : s.env->Reset(spec.start, spec.goal);
     if (keep_paths) s.path.push_back(s.start);
     if (pixels) {
       s.frames.emplace(*stacker);
@@ -123,7 +127,8 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
       *goal = torch::empty({B, size, size, 3 * stack}, torch::kUInt8);
       for (int64_t b = 0; b < B; ++b) {
         batch[b]->frames->Stacked((*obs)[b].data_ptr<uint8_t>());
-        std::memcpy((*goal)[b].data_ptr<uint8_t>(), batch[b]->goal_frames.data(), stacker->stacked_bytes());
+        std::memcpy((*goal)[b].data_ptr<uint8_t>(), batch[b]->goal_frames.data(),
+                    stacker->stacked_bytes());
       }
     } else {
       *obs = torch::empty({B, 2}, torch::kFloat32);
@@ -149,7 +154,8 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
       for (size_t k = b0; k < std::min(slots.size(), b0 + chunk); ++k) batch.push_back(&slots[k]);
       torch::Tensor obs, goal;
       inputs(batch, &obs, &goal);
-      const torch::Tensor q = std::get<0>(policy.Q(obs, policy.Act(obs, goal), goal).min(-1)).to(torch::kCPU);
+      const torch::Tensor q =
+          std::get<0>(policy.Q(obs, policy.Act(obs, goal), goal).min(-1)).to(torch::kCPU);
       auto qa = q.accessor<float, 1>();
       for (size_t k = 0; k < batch.size(); ++k) out[b0 + k].q0 = qa[static_cast<int64_t>(k)];
     }
@@ -197,8 +203,8 @@ MazeEvalResult EvaluateOnMaze(core::Policy& policy, const MazeEvalOptions& optio
   if (!custom)
     for (int t : options.tasks)
       if (t < 1 || t > static_cast<int>(map.Tasks().size()))
-        throw std::invalid_argument("EvaluateOnMaze: task " + std::to_string(t) + " is not a task of " +
-                                    options.maze);
+        throw std::invalid_argument("EvaluateOnMaze: task " + std::to_string(t) +
+                                    " is not a task of " + options.maze);
   for (const auto& t : options.custom_tasks)
     for (const auto& p : {t.start, t.goal})
       if (map.IsWall(map.XYToCell(p)))
@@ -226,7 +232,8 @@ MazeEvalResult EvaluateOnMaze(core::Policy& policy, const MazeEvalOptions& optio
       }
       specs.push_back(spec);
     }
-  auto episodes = RunEpisodes(policy, options.maze, options.max_steps, options.keep_paths, false, specs);
+  auto episodes =
+      RunEpisodes(policy, options.maze, options.max_steps, options.keep_paths, false, specs);
 
   r.success.assign(nt, 0.0);
   r.mean_steps_success.assign(nt, 0.0);
@@ -265,10 +272,12 @@ ValueMapResult ComputeValueMap(core::Policy& policy, const ValueMapOptions& opti
   if (map.IsWall(map.XYToCell(options.goal)))
     throw std::invalid_argument("ComputeValueMap: the goal is inside a wall of " + options.maze);
   if (options.per_cell < 1 || options.rollouts < 1 || options.max_steps < 1)
-    throw std::invalid_argument("ComputeValueMap: per_cell, rollouts and max_steps must be at least 1");
+    throw std::invalid_argument(
+        "ComputeValueMap: per_cell, rollouts and max_steps must be at least 1");
   const double half_free = sim::kCellSize / 2 - sim::kAgentRadius;
   if (!(options.start_noise >= 0) || options.start_noise > half_free)
-    throw std::invalid_argument("ComputeValueMap: start_noise must be in [0, " + std::to_string(half_free) + "]");
+    throw std::invalid_argument("ComputeValueMap: start_noise must be in [0, " +
+                                std::to_string(half_free) + "]");
   // Grid points inside each free cell, kept where the sphere (plus noise) fits
   // without touching a wall cell.
   std::vector<Eigen::Vector2d> grid;
@@ -282,8 +291,10 @@ ValueMapResult ComputeValueMap(core::Policy& policy, const ValueMapOptions& opti
         // Pull points next to a wall in, so that the agent fits.
         const double lim = half_free - options.start_noise;
         for (int d = 0; d < 2; ++d) {
-          const int di = d == 1 ? (off[d] < 0 ? -1 : 1) : 0, dj = d == 0 ? (off[d] < 0 ? -1 : 1) : 0;
-          if (map.IsWall({c.i + di, c.j + dj})) p[d] = centre[d] + std::clamp(p[d] - centre[d], -lim, lim);
+          const int di = d == 1 ? (off[d] < 0 ? -1 : 1) : 0,
+                    dj = d == 0 ? (off[d] < 0 ? -1 : 1) : 0;
+          if (map.IsWall({c.i + di, c.j + dj}))
+            p[d] = centre[d] + std::clamp(p[d] - centre[d], -lim, lim);
         }
         grid.push_back(p);
       }
@@ -335,8 +346,8 @@ ValueMapResult ComputeValueMap(core::Policy& policy, const ValueMapOptions& opti
   return r;
 }
 
-void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options, const std::string& agent,
-                   const std::string& dir) {
+void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
+                   const std::string& agent, const std::string& dir) {
   const sim::MazeMap map = sim::MazeMap::FromName(options.maze);
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
@@ -357,31 +368,32 @@ void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
   const double patch = sim::kCellSize / options.per_cell;
   char title[160];
   std::snprintf(title, sizeof title, "predicted V(s,g): %s", agent.c_str());
-  sim::SaveScalarFieldPlot(map, xy, pred, patch, lo, hi, sim::ColorScale::kSequential, options.goal, title,
-                           dir + "/value_predicted.png");
-  std::snprintf(title, sizeof title, "true V (Monte Carlo, %d rollouts), success %.0f%%", options.rollouts,
-                100 * result.mean_success);
-  sim::SaveScalarFieldPlot(map, xy, truth, patch, lo, hi, sim::ColorScale::kSequential, options.goal, title,
-                           dir + "/value_true.png");
+  sim::SaveScalarFieldPlot(map, xy, pred, patch, lo, hi, sim::ColorScale::kSequential, options.goal,
+                           title, dir + "/value_predicted.png");
+  std::snprintf(title, sizeof title, "true V (Monte Carlo, %d rollouts), success %.0f%%",
+                options.rollouts, 100 * result.mean_success);
+  sim::SaveScalarFieldPlot(map, xy, truth, patch, lo, hi, sim::ColorScale::kSequential,
+                           options.goal, title, dir + "/value_true.png");
   std::snprintf(title, sizeof title, "predicted - true: MAE %.2f, corr %.2f", result.mean_abs_error,
                 result.correlation);
-  sim::SaveScalarFieldPlot(map, xy, err, patch, -emax, emax, sim::ColorScale::kDiverging, options.goal, title,
-                           dir + "/value_error.png");
+  sim::SaveScalarFieldPlot(map, xy, err, patch, -emax, emax, sim::ColorScale::kDiverging,
+                           options.goal, title, dir + "/value_error.png");
   std::ostringstream js;
   js.precision(6);
   js << "{\n  \"env\": \"pointmaze-" << options.maze << "\",\n  \"agent\": \"" << agent << "\",\n"
      << "  \"goal\": [" << options.goal.x() << ", " << options.goal.y() << "],\n"
      << "  \"per_cell\": " << options.per_cell << ", \"rollouts\": " << options.rollouts
      << ", \"start_noise\": " << options.start_noise << ", \"max_steps\": " << options.max_steps
-     << ", \"seed\": " << options.seed << ",\n  \"gamma\": " << result.gamma << ", \"episodes\": " << result.episodes
+     << ", \"seed\": " << options.seed << ",\n  \"gamma\": " << result.gamma
+     << ", \"episodes\": " << result.episodes
      << ",\n  \"mean_abs_error\": " << result.mean_abs_error << ", \"bias\": " << result.bias
      << ", \"correlation\": " << result.correlation << ", \"mean_success\": " << result.mean_success
      << ",\n  \"wall_time_s\": " << result.seconds << ",\n  \"points\": [\n";
   for (size_t i = 0; i < result.points.size(); ++i) {
     const auto& p = result.points[i];
-    js << "    {\"x\": " << p.xy.x() << ", \"y\": " << p.xy.y() << ", \"predicted\": " << p.predicted
-       << ", \"true\": " << p.true_value << ", \"success\": " << p.success << "}"
-       << (i + 1 < result.points.size() ? ",\n" : "\n");
+    js << "    {\"x\": " << p.xy.x() << ", \"y\": " << p.xy.y()
+       << ", \"predicted\": " << p.predicted << ", \"true\": " << p.true_value
+       << ", \"success\": " << p.success << "}" << (i + 1 < result.points.size() ? ",\n" : "\n");
   }
   js << "  ]\n}\n";
   sim::WriteTextFile(dir + "/value_map.json", js.str());
@@ -389,8 +401,8 @@ void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
 
 sim::EvalReport MakeEvalReport(const MazeEvalResult& result, const MazeEvalOptions& options,
                                const std::string& agent) {
-  sim::EvalReport report = MakeTaskReport(result, "pointmaze-" + options.maze, agent, options.episodes,
-                                          options.max_steps, options.seed);
+  sim::EvalReport report = MakeTaskReport(result, "pointmaze-" + options.maze, agent,
+                                          options.episodes, options.max_steps, options.seed);
   for (size_t i = 0; i < report.tasks.size() && i < options.custom_tasks.size(); ++i) {
     const auto& c = options.custom_tasks[i];
     report.tasks[i].start = {c.start.x(), c.start.y()};
@@ -399,8 +411,8 @@ sim::EvalReport MakeEvalReport(const MazeEvalResult& result, const MazeEvalOptio
   return report;
 }
 
-void WriteResultsJson(const MazeEvalResult& result, const MazeEvalOptions& options, const std::string& agent,
-                      const std::string& path) {
+void WriteResultsJson(const MazeEvalResult& result, const MazeEvalOptions& options,
+                      const std::string& agent, const std::string& path) {
   sim::WriteTextFile(path, sim::EvalReportJson(sim::MazeMap::FromName(options.maze),
                                                MakeEvalReport(result, options, agent)));
 }

@@ -8,11 +8,11 @@
 #include <set>
 #include <string>
 
-#include "msspr_eval/cube_evaluator.h"
-#include "msspr_eval/maze_evaluator.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/policy.h"
 #include "msspr_core/process_env.h"
+#include "msspr_eval/cube_evaluator.h"
+#include "msspr_eval/maze_evaluator.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/maze_plot.h"
@@ -49,23 +49,28 @@ int main(int argc, char** argv) {
   bool cube = false;
   std::string policy_path, out, plot, agent, device;
   try {
-    msspr::cli::CliArgs args(argc, argv, {"help"},
-                             {"policy", "env", "maze", "tasks", "tasks-file", "episodes", "max-steps", "seed",
-                              "threads", "device", "agent", "out", "plot", "urdf"});
+    msspr::cli::CliArgs args(
+        argc, argv, {"help"},
+        {"policy", "env", "maze", "tasks", "tasks-file", "episodes", "max-steps", "seed", "threads",
+         "device", "agent", "out", "plot", "urdf"});
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
     }
-    if (!args.positional().empty()) throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    if (!args.positional().empty())
+      throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
     policy_path = args.Get("policy", "");
     if (policy_path.empty()) throw msspr::cli::CliError("--policy is required");
     cube = args.GetChoice("env", "pointmaze", {"pointmaze", "cube-single"}) == "cube-single";
     if (cube) {
       for (const char* f : {"maze", "tasks-file", "plot"})
-        if (args.Has(f)) throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env cube-single");
+        if (args.Has(f))
+          throw msspr::cli::CliError(std::string("--") + f +
+                                     " does not apply to --env cube-single");
       co.urdf_path = args.Get("urdf", "");
       co.tasks.clear();
-      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, 5)) co.tasks.push_back(static_cast<int>(t));
+      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, 5))
+        co.tasks.push_back(static_cast<int>(t));
       co.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
       co.max_steps = static_cast<int>(args.GetInt("max-steps", 200, 1, 100000000));
       co.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
@@ -74,7 +79,8 @@ int main(int argc, char** argv) {
       const auto names = sim::MazeMap::Names();
       eo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
       const auto map = sim::MazeMap::FromName(eo.maze);
-      if (args.Has("tasks-file") && args.Has("tasks")) throw msspr::cli::CliError("give --tasks or --tasks-file, not both");
+      if (args.Has("tasks-file") && args.Has("tasks"))
+        throw msspr::cli::CliError("give --tasks or --tasks-file, not both");
       if (args.Has("tasks-file")) {
         try {
           eo.custom_tasks = sim::LoadCustomTasks(args.Get("tasks-file", ""), &map);
@@ -83,7 +89,8 @@ int main(int argc, char** argv) {
         }
       } else {
         eo.tasks.clear();
-        for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map.Tasks().size())))
+        for (long t :
+             args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map.Tasks().size())))
           eo.tasks.push_back(static_cast<int>(t));
       }
       eo.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
@@ -110,18 +117,20 @@ int main(int argc, char** argv) {
     auto policy = msspr::core::Policy::Load(policy_path, torch::Device(device));
     if (cube) {
       if (co.urdf_path.empty()) co.urdf_path = sim::DefaultArmUrdf();
-      std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x " << co.episodes
-                << " episodes on cube-single (arm " << co.urdf_path << ") ...\n";
+      std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x "
+                << co.episodes << " episodes on cube-single (arm " << co.urdf_path << ") ...\n";
       const auto result = msspr::agent::EvaluateOnCube(policy, co);
       const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, co, agent);
       std::cout << sim::EvalReportTable(report);
       if (!out.empty()) msspr::agent::WriteCubeResultsJson(result, co, agent, out);
-      std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in " << result.seconds << " s\n";
+      std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in "
+                << result.seconds << " s\n";
       return 0;
     }
-    std::cerr << "msspr_eval_inprocess: " << policy_path << " (" << (policy.pixels() ? "pixels" : "states") << "), "
-              << (eo.custom_tasks.empty() ? eo.tasks.size() : eo.custom_tasks.size()) << " tasks x " << eo.episodes
-              << " episodes on " << eo.maze << " ...\n";
+    std::cerr << "msspr_eval_inprocess: " << policy_path << " ("
+              << (policy.pixels() ? "pixels" : "states") << "), "
+              << (eo.custom_tasks.empty() ? eo.tasks.size() : eo.custom_tasks.size()) << " tasks x "
+              << eo.episodes << " episodes on " << eo.maze << " ...\n";
     const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
     const auto map = sim::MazeMap::FromName(eo.maze);
     const sim::EvalReport report = msspr::agent::MakeEvalReport(result, eo, agent);
@@ -139,7 +148,8 @@ int main(int argc, char** argv) {
         }
       sim::SaveTrajectoryPlot(map, paths, sg, ok, plot);
     }
-    std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in " << result.seconds << " s\n";
+    std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in "
+              << result.seconds << " s\n";
   } catch (const std::exception& e) {
     std::cerr << "msspr_eval_inprocess: " << e.what() << "\n";
     return 1;

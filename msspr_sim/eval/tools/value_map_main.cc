@@ -12,11 +12,11 @@
 #include <sstream>
 #include <string>
 
-#include "msspr_eval/maze_evaluator.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/policy.h"
 #include "msspr_core/process_env.h"
+#include "msspr_eval/maze_evaluator.h"
 #include "msspr_sim/maze_map.h"
 
 namespace {
@@ -49,33 +49,39 @@ int main(int argc, char** argv) {
   std::string policy_path, out, agent;
   try {
     msspr::cli::CliArgs args(argc, argv, {"help"},
-                             {"policy", "maze", "goal-task", "goal", "per-cell", "rollouts", "start-noise",
-                              "max-steps", "seed", "threads", "agent", "out"});
+                             {"policy", "maze", "goal-task", "goal", "per-cell", "rollouts",
+                              "start-noise", "max-steps", "seed", "threads", "agent", "out"});
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
     }
-    if (!args.positional().empty()) throw CliError("unexpected argument '" + args.positional()[0] + "'");
+    if (!args.positional().empty())
+      throw CliError("unexpected argument '" + args.positional()[0] + "'");
     policy_path = args.Get("policy", "");
     if (policy_path.empty()) throw CliError("--policy is required");
     const auto names = msspr::sim::MazeMap::Names();
     vo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
     const auto map = msspr::sim::MazeMap::FromName(vo.maze);
-    if (args.Has("goal") && args.Has("goal-task")) throw CliError("give --goal or --goal-task, not both");
+    if (args.Has("goal") && args.Has("goal-task"))
+      throw CliError("give --goal or --goal-task, not both");
     if (args.Has("goal")) {
       const std::string g = args.Get("goal", "");
       const auto comma = g.find(',');
-      if (comma == std::string::npos) throw CliError("--goal expects X,Y in metres, got '" + g + "'");
+      if (comma == std::string::npos)
+        throw CliError("--goal expects X,Y in metres, got '" + g + "'");
       vo.goal = {msspr::cli::ParseDouble("goal", g.substr(0, comma)),
                  msspr::cli::ParseDouble("goal", g.substr(comma + 1))};
-      if (map.IsWall(map.XYToCell(vo.goal))) throw CliError("--goal " + g + " is inside a wall of maze " + vo.maze);
+      if (map.IsWall(map.XYToCell(vo.goal)))
+        throw CliError("--goal " + g + " is inside a wall of maze " + vo.maze);
     } else {
-      const int task = static_cast<int>(args.GetInt("goal-task", 1, 1, static_cast<long>(map.Tasks().size())));
+      const int task =
+          static_cast<int>(args.GetInt("goal-task", 1, 1, static_cast<long>(map.Tasks().size())));
       vo.goal = map.CellCenter(map.Tasks()[static_cast<size_t>(task - 1)].goal);
     }
     vo.per_cell = static_cast<int>(args.GetInt("per-cell", 3, 1, 20));
     vo.rollouts = static_cast<int>(args.GetInt("rollouts", 10, 1, 10000));
-    vo.start_noise = args.GetDouble("start-noise", 0.1, 0.0, msspr::sim::kCellSize / 2 - msspr::sim::kAgentRadius);
+    vo.start_noise = args.GetDouble("start-noise", 0.1, 0.0,
+                                    msspr::sim::kCellSize / 2 - msspr::sim::kAgentRadius);
     vo.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
     vo.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
@@ -92,15 +98,17 @@ int main(int argc, char** argv) {
   try {
     torch::manual_seed(static_cast<uint64_t>(vo.seed));
     auto policy = msspr::core::Policy::Load(policy_path);
-    std::cerr << "msspr_value_map: " << policy_path << " (" << (policy.pixels() ? "pixels" : "states")
-              << "), goal (" << vo.goal.x() << ", " << vo.goal.y() << "), " << vo.per_cell * vo.per_cell
-              << " starts per free cell x " << vo.rollouts << " rollouts ...\n";
+    std::cerr << "msspr_value_map: " << policy_path << " ("
+              << (policy.pixels() ? "pixels" : "states") << "), goal (" << vo.goal.x() << ", "
+              << vo.goal.y() << "), " << vo.per_cell * vo.per_cell << " starts per free cell x "
+              << vo.rollouts << " rollouts ...\n";
     const auto result = msspr::agent::ComputeValueMap(policy, vo);
     msspr::agent::WriteValueMap(result, vo, agent, out);
-    std::printf("{\"points\": %zu, \"episodes\": %d, \"mean_abs_error\": %.4f, \"bias\": %.4f, "
-                "\"correlation\": %.4f, \"mean_success\": %.4f, \"wall_time_s\": %.1f, \"out\": \"%s\"}\n",
-                result.points.size(), result.episodes, result.mean_abs_error, result.bias, result.correlation,
-                result.mean_success, result.seconds, out.c_str());
+    std::printf(
+        "{\"points\": %zu, \"episodes\": %d, \"mean_abs_error\": %.4f, \"bias\": %.4f, "
+        "\"correlation\": %.4f, \"mean_success\": %.4f, \"wall_time_s\": %.1f, \"out\": \"%s\"}\n",
+        result.points.size(), result.episodes, result.mean_abs_error, result.bias,
+        result.correlation, result.mean_success, result.seconds, out.c_str());
   } catch (const std::exception& e) {
     std::cerr << "msspr_value_map: " << e.what() << "\n";
     return 1;

@@ -35,8 +35,8 @@ std::vector<CustomTask> LoadCustomTasks(const std::string& path, const MazeMap* 
 // both stay inside their cells); deterministic for (map, n, seed). Pairs are
 // at least min_cells BFS moves apart (1 = any two distinct cells). Ids are
 // 1..n. Throws std::invalid_argument when no pair is that far apart.
-std::vector<CustomTask> RandomCustomTasks(const MazeMap& map, int n, uint64_t seed, int min_cells = 1,
-                                          double noise = 1.0);
+std::vector<CustomTask> RandomCustomTasks(const MazeMap& map, int n, uint64_t seed,
+                                          int min_cells = 1, double noise = 1.0);
 
 // The YAML text of a tasks file (with maze: and a comment line per task giving
 // the cells and their BFS distance).

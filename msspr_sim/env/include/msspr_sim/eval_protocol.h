@@ -20,7 +20,7 @@ inline uint64_t EvalEpisodeSeed(uint64_t seed, int task, int episode) {
 
 struct TaskResult {
   int task_id = 0;
-  double success = 0.0;              // fraction of episodes that reached the goal
+  double success = 0.0;  // fraction of episodes that reached the goal
   int episodes = 0;
   double mean_steps_successful = 0;  // steps to the goal, over the successful episodes
   std::vector<double> start, goal;   // custom tasks only: exact start and goal (x, y)
@@ -28,13 +28,13 @@ struct TaskResult {
 
 // The results of one evaluation, as msspr_eval and the trainer write them.
 struct EvalReport {
-  std::string env;                   // "pointmaze-medium"
+  std::string env;  // "pointmaze-medium"
   std::string agent;
-  std::string robot;                 // the robot interface spec served through ("": msspr's own topics)
+  std::string robot;  // the robot interface spec served through ("": msspr's own topics)
   int episodes_per_task = 0, max_steps = 1000;
   uint64_t seed = 0;
   std::vector<TaskResult> tasks;
-  double mean_success = 0.0;         // mean over tasks, in [0, 1]
+  double mean_success = 0.0;  // mean over tasks, in [0, 1]
   int stalled_episodes = 0;
   double wall_time_s = 0.0;
 };

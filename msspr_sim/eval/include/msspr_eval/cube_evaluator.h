@@ -22,9 +22,9 @@ namespace msspr::agent {
 struct CubeEvalOptions {
   std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf() (package_files.h)
   std::vector<int> tasks = {1, 2, 3, 4, 5};
-  int episodes = 50;   // per task
+  int episodes = 50;  // per task
   int max_steps = 200;
-  uint64_t seed = 0;   // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
+  uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
 };
 
 using CubeEvalResult = TaskSuccessResult;
@@ -37,7 +37,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
                                    const std::string& agent);
 // Writes the results JSON shared with msspr_eval; throws std::runtime_error naming the path.
-void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options, const std::string& agent,
-                          const std::string& path);
+void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options,
+                          const std::string& agent, const std::string& path);
 
 }  // namespace msspr::agent

@@ -19,8 +19,9 @@ struct TaskSuccessResult {
 };
 
 // The report (starts and goals left empty), mean_success filled.
-inline sim::EvalReport MakeTaskReport(const TaskSuccessResult& r, const std::string& env, const std::string& agent,
-                                      int episodes, int max_steps, uint64_t seed) {
+inline sim::EvalReport MakeTaskReport(const TaskSuccessResult& r, const std::string& env,
+                                      const std::string& agent, int episodes, int max_steps,
+                                      uint64_t seed) {
   sim::EvalReport report;
   report.env = env;
   report.agent = agent;

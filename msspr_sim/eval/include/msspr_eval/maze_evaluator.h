@@ -4,11 +4,10 @@
 // by side so that each control step is one batched forward pass.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "msspr_eval/eval_result.h"
 #include "msspr_sim/custom_tasks.h"
@@ -23,7 +22,7 @@ namespace msspr::agent {
 struct MazeEvalOptions {
   std::string maze = "medium";
   std::vector<int> tasks = {1, 2, 3, 4, 5};
-  int episodes = 50;        // per task
+  int episodes = 50;  // per task
   int max_steps = 1000;
   uint64_t seed = 0;        // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
   bool keep_paths = false;  // record the trajectories (for plots)
@@ -87,8 +86,8 @@ ValueMapResult ComputeValueMap(core::Policy& policy, const ValueMapOptions& opti
 // The map's three heatmaps (dir/value_predicted.png, value_true.png,
 // value_error.png: predicted - true) and dir/value_map.json (options, summary
 // numbers and every point). Throws std::runtime_error naming the path.
-void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options, const std::string& agent,
-                   const std::string& dir);
+void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
+                   const std::string& agent, const std::string& dir);
 
 // The results of an evaluation in msspr_eval's report form (custom tasks with
 // their exact start and goal), mean_success filled.
