@@ -7,6 +7,9 @@
 #   DEMO_TASKS_FILE=config/eval_tasks_medium_easy.yaml make demo   custom tasks
 #   MSSPR_DEMO_ENV=cube-single make demo   the URDF arm's cube-single (states; writes
 #                                          results.json and success.png)
+#   MSSPR_DEMO_ROBOT=pointmaze_base make demo   (or ur5e_cube with MSSPR_DEMO_ENV=cube-single)
+#                                          over standard ROS messages through the robot
+#                                          spec config/robots/NAME.yaml (docs/bring_your_own_robot.md)
 set -euo pipefail
 BUILD=${1:-build}
 cd "$(dirname "$0")/.."
@@ -48,6 +51,14 @@ case "$ENV" in
     exit 2
     ;;
 esac
+if [ -n "${MSSPR_DEMO_ROBOT:-}" ]; then
+  if [ ! -f "config/robots/$MSSPR_DEMO_ROBOT.yaml" ]; then
+    echo "[demo] MSSPR_DEMO_ROBOT: no config/robots/$MSSPR_DEMO_ROBOT.yaml" >&2
+    exit 2
+  fi
+  echo "[demo] over standard messages through config/robots/$MSSPR_DEMO_ROBOT.yaml"
+  LAUNCH+=(robot:="$MSSPR_DEMO_ROBOT")
+fi
 echo "[demo] running sim + agent + evaluator, ${DEMO_EPISODES:-20} episodes per task (log: $LOG) ..."
 roslaunch -p "$MSSPR_PORT" msspr "${LAUNCH[@]}" out_dir:="$OUT" episodes:="${DEMO_EPISODES:-20}" >"$LOG" 2>&1 || true
 grep -E "msspr_eval: task" "$LOG" | sed -E 's/^.*(msspr_eval: task)/[demo] \1/; s/\x1b\[[0-9;]*m//g' || true
