@@ -16,6 +16,14 @@
 
 namespace {
 
+// Prints the first max_problems problems to stderr, then how many more there were.
+void PrintProblems(const std::vector<std::string>& problems, long max_problems) {
+  for (size_t i = 0; i < problems.size() && static_cast<long>(i) < max_problems; ++i)
+    std::fprintf(stderr, "  %s\n", problems[i].c_str());
+  if (static_cast<long>(problems.size()) > max_problems)
+    std::fprintf(stderr, "  ... and %zu more\n", problems.size() - max_problems);
+}
+
 // msspr_bag_info --robot SPEC.yaml BAG...: what the spec would extract, per field.
 int SpecInfo(const std::string& spec_path, const std::vector<std::string>& bags, long max_problems) {
   using namespace msspr::ros_bridge;
@@ -68,10 +76,7 @@ int SpecInfo(const std::string& spec_path, const std::vector<std::string>& bags,
       if (!r.problems.empty()) {
         status = std::max(status, 1);
         std::fprintf(stderr, "%s: problems:\n", path.c_str());
-        for (size_t i = 0; i < r.problems.size() && static_cast<long>(i) < max_problems; ++i)
-          std::fprintf(stderr, "  %s\n", r.problems[i].c_str());
-        if (static_cast<long>(r.problems.size()) > max_problems)
-          std::fprintf(stderr, "  ... and %zu more\n", r.problems.size() - max_problems);
+        PrintProblems(r.problems, max_problems);
       }
     } catch (const std::exception& e) {
       std::fprintf(stderr, "msspr_bag_info: %s\n", e.what());
@@ -180,10 +185,7 @@ int main(int argc, char** argv) {
         status = std::max(status, 1);
         std::fprintf(stderr, "%s: inconsistent dataset bag:\n", path.c_str());
         if (mixed) std::fprintf(stderr, "  episodes disagree on observation/action/image sizes\n");
-        for (size_t i = 0; i < r.problems.size() && static_cast<long>(i) < max_problems; ++i)
-          std::fprintf(stderr, "  %s\n", r.problems[i].c_str());
-        if (static_cast<long>(r.problems.size()) > max_problems)
-          std::fprintf(stderr, "  ... and %zu more\n", r.problems.size() - max_problems);
+        PrintProblems(r.problems, max_problems);
       }
     } catch (const std::exception& e) {
       std::fprintf(stderr, "msspr_bag_info: %s\n", e.what());
