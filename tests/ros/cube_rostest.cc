@@ -191,16 +191,12 @@ TEST(CubeSimOracle, ServicesAndBadInput) {
                         5.0));
 }
 
-// msspr_eval --env cube-single against msspr_cube_oracle_node (eval_cube_oracle.test):
-// OGBench's protocol over ROS, the oracle at >= 90% on each task, the results JSON.
-TEST(CubeEvalOracle, FiveTasks) {
-  ros::NodeHandle pnh("~");
-  const int episodes = pnh.param("episodes", 5);
-  const std::string json = "/tmp/msspr_cube_eval_" + std::to_string(getpid()) + ".json";
+// Runs msspr_eval in this node's namespace with ARGS and --out JSON (removed
+// first), prints its output, asserts it exits 0 and reads the results JSON into *j.
+void RunEval(const std::string& args, const std::string& json, std::string* j) {
   std::remove(json.c_str());
-  const std::string cmd = std::string(MSSPR_EVAL_EXE) + " __ns:=" + ros::this_node::getNamespace() +
-                          " --env cube-single --episodes " + std::to_string(episodes) +
-                          " --seed 3 --agent cube-oracle --out " + json + " 2>&1";
+  const std::string cmd = std::string(MSSPR_EVAL_EXE) + " __ns:=" + ros::this_node::getNamespace() + " " + args +
+                          " --out " + json + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   ASSERT_NE(p, nullptr);
   std::string out;
@@ -211,7 +207,19 @@ TEST(CubeEvalOracle, FiveTasks) {
   std::printf("%s\n", out.c_str());
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
   std::ifstream in(json);
-  const std::string j((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  j->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// msspr_eval --env cube-single against msspr_cube_oracle_node (eval_cube_oracle.test):
+// OGBench's protocol over ROS, the oracle at >= 90% on each task, the results JSON.
+TEST(CubeEvalOracle, FiveTasks) {
+  ros::NodeHandle pnh("~");
+  const int episodes = pnh.param("episodes", 5);
+  const std::string json = "/tmp/msspr_cube_eval_" + std::to_string(getpid()) + ".json";
+  std::string j;
+  ASSERT_NO_FATAL_FAILURE(RunEval("--env cube-single --episodes " + std::to_string(episodes) +
+                                      " --seed 3 --agent cube-oracle",
+                                  json, &j));
   EXPECT_NE(j.find("\"env\": \"cube-single\""), std::string::npos) << j;
   EXPECT_NE(j.find("\"max_steps\": 200"), std::string::npos) << j;
   EXPECT_NE(j.find("\"stalled_episodes\": 0"), std::string::npos) << j;
@@ -236,21 +244,10 @@ TEST(CubeEvalRobot, ServedThroughTheSpecReachesGoals) {
   ros::NodeHandle pnh("~");
   const int episodes = pnh.param("episodes", 4);
   const std::string json = "/tmp/msspr_cube_robot_eval_" + std::to_string(getpid()) + ".json";
-  std::remove(json.c_str());
-  const std::string cmd = std::string(MSSPR_EVAL_EXE) + " __ns:=" + ros::this_node::getNamespace() +
-                          " --env cube-single --episodes " + std::to_string(episodes) +
-                          " --agent msspr-cube-state --robot ur5e_cube --out " + json + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  std::printf("%s\n", out.c_str());
-  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
-  std::ifstream in(json);
-  const std::string j((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string j;
+  ASSERT_NO_FATAL_FAILURE(RunEval("--env cube-single --episodes " + std::to_string(episodes) +
+                                      " --agent msspr-cube-state --robot ur5e_cube",
+                                  json, &j));
   EXPECT_NE(j.find("\"robot\": \"ur5e_cube\""), std::string::npos) << j;
   EXPECT_NE(j.find("\"stalled_episodes\": 0"), std::string::npos) << j;
   const size_t at = j.find("\"mean_success\": ");
