@@ -44,17 +44,10 @@ mkdir -p "$OUT"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-# As in bench_train_vs_reference.sh: "default" is OpenMP's own policy; msspr's
-# tools need OMP_WAIT_POLICY="" for it (unset makes them re-execute with PASSIVE).
-with_policy() {
-  local side=$1 pol=$2
-  shift 2
-  case $pol in
-    default) if [ "$side" = msspr ]; then env OMP_WAIT_POLICY= "$@"; else env -u OMP_WAIT_POLICY "$@"; fi ;;
-    unset) env -u OMP_WAIT_POLICY "$@" ;;
-    *) env OMP_WAIT_POLICY="$pol" "$@" ;;
-  esac
-}
+# with_policy SIDE POLICY CMD...: as in bench_train_vs_reference.sh, "default" is
+# OpenMP's own policy; msspr's tools need OMP_WAIT_POLICY="" for it (unset makes
+# them re-execute with PASSIVE).
+. scripts/bench_lib.sh
 # ms/step over the metrics.csv rows from step LOG_EVERY to the last one, or null.
 window_ms() {
   /usr/bin/python3 - "$1" "$LOG_EVERY" <<'PY' 2>/dev/null || echo null

@@ -33,17 +33,8 @@ for p in $POLICIES; do
 done
 mkdir -p "$OUT"
 
-# with_policy SIDE POLICY CMD...: runs CMD under POLICY (see above, or "unset");
-# SIDE is ref or msspr.
-with_policy() {
-  local side=$1 pol=$2
-  shift 2
-  case $pol in
-    default) if [ "$side" = msspr ]; then env OMP_WAIT_POLICY= "$@"; else env -u OMP_WAIT_POLICY "$@"; fi ;;
-    unset) env -u OMP_WAIT_POLICY "$@" ;;
-    *) env OMP_WAIT_POLICY="$pol" "$@" ;;
-  esac
-}
+# with_policy SIDE POLICY CMD...: runs CMD under POLICY (see above, or "unset").
+. scripts/bench_lib.sh
 # spin_count SIDE POLICY CMD...: GOMP_SPINCOUNT of the last libgomp start-up in CMD
 # (after msspr's re-exec, if any), as OMP_DISPLAY_ENV=verbose prints it.
 spin_count() {
