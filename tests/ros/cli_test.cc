@@ -9,33 +9,21 @@
 #include <string>
 #include <vector>
 
+#include "cli_test_util.h"
+
 namespace {
 
-struct Result {
-  int status = -1;  // exit status, or -1 when killed by a signal
-  std::string output;
-};
+using Result = msspr::test::ToolOutput;
 
 Result Run(const std::string& exe, const std::string& args) {
-  // ROS_MASTER_URI points nowhere: a tool that tried to reach a master would fail, not hang.
-  const std::string cmd =
-      "ROS_MASTER_URI=http://127.0.0.1:1 timeout 60 " + exe + " " + args + " 2>&1";
-  Result r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
+  return msspr::test::RunTool(exe + " " + args, 60);
 }
 
 void ExpectUsageError(const std::string& exe, const std::string& args, const std::string& says) {
   const Result r = Run(exe, args);
-  EXPECT_EQ(r.status, 2) << exe << " " << args << "\n" << r.output;
-  EXPECT_NE(r.output.find(says), std::string::npos) << exe << " " << args << "\n" << r.output;
-  EXPECT_EQ(r.output.find("terminate"), std::string::npos) << r.output;
+  EXPECT_EQ(r.status, 2) << exe << " " << args << "\n" << r.text;
+  EXPECT_NE(r.text.find(says), std::string::npos) << exe << " " << args << "\n" << r.text;
+  EXPECT_EQ(r.text.find("terminate"), std::string::npos) << r.text;
 }
 
 // (arguments, what the message must say) for one tool.
@@ -118,8 +106,8 @@ TEST(Cli, EvalInprocessRejectsBadFlagsAndWritesResults) {
   std::remove(out.c_str());
   const Result r = ::Run(MSSPR_EVAL_INPROCESS_EXE, std::string("--policy ") + MSSPR_TEST_CHECKPOINT +
                                                      " --tasks 1,2 --episodes 2 --max-steps 600 --threads 1 --out " + out);
-  ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("mean success"), std::string::npos) << r.output;
+  ASSERT_EQ(r.status, 0) << r.text;
+  EXPECT_NE(r.text.find("mean success"), std::string::npos) << r.text;
   FILE* f = std::fopen(out.c_str(), "r");
   ASSERT_NE(f, nullptr) << out;
   std::string js(4096, '\0');

@@ -45,6 +45,8 @@
 
 #include "msspr/Observation.h"
 #include "msspr/Reset.h"
+#include "cli_test_util.h"
+#include "ros_test_helper.h"
 
 namespace {
 
@@ -54,33 +56,12 @@ constexpr int kEpisodes = 4;
 constexpr int kEpisodeLength = 40;  // the launch file's episode_length
 const std::string kSpec = std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml";
 
-bool WaitFor(const std::function<bool()>& pred, double timeout_s) {
-  const auto end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && !pred() && ros::WallTime::now() < end) {
-    ros::spinOnce();
-    ros::WallDuration(0.001).sleep();
-  }
-  ros::spinOnce();
-  return pred();
-}
+using msspr::testing::WaitFor;
 
-struct Output {
-  int status = -1;
-  std::string text;
-};
+using Output = msspr::test::ToolOutput;
 
 // Runs a tool to its end (no ROS traffic: a master it tried to reach would be unreachable).
-Output RunTool(const std::string& cmd) {
-  Output r;
-  FILE* p = popen(("ROS_MASTER_URI=http://127.0.0.1:1 timeout 120 " + cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.text.append(buf, n);
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+Output RunTool(const std::string& cmd) { return msspr::test::RunTool(cmd, 120); }
 
 // A child process (exec of argv), stopped with SIGINT.
 class Child {

@@ -36,6 +36,17 @@ inline msspr::Reset::Response CallReset(ros::NodeHandle& nh, int task, uint64_t 
   return srv.response;
 }
 
+// Spins until pred() holds or timeout_s of wall time pass; returns pred().
+inline bool WaitFor(const std::function<bool()>& pred, double timeout_s) {
+  const auto end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  while (ros::ok() && !pred() && ros::WallTime::now() < end) {
+    ros::spinOnce();
+    ros::WallDuration(0.001).sleep();
+  }
+  ros::spinOnce();
+  return pred();
+}
+
 class RosTestHelper {
  public:
   RosTestHelper() {
@@ -57,13 +68,7 @@ class RosTestHelper {
 
   // Spins until pred() holds or timeout_s of wall time pass; returns pred().
   bool WaitFor(const std::function<bool()>& pred, double timeout_s) {
-    const auto end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-    while (ros::ok() && !pred() && ros::WallTime::now() < end) {
-      ros::spinOnce();
-      ros::WallDuration(0.001).sleep();
-    }
-    ros::spinOnce();
-    return pred();
+    return msspr::testing::WaitFor(pred, timeout_s);
   }
 
   // Waits until the sim's observation topic and action subscriber are connected.

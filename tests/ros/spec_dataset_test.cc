@@ -12,6 +12,7 @@
 #include <string>
 
 #include "bag_dataset.h"
+#include "cli_test_util.h"
 #include "cube_spec_bag.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/options.h"
@@ -25,22 +26,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Output {
-  int status = -1;
-  std::string text;
-};
+using Output = test::ToolOutput;
 
-Output RunTool(const std::string& cmd) {
-  Output r;
-  FILE* p = popen(("ROS_MASTER_URI=http://127.0.0.1:1 timeout 300 " + cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.text.append(buf, n);
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+Output RunTool(const std::string& cmd) { return test::RunTool(cmd, 300); }
 
 class SpecDatasetTest : public ::testing::Test {
  protected:
