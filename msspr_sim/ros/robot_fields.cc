@@ -79,49 +79,45 @@ bool ReadAny(const M& msg, const SpecField& f, std::vector<double>* out, std::st
   return ReadRaw(msg, f, out, why);
 }
 
+// Reads each of f's paths as leaf(group, component) into *out, then derives what f asks for.
+template <class Leaf>
+bool ReadLeaves(const SpecField& f, std::vector<double>* out, Leaf leaf) {
+  out->clear();
+  for (const auto& p : Paths(f)) {
+    const auto [group, c] = SplitLast(p);
+    out->push_back(leaf(group, c));
+  }
+  Derive(f, out);
+  return true;
+}
+
 }  // namespace
 
 bool ReadRaw(const nav_msgs::Odometry& msg, const SpecField& f, std::vector<double>* out, std::string*) {
-  out->clear();
-  for (const auto& p : Paths(f)) {
-    const auto [group, c] = SplitLast(p);
-    if (group == "pose.pose.position") out->push_back(Component(msg.pose.pose.position, c));
-    else if (group == "pose.pose.orientation") out->push_back(Component(msg.pose.pose.orientation, c));
-    else if (group == "twist.twist.linear") out->push_back(Component(msg.twist.twist.linear, c));
-    else out->push_back(Component(msg.twist.twist.angular, c));
-  }
-  Derive(f, out);
-  return true;
+  return ReadLeaves(f, out, [&](const std::string& group, const std::string& c) {
+    if (group == "pose.pose.position") return Component(msg.pose.pose.position, c);
+    if (group == "pose.pose.orientation") return Component(msg.pose.pose.orientation, c);
+    if (group == "twist.twist.linear") return Component(msg.twist.twist.linear, c);
+    return Component(msg.twist.twist.angular, c);
+  });
 }
 
 bool ReadRaw(const geometry_msgs::PoseStamped& msg, const SpecField& f, std::vector<double>* out, std::string*) {
-  out->clear();
-  for (const auto& p : Paths(f)) {
-    const auto [group, c] = SplitLast(p);
-    out->push_back(PoseLeaf(msg.pose, group == "pose.position" ? "position" : "orientation", c));
-  }
-  Derive(f, out);
-  return true;
+  return ReadLeaves(f, out, [&](const std::string& group, const std::string& c) {
+    return PoseLeaf(msg.pose, group == "pose.position" ? "position" : "orientation", c);
+  });
 }
 
 bool ReadRaw(const geometry_msgs::Twist& msg, const SpecField& f, std::vector<double>* out, std::string*) {
-  out->clear();
-  for (const auto& p : Paths(f)) {
-    const auto [group, c] = SplitLast(p);
-    out->push_back(TwistLeaf(msg, group, c));
-  }
-  Derive(f, out);
-  return true;
+  return ReadLeaves(f, out, [&](const std::string& group, const std::string& c) {
+    return TwistLeaf(msg, group, c);
+  });
 }
 
 bool ReadRaw(const geometry_msgs::TwistStamped& msg, const SpecField& f, std::vector<double>* out, std::string*) {
-  out->clear();
-  for (const auto& p : Paths(f)) {
-    const auto [group, c] = SplitLast(p);
-    out->push_back(TwistLeaf(msg.twist, group == "twist.linear" ? "linear" : "angular", c));
-  }
-  Derive(f, out);
-  return true;
+  return ReadLeaves(f, out, [&](const std::string& group, const std::string& c) {
+    return TwistLeaf(msg.twist, group == "twist.linear" ? "linear" : "angular", c);
+  });
 }
 
 bool ReadRaw(const sensor_msgs::JointState& msg, const SpecField& f, std::vector<double>* out, std::string* why) {
@@ -157,14 +153,9 @@ bool ReadRaw(const trajectory_msgs::JointTrajectory& msg, const SpecField& f, st
 
 bool ReadRaw(const geometry_msgs::TransformStamped& msg, const SpecField& f, std::vector<double>* out,
              std::string*) {
-  out->clear();
-  for (const auto& p : Paths(f)) {
-    const auto [group, c] = SplitLast(p);
-    out->push_back(group == "translation" ? Component(msg.transform.translation, c)
-                                          : Component(msg.transform.rotation, c));
-  }
-  Derive(f, out);
-  return true;
+  return ReadLeaves(f, out, [&](const std::string& group, const std::string& c) {
+    return group == "translation" ? Component(msg.transform.translation, c) : Component(msg.transform.rotation, c);
+  });
 }
 
 ros::Time HeaderStamp(const geometry_msgs::TransformStamped& m) { return m.header.stamp; }
