@@ -73,7 +73,7 @@ for exe in "$PREFIX"/lib/msspr/*; do
 done
 
 # 3. The demo from the install space alone.
-PORT=$((20000 + ($$ + 7919) % 20000))
+PORT=$(python3 "$SRC/scripts/free_port.py" $$) || fail "no free port for the ROS master"
 mkdir -p "$WORK/run" "$WORK/ros_home/log"
 env -i HOME="$WORK/run" PATH=/usr/bin:/bin LANG=C.UTF-8 OMP_NUM_THREADS=1 \
   ROS_HOME="$WORK/ros_home" ROS_LOG_DIR="$WORK/ros_home/log" \

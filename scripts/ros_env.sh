@@ -16,6 +16,6 @@ source "$DEVEL/setup.bash"
 export ROS_HOME=${ROS_HOME:-$PWD/$BUILD/ros_home}
 export ROS_LOG_DIR=${ROS_LOG_DIR:-$ROS_HOME/log}
 mkdir -p "$ROS_LOG_DIR"
-MSSPR_PORT=${MSSPR_PORT:-$((20000 + $$ % 20000))}
+MSSPR_PORT=${MSSPR_PORT:-$(python3 "$(dirname "${BASH_SOURCE[0]}")/free_port.py" $$)}
 export ROS_MASTER_URI=http://127.0.0.1:$MSSPR_PORT
 export ROS_IP=127.0.0.1
