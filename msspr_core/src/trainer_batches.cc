@@ -142,9 +142,12 @@ ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const 
   batch.mc_return = ToDevice(
       torch::from_blob(const_cast<float*>(idx.mc_return.data()), {b, idx.horizon}, torch::kFloat32)
           .clone());
-  batch.goal_ahead = ToDevice(
-      torch::from_blob(const_cast<float*>(idx.goal_ahead.data()), {b, idx.horizon}, torch::kFloat32)
-          .clone());
+  // Read only by the reward term with representation.reward_goals "trajectory".
+  if (options_.representation.reward_goals == "trajectory") {
+    batch.goal_ahead = ToDevice(torch::from_blob(const_cast<float*>(idx.goal_ahead.data()),
+                                                 {b, idx.horizon}, torch::kFloat32)
+                                    .clone());
+  }
   return batch;
 }
 

@@ -52,6 +52,7 @@ struct ChunkBatch {
   torch::Tensor goal;         // [B, ...]
   torch::Tensor mc_return;    // [B, H] float32 Monte Carlo return to the goal
   torch::Tensor goal_ahead;   // [B, H] float32 1 when the goal is ahead in the same trajectory
+                              // (only with representation.reward_goals "trajectory")
 };
 
 // Latest losses (NaN when not computed in that step).
