@@ -64,12 +64,28 @@ done
 echo "check_install: installed into $PREFIX ($(find "$PREFIX" -type f | wc -l) files)"
 
 # 2. Nothing installed points back into the source tree or the devel space.
-hits=$(grep -rIl -- "$SRC" "$PREFIX" 2>/dev/null)
+# The default prefix is SRC/install (a fresh configure), so paths inside the
+# install prefix (as configured, or under DESTDIR) are masked before looking
+# for SRC: only a path into the rest of the source tree counts.
+names_src() {  # stdin: text; prints the lines naming SRC outside the prefix
+  local line
+  while IFS= read -r line; do
+    line=${line//"$PREFIX"/@PREFIX@}
+    line=${line//"$CONFIGURED"/@PREFIX@}
+    [[ $line == *"$SRC"* ]] && printf '%s\n' "$line"
+  done
+  return 0
+}
+hits=""
+while IFS= read -r f; do
+  [ -n "$(names_src <"$f")" ] && hits+="$f: $(names_src <"$f" | head -1)"$'\n'
+done < <(grep -rIl -- "$SRC" "$PREFIX" 2>/dev/null)
 [ -z "$hits" ] || fail "installed text files name the source tree $SRC:"$'\n'"$hits"
 for exe in "$PREFIX"/lib/msspr/*; do
   libs=$(env -i PATH=/usr/bin:/bin LD_LIBRARY_PATH="$PREFIX/lib" ldd "$exe" 2>&1)
   if grep -q 'not found' <<<"$libs"; then fail "$exe: $(grep 'not found' <<<"$libs" | head -3)"; fi
-  if grep -q -- "$SRC" <<<"$libs"; then fail "$exe links from the source tree: $(grep -- "$SRC" <<<"$libs" | head -3)"; fi
+  from_src=$(names_src <<<"$libs")
+  [ -z "$from_src" ] || fail "$exe links from the source tree: $(head -3 <<<"$from_src")"
 done
 
 # 3. The demo from the install space alone.
@@ -95,7 +111,7 @@ rc=$?
 show_log() { tail -40 "$WORK/roslaunch.log" >&2; }
 [ "$(cat "$WORK/run/rospack_find.txt")" = "$SHARE" ] ||
   fail "rospack find msspr gave '$(cat "$WORK/run/rospack_find.txt")', not $SHARE"
-if grep -q -- "$SRC" "$WORK/run/env.txt"; then fail "the environment names the source tree: $(cat "$WORK/run/env.txt")"; fi
+[ -z "$(names_src <"$WORK/run/env.txt")" ] || fail "the environment names the source tree: $(cat "$WORK/run/env.txt")"
 [ "$rc" -ne 124 ] && [ "$rc" -ne 137 ] || { show_log; fail "the demo did not finish within 150 s"; }
 RESULTS=$WORK/run/demo/results.json
 [ -s "$RESULTS" ] || { show_log; fail "the demo wrote no results.json (roslaunch exit $rc)"; }
