@@ -63,8 +63,10 @@ if [ -x "$BIN/msspr_train" ]; then
   scripts/bench_distributed.sh "$OUT" "$BIN" || echo "[bench] data-parallel benchmark failed" >&2
 fi
 if [ "${MSSPR_SOAK_S:-0}" -gt 0 ]; then
-  echo "[bench] soak: sim + msspr_policy_node at 100 Hz for $MSSPR_SOAK_S s (resident memory)"
-  scripts/soak.sh "$BUILD" "$MSSPR_SOAK_S"
+  for path in native robot; do
+    echo "[bench] soak, $path topics: sim + msspr_policy_node at 100 Hz for $MSSPR_SOAK_S s (memory, served rate)"
+    scripts/soak.sh "$BUILD" "$MSSPR_SOAK_S" "$path" || echo "[bench] soak ($path) failed" >&2
+  done
 fi
 python3 - "$OUT" <<'PY'
 import json, sys, glob, os
