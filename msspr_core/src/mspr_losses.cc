@@ -175,9 +175,12 @@ torch::Tensor Trainer::CriticTarget(const TransitionBatch& batch, const torch::T
   const torch::Tensor eps =
       (noise.to(device_) * a.target_noise).clamp(-a.target_noise_clip, a.target_noise_clip);
   const torch::Tensor a_next =
-      (F32(target_actor_->forward(zs_next, grep_next)) + eps).clamp(-1.0, 1.0);
-  const torch::Tensor q_next = std::get<0>(
-      F32(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next)).min(-1));
+      (F32(target_actor_->forward(zs_next, grep_next, batch.next_obs, batch.value_goal)) + eps)
+          .clamp(-1.0, 1.0);
+  const torch::Tensor q_next =
+      std::get<0>(F32(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next,
+                                              batch.next_obs, a_next, batch.value_goal))
+                      .min(-1));
   torch::Tensor y = batch.ret + batch.discount * q_next;  // [B]
   if (a.clip_target) y = y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
   return y;
@@ -205,7 +208,8 @@ torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch,
     grep = repr_->goal_head->forward(z.narrow(0, 0, b), z.narrow(0, b, b));
     zsa = repr_->Zsa(z.narrow(0, 0, b), batch.action);
   }
-  const torch::Tensor q = F32(critic_->forward(zsa, grep));  // [B, 2]
+  const torch::Tensor q =
+      F32(critic_->forward(zsa, grep, batch.obs, batch.action, batch.value_goal));  // [B, 2]
   const torch::Tensor loss = Huber(q - y.unsqueeze(-1), a.huber_delta).mean(0).sum();
   if (info) {
     const torch::Tensor host =
@@ -229,9 +233,10 @@ torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionL
     torch::NoGradGuard no_grad;
     grep = repr_->goal_head->forward(lat.zs, lat.z_actor_goal);
   }
-  const torch::Tensor pi = F32(actor_->forward(lat.zs, grep));  // [B, act]
-  const torch::Tensor q =
-      std::get<0>(F32(critic_->forward(repr_->Zsa(lat.zs, pi), grep)).min(-1));  // [B]
+  const torch::Tensor pi = F32(actor_->forward(lat.zs, grep, batch.obs, batch.actor_goal));
+  const torch::Tensor q = std::get<0>(
+      F32(critic_->forward(repr_->Zsa(lat.zs, pi), grep, batch.obs, pi, batch.actor_goal))
+          .min(-1));  // [B]
   const torch::Tensor scale = q.abs().mean().detach().clamp_min(1e-6);
   const torch::Tensor q_loss = -q.mean() / scale;
   const torch::Tensor bc = (pi - batch.action).pow(2).sum(-1).mean();

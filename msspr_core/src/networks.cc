@@ -266,26 +266,46 @@ torch::Tensor RepresentationImpl::Zsa(const torch::Tensor& zs, const torch::Tens
   return sa_encoder->forward(zs, action_encoder->forward(action));
 }
 
-CriticImpl::CriticImpl(const NetworkOptions& o) {
-  const auto sizes = Sizes(o.zsa_dim + o.goal_dim, o.critic_hidden, o.critic_layers, 1);
+namespace {
+// The inputs a critic or actor reads, concatenated: the latent ones, the raw ones, or both.
+torch::Tensor PolicyInput(const PolicyInputs& in, std::vector<torch::Tensor> latent,
+                          const std::vector<torch::Tensor>& raw) {
+  if (!in.latent) latent.clear();
+  if (in.raw) {
+    for (const auto& t : raw)
+      TORCH_CHECK(t.defined(), "network.policy_inputs reads the raw state, action and goal: not given");
+    latent.insert(latent.end(), raw.begin(), raw.end());
+  }
+  return torch::cat(latent, -1);
+}
+}  // namespace
+
+CriticImpl::CriticImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
+  const int64_t in = (inputs.latent ? o.zsa_dim + o.goal_dim : 0) +
+                     (inputs.raw ? 2 * o.obs_dim + o.action_dim : 0);
+  const auto sizes = Sizes(in, o.critic_hidden, o.critic_layers, 1);
   q1 = register_module("q1", Mlp(sizes, false, true, o.layer_norm_eps));
   q2 = register_module("q2", Mlp(sizes, false, true, o.layer_norm_eps));
 }
 
-torch::Tensor CriticImpl::forward(const torch::Tensor& zsa, const torch::Tensor& grep) {
-  const torch::Tensor x = torch::cat({zsa, grep}, -1);
+torch::Tensor CriticImpl::forward(const torch::Tensor& zsa, const torch::Tensor& grep,
+                                  const torch::Tensor& s, const torch::Tensor& a,
+                                  const torch::Tensor& g) {
+  const torch::Tensor x = PolicyInput(inputs, {zsa, grep}, {s, a, g});
   return torch::cat({q1->forward(x), q2->forward(x)}, -1);
 }
 
-ActorImpl::ActorImpl(const NetworkOptions& o) {
-  std::vector<int64_t> sizes{o.zs_dim + o.goal_dim};
+ActorImpl::ActorImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
+  std::vector<int64_t> sizes{(inputs.latent ? o.zs_dim + o.goal_dim : 0) +
+                             (inputs.raw ? 2 * o.obs_dim : 0)};
   for (int i = 0; i < o.actor_layers; ++i) sizes.push_back(o.actor_hidden);
   backbone = register_module("backbone", Mlp(sizes, true, true, o.layer_norm_eps));
   head = register_module("head", nn::Linear(o.actor_hidden, o.action_dim));
 }
 
-torch::Tensor ActorImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep) {
-  return torch::tanh(head->forward(backbone->forward(torch::cat({zs, grep}, -1))));
+torch::Tensor ActorImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep,
+                                 const torch::Tensor& s, const torch::Tensor& g) {
+  return torch::tanh(head->forward(backbone->forward(PolicyInput(inputs, {zs, grep}, {s, g}))));
 }
 
 torch::Tensor ReturnBins(int64_t num_bins, double gamma) {

@@ -356,6 +356,11 @@ void ValidateOptions(const MsprOptions& o) {
           "network widths must be > 0");
   Require(n.num_bins >= 2, "network.num_bins must be >= 2");
   Require(n.goal_horizon >= 1, "network.goal_horizon must be >= 1");
+  Require(n.policy_inputs == "latent" || n.policy_inputs == "raw" || n.policy_inputs == "both",
+          "network.policy_inputs must be 'latent', 'raw' or 'both', got '" + n.policy_inputs + "'");
+  Require(n.policy_inputs == "latent" || n.obs_mode == "state",
+          "network.policy_inputs '" + n.policy_inputs +
+              "' reads raw states: it needs network.obs_mode 'state'");
   const RepresentationOptions& r = o.representation;
   Require(r.horizon >= 1, "representation.horizon must be >= 1");
   Require(r.reward_loss == "two_hot" || r.reward_loss == "mse",

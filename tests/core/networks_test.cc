@@ -65,6 +65,39 @@ TEST(NetworksTest, StateModuleShapes) {
   EXPECT_LE(pi.abs().max().item<float>(), 1.0f);
 }
 
+TEST(NetworksTest, PolicyInputsRawReadsOnlyTheRawStateActionAndGoal) {
+  torch::manual_seed(0);
+  const int64_t B = 4;
+  NetworkOptions n = StateNet();
+  const torch::Tensor zsa = torch::randn({B, n.zsa_dim}), grep = torch::randn({B, n.goal_dim});
+  const torch::Tensor zs = torch::randn({B, n.zs_dim});
+  const torch::Tensor s = torch::randn({B, n.obs_dim}), g = torch::randn({B, n.obs_dim});
+  const torch::Tensor a = torch::rand({B, n.action_dim}) * 2 - 1;
+  n.policy_inputs = "raw";
+  Critic raw_critic(n);
+  Actor raw_actor(n);
+  // First layers sized for [s, a, g] and [s, g].
+  EXPECT_EQ(raw_critic->q1->net->ptr(0)->as<torch::nn::Linear>()->weight.size(1),
+            2 * n.obs_dim + n.action_dim);
+  EXPECT_EQ(raw_actor->backbone->net->ptr(0)->as<torch::nn::Linear>()->weight.size(1),
+            2 * n.obs_dim);
+  const torch::Tensor q = raw_critic->forward(zsa, grep, s, a, g);
+  EXPECT_EQ(q.sizes(), (std::vector<int64_t>{B, 2}));
+  // The latents are not read; the raw inputs are.
+  EXPECT_TRUE(torch::equal(q, raw_critic->forward(zsa * 3 + 1, -grep, s, a, g)));
+  EXPECT_FALSE(torch::allclose(q, raw_critic->forward(zsa, grep, s, a, g.flip(0))));
+  const torch::Tensor pi = raw_actor->forward(zs, grep, s, g);
+  EXPECT_TRUE(torch::equal(pi, raw_actor->forward(zs.flip(0), grep.flip(0), s, g)));
+  EXPECT_THROW(raw_critic->forward(zsa, grep), c10::Error);  // raw inputs missing
+  n.policy_inputs = "both";
+  Critic both_critic(n);
+  Actor both_actor(n);
+  const torch::Tensor qb = both_critic->forward(zsa, grep, s, a, g);
+  EXPECT_FALSE(torch::allclose(qb, both_critic->forward(zsa * 3 + 1, grep, s, a, g)));
+  EXPECT_FALSE(torch::allclose(qb, both_critic->forward(zsa, grep, s, a, g.flip(0))));
+  EXPECT_EQ(both_actor->forward(zs, grep, s, g).sizes(), (std::vector<int64_t>{B, n.action_dim}));
+}
+
 TEST(NetworksTest, PixelEncoderShapes) {
   torch::manual_seed(0);
   NetworkOptions n = StateNet();

@@ -236,6 +236,14 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
   bad.network.obs_mode = "lidar";
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
   bad = o;
+  bad.network.policy_inputs = "both";
+  EXPECT_NO_THROW(ValidateOptions(bad));
+  bad.network.policy_inputs = "states";
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad.network.policy_inputs = "raw";
+  bad.network.obs_mode = "pixels";  // raw inputs are states
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad = o;
   bad.agent.gamma = 1.0;
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
   bad = o;

@@ -161,26 +161,43 @@ class RepresentationImpl : public torch::nn::Module {
 };
 TORCH_MODULE(Representation);
 
-// Twin critic Q_1, Q_2: [z_sa, g_rep] -> 1 each (MLP critic_hidden x3, Pre-LN).
+// Which inputs the critic and actor read (NetworkOptions::policy_inputs).
+struct PolicyInputs {
+  bool latent = true, raw = false;
+  explicit PolicyInputs(const std::string& mode)
+      : latent(mode != "raw"), raw(mode == "raw" || mode == "both") {}
+};
+
+// Twin critic Q_1, Q_2: [z_sa, g_rep] -> 1 each (MLP critic_hidden x3, Pre-LN);
+// with network.policy_inputs raw / both, [s, a, g] / [z_sa, g_rep, s, a, g].
 class CriticImpl : public torch::nn::Module {
  public:
   explicit CriticImpl(const NetworkOptions& o);
-  // [B, zsa_dim], [B, goal_dim] -> [B, 2] float32 (column j = Q_j)
-  torch::Tensor forward(const torch::Tensor& zsa, const torch::Tensor& grep);
+  // [B, zsa_dim], [B, goal_dim] (and the raw state, action and goal [B, obs_dim],
+  // [B, action_dim], [B, obs_dim], read only with policy_inputs raw / both)
+  // -> [B, 2] float32 (column j = Q_j)
+  torch::Tensor forward(const torch::Tensor& zsa, const torch::Tensor& grep,
+                        const torch::Tensor& s = {}, const torch::Tensor& a = {},
+                        const torch::Tensor& g = {});
 
   Mlp q1{nullptr}, q2{nullptr};  // "q1", "q2"
+  PolicyInputs inputs;
 };
 TORCH_MODULE(Critic);
 
-// Deterministic actor: [z_s, g_rep] -> tanh action.
+// Deterministic actor: [z_s, g_rep] -> tanh action; with network.policy_inputs
+// raw / both, [s, g] / [z_s, g_rep, s, g].
 class ActorImpl : public torch::nn::Module {
  public:
   explicit ActorImpl(const NetworkOptions& o);
-  // [B, zs_dim], [B, goal_dim] -> [B, action_dim] float32 in [-1, 1]
-  torch::Tensor forward(const torch::Tensor& zs, const torch::Tensor& grep);
+  // [B, zs_dim], [B, goal_dim] (and the raw state and goal [B, obs_dim], read
+  // only with policy_inputs raw / both) -> [B, action_dim] float32 in [-1, 1]
+  torch::Tensor forward(const torch::Tensor& zs, const torch::Tensor& grep,
+                        const torch::Tensor& s = {}, const torch::Tensor& g = {});
 
   Mlp backbone{nullptr};            // "backbone" (GELU output)
   torch::nn::Linear head{nullptr};  // "head"
+  PolicyInputs inputs;
 };
 TORCH_MODULE(Actor);
 

@@ -53,6 +53,12 @@ struct NetworkOptions {
   int num_bins = 21;             // f_rew two-hot bins over [-1/(1-gamma), 0]
   int goal_horizon = 5;          // k: f_g-dyn predicts z_s(t+k), f_g-act a_t..a_{t+k-1}
   double layer_norm_eps = 1e-6;  // Pre-LN epsilon (paper appendix A.2)
+  // What the critic and the actor read (state observations only for raw / both):
+  //   "latent" (the paper): Q([z_sa, g_rep]), pi([z_s, g_rep]);
+  //   "raw": the raw state, action and goal, Q([s, a, g]), pi([s, g]), as
+  //          OGBench's agents (the representation still trains, unread);
+  //   "both": the two concatenated, Q([z_sa, g_rep, s, a, g]), pi([z_s, g_rep, s, g]).
+  std::string policy_inputs = "latent";
 
   template <class V>
   void Visit(V& v) {
@@ -82,6 +88,7 @@ struct NetworkOptions {
     v("num_bins", num_bins);
     v("goal_horizon", goal_horizon);
     v("layer_norm_eps", layer_norm_eps);
+    v("policy_inputs", policy_inputs);
   }
 };
 
