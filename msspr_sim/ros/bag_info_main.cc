@@ -49,11 +49,12 @@ int SpecInfo(const std::string& spec_path, const std::vector<std::string>& bags,
       std::printf("bag:          %s\n", path.c_str());
       std::printf("robot:        %s (%s), control rate %.3g Hz, observation dim %d, action dim %d\n",
                   spec.name.c_str(), spec_path.c_str(), spec.control_rate, spec.obs_dim(), spec.action_dim());
-      std::printf("episodes:     %lu (split by %s), %lu ticks, %lu with observation and action -> %lu "
+      std::printf("episodes:     %lu (split by %s), %lu ticks, %lu with observation%s and action -> %lu "
                   "trajectories, %lu steps\n",
                   static_cast<unsigned long>(r.episodes), spec.episodes.split_by.c_str(),
                   static_cast<unsigned long>(r.ticks), static_cast<unsigned long>(r.complete_ticks),
-                  static_cast<unsigned long>(trajectories), static_cast<unsigned long>(steps));
+                  spec.images.empty() ? "" : ", image", static_cast<unsigned long>(trajectories),
+                  static_cast<unsigned long>(steps));
       // Columns as wide as the longest field name and topic (at least 14 and 22).
       int name_w = 14, topic_w = 22;
       for (const auto& f : r.fields) {
@@ -68,10 +69,21 @@ int SpecInfo(const std::string& spec_path, const std::vector<std::string>& bags,
                     100.0 * f.coverage(), static_cast<unsigned long>(f.gaps), f.max_gap_s,
                     static_cast<unsigned long>(f.stale_ticks), static_cast<unsigned long>(f.late),
                     static_cast<unsigned long>(f.out_of_order), static_cast<unsigned long>(f.nonfinite),
-                    static_cast<unsigned long>(f.unreadable));
+                    static_cast<unsigned long>(f.unreadable + f.bad_images));
+      for (const auto& f : r.fields) {
+        if (!f.image) continue;
+        const auto& im = *std::find_if(spec.images.begin(), spec.images.end(),
+                                       [&](const SpecImage& i) { return i.name == f.name; });
+        std::printf("image:        %s (topic %s, %s -> %dx%d rgb8): %lu images at %.2f Hz, coverage %.1f%%, "
+                    "%lu bad images (undecodable, wrong encoding or size) rejected\n",
+                    f.name.c_str(), f.topic.c_str(), f.type.c_str(), im.size, im.size,
+                    static_cast<unsigned long>(f.messages), f.rate_hz, 100.0 * f.coverage(),
+                    static_cast<unsigned long>(f.bad_images));
+      }
       std::printf("(coverage: ticks with a fresh value; gaps: stamps more than stale_after = %.3g s apart;\n"
                   " stale: ticks without a fresh value; late: received more than stale_after after the stamp;\n"
-                  " order: stamped before the previous message, dropped; nan: NaN/Inf, rejected)\n",
+                  " order: stamped before the previous message, dropped; nan: NaN/Inf, rejected;\n"
+                  " unread: messages without a field of the spec, or bad images, rejected)\n",
                   spec.stale_after);
       if (!r.problems.empty()) {
         status = std::max(status, 1);
@@ -103,7 +115,8 @@ int main(int argc, char** argv) {
                    "Prints episodes, steps, observation/action dimensions, images and gaps of\n"
                    "msspr dataset bags. With --robot: what the robot interface spec extracts from\n"
                    "bags of standard messages, per field: coverage, rate, gaps, stale and late\n"
-                   "samples, stamps out of order, rejected NaN/Inf.\n"
+                   "samples, stamps out of order, rejected NaN/Inf, and per camera its images'\n"
+                   "coverage, rate and bad images (undecodable or of a wrong encoding).\n"
                    "Exit 0: whole; 1: inconsistent; 2: unreadable.\n";
       return bags.empty() && !args.Has("help") ? 2 : 0;
     }

@@ -5,6 +5,7 @@
 // the same way.
 #pragma once
 
+#include <cstdint>
 #include <deque>
 #include <string>
 #include <vector>
@@ -15,6 +16,8 @@
 #include <geometry_msgs/TwistStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/time.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/JointState.h>
 #include <std_msgs/Float64MultiArray.h>
 #include <tf2/buffer_core.h>
@@ -60,7 +63,22 @@ struct TopicSample {
   ros::Time stamp;    // header or receipt, as the spec says
   ros::Time receipt;  // when it was received / recorded
   std::vector<double> values;
+  std::vector<uint8_t> pixels;  // a camera's samples: [size, size, 3] rgb8 (DecodeImage)
 };
+
+// A camera image as the network takes it, for training (spec_bag.h) and
+// serving alike; both overloads end in the same conversion. Image: encodings
+// rgb8, bgr8 and mono8 (others are rejected); CompressedImage: jpeg or png,
+// decoded with cv::imdecode (a jpeg without its end-of-image marker is
+// rejected as truncated). The picture is converted to rgb8 and resized to
+// size x size with cv::resize INTER_AREA (kept as is when it has that size).
+// Fills rgb [size * size * 3] (row-major HWC) or returns false with why.
+bool DecodeImage(const sensor_msgs::Image& msg, int size, std::vector<uint8_t>* rgb, std::string* why);
+bool DecodeImage(const sensor_msgs::CompressedImage& msg, int size, std::vector<uint8_t>* rgb, std::string* why);
+// A sample of camera `im` (stamped by its header); why names the spec's camera and topic.
+template <class M>
+bool DecodeImageSample(const SpecImage& im, const M& msg, const ros::Time& receipt, TopicSample* out,
+                       std::string* why);
 
 // The fields of a spec grouped by topic: which part of the observation each topic feeds.
 struct SpecLayout {
@@ -145,6 +163,10 @@ std::string SampleObservation(const RobotSpec& spec, const SpecLayout& layout,
                               const std::vector<TopicHistory>& histories, const ros::Time& t,
                               const ros::Time& not_before, std::vector<float>* obs,
                               std::vector<int>* stale_topics = nullptr);
+// The image at tick `t` from a camera's history, with the rules of
+// SampleObservation. Returns "" and sets *out, or why not (naming the camera).
+std::string SampleImage(const RobotSpec& spec, const SpecImage& im, const TopicHistory& images, const ros::Time& t,
+                        const ros::Time& not_before, const TopicSample** out);
 // The action at tick t from the command history: the newest command stamped
 // before t + period - tolerance, not older than t - stale_after nor before
 // not_before. Returns "" and fills a [action_dim], or why not.

@@ -186,9 +186,9 @@ SpecField ReadField(const YAML::Node& node, const std::string& source, const std
     f.topic = default_topic;
     f.type = default_type;
   }
-  if (f.type == "sensor_msgs/Image" || f.type == "sensor_msgs/CompressedImage")
+  if (f.type == kImageType || f.type == kCompressedImageType)
     throw RobotSpecError(where + "images (" + f.type +
-                         ") are not supported yet by robot specs: use state fields");
+                         ") are not observation fields: name the camera in the images: section");
   if (!KnownType(f.type))
     throw RobotSpecError(where + "unsupported message type '" + f.type +
                          "' (supported: nav_msgs/Odometry, geometry_msgs/PoseStamped, tf2, geometry_msgs/Twist, "
@@ -243,6 +243,29 @@ std::string Fmt(const std::vector<std::string>& v) {
   std::string s = "[";
   for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
   return s + "]";
+}
+
+// Reads one camera of the images: section.
+SpecImage ReadImage(const YAML::Node& node, const std::string& source, int index) {
+  SpecImage im;
+  if (!node.IsMap()) throw RobotSpecError(source + ": image " + std::to_string(index) + ": must be a map");
+  if (node["topic"]) im.topic = node["topic"].as<std::string>("");
+  if (node["name"]) im.name = node["name"].as<std::string>("");
+  if (im.name.empty()) im.name = im.topic;
+  const std::string where =
+      source + ": image '" + im.name + "'" + (im.topic.empty() ? "" : " (topic " + im.topic + ")") + ": ";
+  MapReader r(node, where);
+  r.Get("name", &im.name);
+  if (im.name.empty()) im.name = im.topic;
+  if (!r.Get("topic", &im.topic) || im.topic.empty()) throw RobotSpecError(where + "no topic");
+  if (!r.Get("type", &im.type) || im.type.empty()) throw RobotSpecError(where + "no type");
+  if (im.type != kImageType && im.type != kCompressedImageType)
+    throw RobotSpecError(where + "unsupported image type '" + im.type + "' (supported: " + kImageType +
+                         " with encoding rgb8, bgr8 or mono8; " + kCompressedImageType + " with jpeg or png)");
+  if (!r.Get("size", &im.size)) throw RobotSpecError(where + "no size (the network's image side, e.g. 64)");
+  if (im.size < 8 || im.size > 1024) throw RobotSpecError(where + "size must be in 8..1024 pixels");
+  r.CheckNoUnknownKeys();
+  return im;
 }
 
 }  // namespace
@@ -399,9 +422,14 @@ RobotSpec ParseRobotSpec(const std::string& yaml, const std::string& source) {
     if (ep.split_by == "topic" && ep.topic.empty())
       throw RobotSpecError(source + ": episodes: split_by topic needs a topic");
     if (!(ep.gap > 0)) throw RobotSpecError(source + ": episodes: gap must be > 0 (s)");
-    if (top.Child("images"))
-      throw RobotSpecError(source + ": images are not supported yet by robot specs (sensor_msgs/Image and "
-                                    "CompressedImage): use state fields");
+    if (const YAML::Node imgs = top.Child("images")) {
+      if (!imgs.IsSequence() || imgs.size() == 0)
+        throw RobotSpecError(source + ": images must be a non-empty list of cameras");
+      if (imgs.size() > 1)
+        throw RobotSpecError(source + ": images: " + std::to_string(imgs.size()) +
+                             " cameras, a pixels policy takes one");
+      for (size_t i = 0; i < imgs.size(); ++i) s.images.push_back(ReadImage(imgs[i], source, static_cast<int>(i)));
+    }
 
     const YAML::Node obs = top.Child("observation");
     if (!obs || !obs.IsSequence() || obs.size() == 0)
@@ -462,9 +490,20 @@ RobotSpec ParseRobotSpec(const std::string& yaml, const std::string& source) {
       r.Get("type", &s.goal.type);
       const YAML::Node fields = r.Child("fields");
       r.CheckNoUnknownKeys();
-      if (s.goal.source == "image")
-        throw RobotSpecError(source + ": goal: image goals are not supported yet by robot specs");
-      if (s.goal.source == "observation") {
+      if (!s.images.empty() && s.goal.source != "image")
+        throw RobotSpecError(source + ": goal: a spec with images serves pixels policies, whose goal is an image: "
+                                      "source image, got '" + s.goal.source + "'");
+      if (s.goal.source == "image") {
+        if (!g["type"]) s.goal.type = kImageType;
+        if (!g["topic"]) s.goal.topic = "goal_image";
+        if (s.goal.type != kImageType && s.goal.type != kCompressedImageType)
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic + "): source image takes " + kImageType +
+                               " or " + kCompressedImageType + ", got '" + s.goal.type + "'");
+        if (fields) throw RobotSpecError(source + ": goal (topic " + s.goal.topic + "): source image has no fields");
+        if (s.images.empty())
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
+                               "): source image needs a camera in the images: section (its size)");
+      } else if (s.goal.source == "observation") {
         if (!g["type"]) s.goal.type = kFloat64MultiArrayType;
         if (s.goal.type != kFloat64MultiArrayType)
           throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
@@ -496,10 +535,13 @@ RobotSpec ParseRobotSpec(const std::string& yaml, const std::string& source) {
           s.goal.parts.push_back(std::move(p));
         }
       } else {
-        throw RobotSpecError(source + ": goal: source must be pose or observation, got '" + s.goal.source + "'");
+        throw RobotSpecError(source + ": goal: source must be pose, observation or image, got '" + s.goal.source +
+                             "'");
       }
       if (s.goal.topic.empty()) throw RobotSpecError(source + ": goal: no topic");
     } else {
+      if (!s.images.empty())
+        throw RobotSpecError(source + ": a spec with images needs a goal (source image: the goal camera topic)");
       s.goal.source = "";  // no goal topic: goals come from ~set_goal only
       s.goal.topic = "";
     }
@@ -552,7 +594,19 @@ std::string CompareRobotSpecs(const RobotSpec& a, const RobotSpec& b) {
   if (a.action_type != b.action_type) return "action type " + a.action_type + " vs " + b.action_type;
   d = fields("action", a.action, b.action);
   if (!d.empty()) return d;
+  if (a.images.size() != b.images.size())
+    return "images: " + std::to_string(a.images.size()) + " cameras vs " + std::to_string(b.images.size());
+  for (size_t i = 0; i < a.images.size(); ++i) {
+    const SpecImage& p = a.images[i];
+    const SpecImage& q = b.images[i];
+    const std::string who = "image " + std::to_string(i) + " '" + p.name + "' (topic " + p.topic + "): ";
+    if (p.topic != q.topic) return who + "topic " + p.topic + " vs " + q.topic;
+    if (p.type != q.type) return who + "type " + p.type + " vs " + q.type;
+    if (p.size != q.size) return who + "size " + std::to_string(p.size) + " vs " + std::to_string(q.size);
+  }
   if (a.goal.source != b.goal.source) return "goal source '" + a.goal.source + "' vs '" + b.goal.source + "'";
+  if (a.goal.source == "image" && a.goal.type != b.goal.type)
+    return "goal (topic " + a.goal.topic + "): type " + a.goal.type + " vs " + b.goal.type;
   if (a.goal.parts.size() != b.goal.parts.size()) return "goal: different number of fields";
   for (size_t i = 0; i < a.goal.parts.size(); ++i) {
     const auto& p = a.goal.parts[i];

@@ -35,6 +35,9 @@ inline constexpr const char* kJointTrajectoryType = "trajectory_msgs/JointTrajec
 inline constexpr const char* kTf2Type = "tf2";
 // The topic name under which a spec's tf2 fields are grouped (bags: /tf and /tf_static).
 inline constexpr const char* kTf2Topic = "tf";
+// Camera images (the `images:` section and image goals).
+inline constexpr const char* kImageType = "sensor_msgs/Image";
+inline constexpr const char* kCompressedImageType = "sensor_msgs/CompressedImage";
 
 // One field of a message: a run of numbers the observation (or action) takes.
 struct SpecField {
@@ -72,11 +75,23 @@ struct SpecField {
   double OffsetAt(int i) const { return offset.size() == 1 ? offset[0] : offset[i]; }
 };
 
+// A camera: a topic of sensor_msgs/Image (encodings rgb8, bgr8, mono8) or
+// sensor_msgs/CompressedImage (jpeg, png), decoded to rgb8 and resized
+// (OpenCV INTER_AREA) to size x size, the pixels network's input. Images are
+// time-aligned as the observation topics (header stamps).
+struct SpecImage {
+  std::string name;   // names it in errors and reports (default: the topic)
+  std::string topic;
+  std::string type;   // kImageType or kCompressedImageType
+  int size = 64;      // pixels: the network's image height and width
+};
+
 // The goal: a PoseStamped topic whose fields fill observation fields by name
-// (the others are 0), or a full observation (Float64MultiArray data, already
-// in observation units).
+// (the others are 0), a full observation (Float64MultiArray data, already
+// in observation units), or an image (Image or CompressedImage, decoded as the
+// spec's camera: pixels policies).
 struct SpecGoal {
-  std::string source = "pose";  // pose | observation
+  std::string source = "pose";  // pose | observation | image
   std::string topic = "goal_pose";
   std::string type = kPoseStampedType;
   struct Part {
@@ -103,6 +118,10 @@ struct RobotSpec {
   double tolerance = 0.005;   // s
   double stale_after = 0.5;   // s
   std::vector<SpecField> observation;
+  // Cameras (at most one): a spec with images serves and trains pixels
+  // policies; its state fields are still sampled (they time the episodes and
+  // are stored beside the images).
+  std::vector<SpecImage> images;
   SpecGoal goal;
   // The command: a topic and type; its fields in the action's order. A field
   // may name its own topic and type (e.g. an end-effector twist plus a gripper

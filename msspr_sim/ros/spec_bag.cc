@@ -92,6 +92,14 @@ void SpecBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& fn) 
     r.type = f.type;
     report_.fields.push_back(r);
   }
+  for (const auto& im : spec_.images) {
+    SpecFieldReport r;
+    r.name = im.name;
+    r.topic = im.topic;
+    r.type = im.type;
+    r.image = true;
+    report_.fields.push_back(r);
+  }
   const auto commands = spec_.CommandTopics();
   for (const auto& c : commands) {
     SpecFieldReport cmd;
@@ -150,6 +158,8 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
   std::vector<std::string> cmd_bag_topics;
   for (const auto& c : cmd_topics)
     cmd_bag_topics.push_back(resolve(c.topic, c.type, cmd_topics.size() == 1 ? "the action" : "the action on " + c.topic));
+  std::vector<std::string> image_bag_topics;
+  for (const auto& im : spec.images) image_bag_topics.push_back(resolve(im.topic, im.type, "image '" + im.name + "'"));
   std::string episode_topic, episode_type;
   if (spec.episodes.split_by == "topic") {
     const std::string t = MatchTopic(spec.episodes.topic, bag_topics, path);
@@ -161,6 +171,8 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
   const std::vector<SpecFieldReport> before = report_.fields;
   std::vector<TopicHistory> histories(layout.topics.size());
   std::vector<TopicHistory> commands(cmd_topics.size());
+  std::vector<TopicHistory> images(spec.images.size());
+  const int image_index = static_cast<int>(spec.observation.size());  // the first camera row
   std::vector<ros::Time> boundaries;
   const ros::Duration stale(spec.stale_after), tol(spec.tolerance);
   const int cmd_index = static_cast<int>(report_.fields.size() - cmd_topics.size());  // the first command row
@@ -171,7 +183,7 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
     for (int idx : report_fields) {
       SpecFieldReport& r = report_.fields[idx];
       if (!ok) {
-        (nonfinite ? r.nonfinite : r.unreadable)++;
+        (nonfinite ? r.nonfinite : r.image ? r.bad_images : r.unreadable)++;
         if (r.first_problem.empty()) r.first_problem = why + " at " + Stamp(s.receipt);
         continue;
       }
@@ -198,6 +210,7 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
   for (const auto& t : obs_topics)
     if (!t.empty()) query.push_back(t);
   for (const auto& t : cmd_bag_topics) query.push_back(t);
+  for (const auto& t : image_bag_topics) query.push_back(t);
   if (!tf_topic.empty()) query.push_back(tf_topic);
   if (!tf_static_topic.empty()) query.push_back(tf_static_topic);
   if (!episode_topic.empty()) query.push_back(episode_topic);
@@ -241,6 +254,24 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
         }
         continue;
       }
+      for (size_t c = 0; c < image_bag_topics.size(); ++c) {
+        if (topic != image_bag_topics[c]) continue;
+        TopicSample s;
+        std::string why;
+        bool ok = false;
+        const SpecImage& im = spec.images[c];
+        if (im.type == kImageType) {
+          if (auto msg = m.instantiate<sensor_msgs::Image>()) ok = DecodeImageSample(im, *msg, receipt, &s, &why);
+        } else if (auto msg = m.instantiate<sensor_msgs::CompressedImage>()) {
+          ok = DecodeImageSample(im, *msg, receipt, &s, &why);
+        }
+        s.receipt = receipt;
+        TopicSample head;  // the stamps, for the statistics (the pixels move into the history)
+        head.stamp = s.stamp;
+        head.receipt = s.receipt;
+        const bool in_order = ok ? images[c].Add(std::move(s)) : true;
+        account({image_index + static_cast<int>(c)}, head, ok, false, why, in_order);
+      }
       for (size_t c = 0; c < cmd_bag_topics.size(); ++c) {
         if (topic != cmd_bag_topics[c]) continue;
         TopicSample s;
@@ -280,7 +311,8 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
     r.out_of_order -= before[i].out_of_order;
     r.nonfinite -= before[i].nonfinite;
     r.unreadable -= before[i].unreadable;
-    const std::string who = path + ": topic " + r.topic + " (field '" + r.name + "'): ";
+    r.bad_images -= before[i].bad_images;
+    const std::string who = path + ": topic " + r.topic + (r.image ? " (image '" : " (field '") + r.name + "'): ";
     if (r.out_of_order)
       report_.problems.push_back(who + std::to_string(r.out_of_order) +
                                  " messages stamped before the one received before them, dropped (first: " +
@@ -288,6 +320,9 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
     if (r.nonfinite) report_.problems.push_back(who + std::to_string(r.nonfinite) + " messages with NaN or Inf rejected");
     if (r.unreadable)
       report_.problems.push_back(who + std::to_string(r.unreadable) + " messages unreadable (first: " +
+                                 r.first_problem + ")");
+    if (r.bad_images)
+      report_.problems.push_back(who + std::to_string(r.bad_images) + " bad images rejected (first: " +
                                  r.first_problem + ")");
   }
 
@@ -348,8 +383,15 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
     ep.has_obs.assign(n, 0);
     ep.has_action.assign(n, 0);
     ep.has_image.assign(n, 0);
-    uint64_t missing_obs = 0, missing_act = 0;
-    std::string first_obs_why, first_act_why;
+    // The camera's images (one camera: the network's input).
+    const SpecImage* camera = spec.images.empty() ? nullptr : &spec.images[0];
+    const size_t image_bytes = camera ? static_cast<size_t>(camera->size) * camera->size * 3 : 0;
+    if (camera) {
+      ep.image_size = camera->size;
+      ep.images.assign(static_cast<size_t>(n) * image_bytes, 0);
+    }
+    uint64_t missing_obs = 0, missing_act = 0, missing_img = 0;
+    std::string first_obs_why, first_act_why, first_img_why;
     for (int64_t k = 0; k < n; ++k) {
       const ros::Time t = begin + ros::Duration(dt * static_cast<double>(k));
       std::vector<int> stale_topics;
@@ -380,7 +422,23 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
       } else {
         if (missing_act++ == 0) first_act_why = awhy + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
       }
-      if (ep.has_obs[k] && ep.has_action[k]) ++report_.complete_ticks;
+      bool image_ok = true;
+      if (camera) {
+        const TopicSample* img = nullptr;
+        const std::string iwhy = SampleImage(spec, *camera, images[0], t, begin, &img);
+        SpecFieldReport& ir = report_.fields[image_index];
+        ++ir.ticks;
+        if (iwhy.empty()) {
+          std::copy(img->pixels.begin(), img->pixels.end(), ep.images.begin() + k * image_bytes);
+          ep.has_image[k] = 1;
+          ++ir.covered_ticks;
+        } else {
+          image_ok = false;
+          ++ir.stale_ticks;
+          if (missing_img++ == 0) first_img_why = iwhy + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
+        }
+      }
+      if (ep.has_obs[k] && ep.has_action[k] && image_ok) ++report_.complete_ticks;
     }
     report_.ticks += static_cast<uint64_t>(n);
     ++report_.episodes;
@@ -391,6 +449,9 @@ void SpecBagReader::ReadBag(const std::string& path, uint64_t* next_id,
     if (missing_act)
       ep.problems.push_back(who + std::to_string(missing_act) + " ticks without a fresh command (first: " +
                             first_act_why + ")");
+    if (missing_img)
+      ep.problems.push_back(who + std::to_string(missing_img) + " ticks without a fresh image (first: " +
+                            first_img_why + ")");
     for (const auto& p : ep.problems) report_.problems.push_back(p);
     fn(std::move(ep));
   }

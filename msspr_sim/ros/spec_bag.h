@@ -3,8 +3,11 @@
 // observation and action are sampled at the spec's control rate
 // (robot_fields.h: SampleObservation / SampleAction), and each episode comes
 // out as a BagEpisode (dataset_bag.h), so that the training adapter treats it
-// as it treats msspr's own dataset bags. Ticks whose inputs are missing or
-// stale are absent and split the episode (never bridged).
+// as it treats msspr's own dataset bags. A spec with images fills the
+// episodes' images (decoded and resized by robot_fields.h DecodeImage, as the
+// policy node does when serving); bad images are rejected and counted. Ticks
+// whose inputs are missing or stale are absent and split the episode (never
+// bridged).
 #pragma once
 
 #include <cstdint>
@@ -17,8 +20,9 @@
 
 namespace msspr::ros_bridge {
 
-// What a spec extracts from a bag, per observation field (the action counts as
-// one more entry, named by its topic) and in total (msspr_bag_info --robot).
+// What a spec extracts from a bag, per observation field, per camera (its
+// images) and per command topic (named action or action:TOPIC), and in total
+// (msspr_bag_info --robot).
 struct SpecFieldReport {
   std::string name, topic, type;
   uint64_t messages = 0;          // decoded messages on the topic
@@ -31,13 +35,15 @@ struct SpecFieldReport {
   uint64_t out_of_order = 0;      // stamped before the message received before them (dropped)
   uint64_t nonfinite = 0;         // NaN / Inf values: message rejected
   uint64_t unreadable = 0;        // a joint or index the message lacks: message rejected
+  uint64_t bad_images = 0;        // cameras: undecodable, a wrong encoding or size: image rejected
+  bool image = false;             // a camera's row
   std::string first_problem;      // the first of those, with its stamp
   double coverage() const { return ticks ? static_cast<double>(covered_ticks) / ticks : 0.0; }
 };
 
 struct SpecBagReport {
   uint64_t episodes = 0, ticks = 0, complete_ticks = 0;
-  std::vector<SpecFieldReport> fields;  // observation fields, then the command
+  std::vector<SpecFieldReport> fields;  // observation fields, then the cameras, then the commands
   std::vector<std::string> problems;    // "BAG: topic odom (field 'position'): ..."
 };
 

@@ -175,9 +175,9 @@ goal:)");
   EXPECT_NE(why.find("data has 2 values"), std::string::npos) << why;
 }
 
-TEST_F(RobotSpecTest, ImagesAreRejectedClearly) {
+TEST_F(RobotSpecTest, ImagesAreNoObservationFields) {
   const std::string e = LoadError(Replace(kBaseSpec, "type: nav_msgs/Odometry", "type: sensor_msgs/CompressedImage"));
-  EXPECT_NE(e.find("not supported yet"), std::string::npos) << e;
+  EXPECT_NE(e.find("name the camera in the images: section"), std::string::npos) << e;
   EXPECT_NE(e.find("topic odom"), std::string::npos) << e;
 }
 

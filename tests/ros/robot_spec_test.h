@@ -3,7 +3,8 @@
 // (/msspr/episode, /msspr/observation, /msspr/action, as DatasetBagWriter
 // writes them) and as a robot's standard messages (nav_msgs/Odometry on
 // /msspr/odom, geometry_msgs/Twist on /msspr/cmd_vel, geometry_msgs/PoseStamped
-// on /msspr/goal_pose), the way msspr_sim_node publishes both.
+// on /msspr/goal_pose), the way msspr_sim_node publishes both; optionally with
+// camera images (SynthBagOptions::images).
 #pragma once
 
 #include <cmath>
@@ -16,7 +17,11 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <nav_msgs/Odometry.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <rosbag/bag.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
 
 #include "msg_conversion.h"
 #include "msspr/Action.h"
@@ -69,7 +74,72 @@ struct SynthBagOptions {
   std::vector<int> drop_cmd_steps;  // steps (counted over the whole bag) whose command is dropped
   bool swap_odom_stamps = false;    // write two odometry messages of episode 0 with swapped stamps
   double dt = 0.1;
+  // Camera images (SynthImage): native 64x64 rgb8 on /msspr/camera/image (and
+  // /msspr/goal_image at each episode's start), and the same pictures on the
+  // standard camera topic /msspr/robot_camera (camera_format "rgb8", "bgr8"
+  // or "mono8": sensor_msgs/Image; "png" or "jpeg": sensor_msgs/CompressedImage),
+  // camera_scale times larger, each pixel repeated.
+  bool images = false;
+  std::string camera_format = "bgr8";
+  int camera_scale = 2;
+  std::vector<int> bad_image_steps;  // steps (over the whole bag) whose standard image is corrupt
 };
+
+// The synthetic picture of episode e, step t: 64x64 rgb8, smooth (jpeg keeps it close).
+inline std::vector<uint8_t> SynthImage(int e, int t, int side = 64) {
+  std::vector<uint8_t> px(static_cast<size_t>(side) * side * 3);
+  for (int y = 0; y < side; ++y)
+    for (int x = 0; x < side; ++x)
+      for (int c = 0; c < 3; ++c)
+        px[(static_cast<size_t>(y) * side + x) * 3 + c] =
+            static_cast<uint8_t>(20 + x + y + (5 * t + 40 * e + 70 * c) % 60);
+  return px;
+}
+
+inline sensor_msgs::Image RgbImageMsg(const std::vector<uint8_t>& rgb, int side, const ros::Time& stamp) {
+  sensor_msgs::Image m;
+  m.header.stamp = stamp;
+  m.header.frame_id = "msspr_camera";
+  m.height = m.width = static_cast<uint32_t>(side);
+  m.encoding = "rgb8";
+  m.step = static_cast<uint32_t>(side * 3);
+  m.data = rgb;
+  return m;
+}
+
+// `rgb` (side x side) as the camera sends it: each pixel repeated scale x scale, in `format`.
+inline void WriteCameraMsg(rosbag::Bag& bag, const std::string& topic, const std::vector<uint8_t>& rgb, int side,
+                           int scale, const std::string& format, const ros::Time& stamp, bool corrupt) {
+  const int big = side * scale;
+  cv::Mat bgr(big, big, CV_8UC3), gray(big, big, CV_8UC1);
+  for (int y = 0; y < big; ++y)
+    for (int x = 0; x < big; ++x) {
+      const uint8_t* p = &rgb[(static_cast<size_t>(y / scale) * side + x / scale) * 3];
+      bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(p[2], p[1], p[0]);
+      gray.at<uint8_t>(y, x) = p[1];
+    }
+  if (format == "png" || format == "jpeg") {
+    sensor_msgs::CompressedImage m;
+    m.header.stamp = stamp;
+    m.format = format;
+    cv::imencode(format == "png" ? ".png" : ".jpg", bgr, m.data, {cv::IMWRITE_JPEG_QUALITY, 95});
+    if (corrupt) m.data.resize(m.data.size() / 2);  // truncated
+    bag.write(topic, stamp, m);
+    return;
+  }
+  sensor_msgs::Image m;
+  m.header.stamp = stamp;
+  m.header.frame_id = "camera";
+  m.height = m.width = static_cast<uint32_t>(big);
+  m.encoding = format;
+  const cv::Mat& src = format == "mono8" ? gray : bgr;
+  m.step = static_cast<uint32_t>(big * src.channels());
+  m.data.assign(src.data, src.data + static_cast<size_t>(m.step) * big);
+  if (format == "rgb8")
+    for (size_t i = 0; i + 2 < m.data.size(); i += 3) std::swap(m.data[i], m.data[i + 2]);
+  if (corrupt) m.encoding = "32FC1";  // a wrong encoding
+  bag.write(topic, stamp, m);
+}
 
 // Writes `eps` back to back with the sim's clock: one tick for each reset,
 // one per step (TickToTime), both kinds of topics at the same stamps.
@@ -103,6 +173,7 @@ inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisod
       g.pose.orientation.w = 1.0;
       bag.write("/msspr/goal_pose", t0, g);
     }
+    if (o.images) bag.write("/msspr/goal_image", t0, RgbImageMsg(SynthImage(static_cast<int>(e), 1000), 64, t0));
     for (int t = 0; t < ep.length; ++t, ++global_step) {
       if (t > 0) ++tick;
       const ros::Time stamp = ros_bridge::TickToTime(tick, o.dt);
@@ -116,6 +187,7 @@ inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisod
         obs.goal = {ep.goal[0], ep.goal[1]};
         obs.last = t == ep.length - 1;
         bag.write("/msspr/observation", stamp, obs);
+        if (o.images) bag.write("/msspr/camera/image", stamp, RgbImageMsg(SynthImage(static_cast<int>(e), t), 64, stamp));
         msspr::Action act;
         act.header.stamp = stamp;
         act.episode_id = obs.episode_id;
@@ -143,6 +215,12 @@ inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisod
           ros::Time rec = od.header.stamp;
           if (o.swap_odom_stamps && e == 0 && t == 3 && k == 0) od.header.stamp = stamp - ros::Duration(2 * o.dt);
           bag.write("/msspr/odom", rec, od);
+        }
+        if (o.images) {
+          const bool bad =
+              std::find(o.bad_image_steps.begin(), o.bad_image_steps.end(), global_step) != o.bad_image_steps.end();
+          WriteCameraMsg(bag, "/msspr/robot_camera", SynthImage(static_cast<int>(e), t), 64, o.camera_scale,
+                         o.camera_format, stamp, bad);
         }
         if (std::find(o.drop_cmd_steps.begin(), o.drop_cmd_steps.end(), global_step) == o.drop_cmd_steps.end()) {
           geometry_msgs::Twist tw;
