@@ -46,10 +46,29 @@ std::string CheckCheckpointAgainstSpec(const std::string& checkpoint, const Robo
 RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNodeOptions& options, RobotSpec spec,
                          std::shared_ptr<core::Policy> policy)
     : options_(options), spec_(std::move(spec)), layout_(spec_), nh_(nh), pnh_(pnh), policy_(std::move(policy)) {
-  if (policy_->pixels()) throw std::invalid_argument("~robot: robot specs serve state policies only (no images yet)");
+  pixels_ = policy_->pixels();
+  const auto& net = policy_->options().network;
+  if (pixels_ && spec_.images.empty())
+    throw std::invalid_argument("~robot: " + options_.checkpoint + " holds a pixels policy, but " + spec_.source +
+                                " names no camera (images:)");
+  if (!pixels_ && !spec_.images.empty())
+    throw std::invalid_argument("~robot: " + spec_.source + " names a camera (image '" + spec_.images[0].name +
+                                "'), but " + options_.checkpoint + " holds a state policy");
+  if (pixels_) {
+    const SpecImage& cam = spec_.images[0];
+    if (net.image_height != cam.size || net.image_width != cam.size || net.image_channels != 3)
+      throw std::invalid_argument("~robot: " + spec_.source + ": image '" + cam.name + "' (topic " + cam.topic +
+                                  ") gives " + std::to_string(cam.size) + "x" + std::to_string(cam.size) +
+                                  " rgb8 images, " + options_.checkpoint + " takes " +
+                                  std::to_string(net.image_height) + "x" + std::to_string(net.image_width) + "x" +
+                                  std::to_string(net.image_channels));
+    frames_.emplace(cam.size, cam.size, 3, std::max(1, net.frame_stack));
+  }
   bool stored = false;
-  const std::string bad =
-      CheckCheckpointAgainstSpec(options_.checkpoint, spec_, policy_->obs_dim(), policy_->action_dim(), &stored);
+  // A pixels network reads no state: the spec's state fields are checked against the stored spec only.
+  const std::string bad = CheckCheckpointAgainstSpec(options_.checkpoint, spec_,
+                                                     pixels_ ? spec_.obs_dim() : policy_->obs_dim(),
+                                                     policy_->action_dim(), &stored);
   if (!bad.empty()) throw std::invalid_argument("~robot: " + bad);
   if (!stored)
     ROS_WARN_STREAM_NAMED(kLog, options_.checkpoint << " stores no robot spec (trained on msspr's own topics): "
@@ -78,6 +97,24 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   else if (spec_.goal.source == "observation")
     goal_sub_ = nh_.subscribe<std_msgs::Float64MultiArray>(
         spec_.goal.topic, 1, [this](const std_msgs::Float64MultiArray::ConstPtr& m) { OnGoalMessage(*m); });
+  else if (spec_.goal.source == "image" && spec_.goal.type == kImageType)
+    goal_sub_ = nh_.subscribe<sensor_msgs::Image>(spec_.goal.topic, 1,
+                                                  [this](const sensor_msgs::Image::ConstPtr& m) { OnGoalImage(*m); });
+  else if (spec_.goal.source == "image")
+    goal_sub_ = nh_.subscribe<sensor_msgs::CompressedImage>(
+        spec_.goal.topic, 1, [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnGoalImage(*m); });
+  if (pixels_) {
+    const SpecImage& cam = spec_.images[0];
+    const uint32_t queue = options_.mode == "lockstep" ? 10 : 1;
+    if (cam.type == kImageType)
+      image_sub_ = nh_.subscribe<sensor_msgs::Image>(
+          cam.topic, queue, [this](const sensor_msgs::Image::ConstPtr& m) { OnImageMessage(*m); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+    else
+      image_sub_ = nh_.subscribe<sensor_msgs::CompressedImage>(
+          cam.topic, queue, [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnImageMessage(*m); },
+          ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  }
   cmd_topics_ = spec_.CommandTopics();
   for (const auto& c : cmd_topics_) {
     if (c.type == kTwistType) cmd_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(c.topic, 10));
@@ -95,6 +132,9 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period), &RobotServer::OnDiagnostics, this);
   std::ostringstream s;
   for (const auto& t : layout_.topics) s << " " << t.name << " (" << t.type << ")";
+  if (pixels_)
+    s << " and camera " << spec_.images[0].topic << " (" << spec_.images[0].type << " -> " << spec_.images[0].size
+      << "x" << spec_.images[0].size << " rgb8, frame_stack " << frames_->stack() << ")";
   std::string commands;
   for (const auto& c : cmd_topics_) commands += (commands.empty() ? "" : ", ") + c.type + " on " + c.topic;
   ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " through robot spec '"
@@ -138,6 +178,43 @@ void RobotServer::OnObservationMessage(int k, const M& msg) {
   (void)stamp;
   if (k == 0) ++first_topic_messages_;
   if (options_.mode == "lockstep") TryActLockstep();
+}
+
+template <class M>
+void RobotServer::OnImageMessage(const M& msg) {
+  ++counters_.messages;
+  ++counters_.images;
+  TopicSample s;
+  std::string why;
+  if (!DecodeImageSample(spec_.images[0], msg, ros::Time::now(), &s, &why)) {
+    ++counters_.rejected;
+    ++counters_.bad_images;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected image: " << why);
+    return;
+  }
+  if (!image_history_.samples().empty() && s.stamp < image_history_.samples().back().stamp)
+    image_history_.Clear();  // stamps going back: start over, as for the other topics
+  image_history_.Add(std::move(s));
+  image_history_.Trim(16);
+  image_receipt_ = ros::WallTime::now();
+  if (options_.mode == "lockstep") TryActLockstep();
+}
+
+template <class M>
+void RobotServer::OnGoalImage(const M& msg) {
+  ++counters_.images;
+  std::vector<uint8_t> rgb;
+  std::string why;
+  if (!DecodeImage(msg, spec_.images[0].size, &rgb, &why)) {
+    ++counters_.rejected;
+    ++counters_.bad_images;
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog,
+                                    spec_.source << ": rejected goal image (topic " << spec_.goal.topic << "): " << why);
+    return;
+  }
+  // A goal is one image, repeated frame_stack times; a new goal starts a new frame history.
+  goal_image_ = frames_->Repeat(rgb.data());
+  frames_->Clear();
 }
 
 void RobotServer::PollTf() {
@@ -190,6 +267,8 @@ void RobotServer::TryActLockstep() {
     }
     if (!caught_up(k)) return;  // its message for t comes later and calls again
   }
+  if (pixels_ && (image_history_.samples().empty() || image_history_.samples().back().stamp < ready))
+    return;  // the camera's image for t comes later and calls again
   acted_messages_ = first_topic_messages_;
   ActAt(t);
 }
@@ -226,7 +305,17 @@ void RobotServer::OnWatchdog(const ros::WallTimerEvent&) {
             std::to_string((now - last_receipt_[k]).toSec()) + " s (stale_after " +
             std::to_string(spec_.stale_after) + " s)";
   }
-  if (why.empty() && goal_.empty() && !spec_.goal.topic.empty()) why = "no goal yet on " + spec_.goal.topic;
+  if (why.empty() && pixels_) {
+    const SpecImage& cam = spec_.images[0];
+    if (image_history_.samples().empty())
+      why = "topic " + cam.topic + " (image '" + cam.name + "'): no image yet";
+    else if ((now - image_receipt_).toSec() > spec_.stale_after)
+      why = "topic " + cam.topic + " (image '" + cam.name + "'): silent for " +
+            std::to_string((now - image_receipt_).toSec()) + " s (stale_after " + std::to_string(spec_.stale_after) +
+            " s)";
+  }
+  const bool no_goal = pixels_ ? goal_image_.empty() : goal_.empty();
+  if (why.empty() && no_goal && !spec_.goal.topic.empty()) why = "no goal yet on " + spec_.goal.topic;
   if (!why.empty()) {
     // Rate mode: a stop every control period while stale. Lockstep: one stop when
     // inputs go stale (every command steps a lockstep simulator once).
@@ -245,7 +334,29 @@ void RobotServer::ActAt(const ros::Time& t) {
     PublishStop(why);
     return;
   }
-  if (goal_.empty()) {
+  std::vector<uint8_t> stacked;
+  if (pixels_) {
+    const TopicSample* img = nullptr;
+    const std::string iwhy = SampleImage(spec_, spec_.images[0], image_history_, t, ros::Time(0, 0), &img);
+    if (!iwhy.empty()) {
+      PublishStop(iwhy);
+      return;
+    }
+    if (goal_image_.empty()) {
+      PublishStop("no goal image yet on " + spec_.goal.topic);
+      return;
+    }
+    // The episode's frames: a new image is pushed, the same one again replaces
+    // it, and an older one (time went back) or a fresh start repeats it.
+    if (frames_->empty() || img->stamp < frame_stamp_)
+      frames_->Reset(img->pixels.data());
+    else if (img->stamp == frame_stamp_)
+      frames_->Replace(img->pixels.data());
+    else
+      frames_->Push(img->pixels.data());
+    frame_stamp_ = img->stamp;
+    stacked = frames_->Stacked();
+  } else if (goal_.empty()) {
     PublishStop("no goal yet on " + spec_.goal.topic);
     return;
   }
@@ -256,10 +367,16 @@ void RobotServer::ActAt(const ros::Time& t) {
   torch::Tensor a;
   try {
     torch::NoGradGuard no_grad;
-    a = policy_->Act(torch::from_blob(obs.data(), {static_cast<int64_t>(obs.size())}, torch::kFloat32),
-                     torch::from_blob(goal_.data(), {static_cast<int64_t>(goal_.size())}, torch::kFloat32))
-            .to(torch::kCPU)
-            .contiguous();
+    if (pixels_) {
+      const int64_t side = spec_.images[0].size;
+      const std::vector<int64_t> shape = {side, side, static_cast<int64_t>(3 * frames_->stack())};
+      a = policy_->Act(torch::from_blob(stacked.data(), shape, torch::kUInt8),
+                       torch::from_blob(goal_image_.data(), shape, torch::kUInt8));
+    } else {
+      a = policy_->Act(torch::from_blob(obs.data(), {static_cast<int64_t>(obs.size())}, torch::kFloat32),
+                       torch::from_blob(goal_.data(), {static_cast<int64_t>(goal_.size())}, torch::kFloat32));
+    }
+    a = a.to(torch::kCPU).contiguous();
   } catch (const c10::Error& e) {
     ++counters_.inference_errors;
     ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, "inference failed: " << e.what_without_backtrace());
@@ -311,6 +428,7 @@ void RobotServer::PublishStop(const std::string& why) {
   }
   stale_why_ = why;
   last_stop_ = ros::WallTime::now();
+  if (frames_) frames_->Clear();  // after a stop the frame history starts over
   for (size_t c = 0; c < cmd_topics_.size(); ++c) {
     const std::string& type = cmd_topics_[c].type;
     const std::string& topic = cmd_topics_[c].topic;
@@ -359,10 +477,17 @@ void RobotServer::OnDiagnostics(const ros::WallTimerEvent&) {
   kv("stop_commands", std::to_string(counters_.stops));
   kv("stale_events", std::to_string(counters_.stale_events));
   kv("inference_errors", std::to_string(counters_.inference_errors));
+  if (pixels_) {
+    kv("images", std::to_string(counters_.images));
+    kv("bad_images", std::to_string(counters_.bad_images));
+  }
   const ros::WallTime now = ros::WallTime::now();
   for (size_t k = 0; k < layout_.topics.size(); ++k)
     kv("age_s " + layout_.topics[k].name,
        histories_[k].samples().empty() ? "none" : std::to_string((now - last_receipt_[k]).toSec()));
+  if (pixels_)
+    kv("age_s " + spec_.images[0].topic,
+       image_history_.samples().empty() ? "none" : std::to_string((now - image_receipt_).toSec()));
   arr.status.push_back(st);
   diag_pub_.publish(arr);
 }

@@ -8,12 +8,17 @@
 // ros::Time::now()). tf2 fields are looked up in a tf2_ros::Buffer. A watchdog sends a stop command (zero twist,
 // zero array, or an empty trajectory: hold) at the control rate while inputs
 // are stale, as diff_drive_controller's cmd_vel_timeout does, says so on
-// /diagnostics, and serves again once they return. This header does not
-// include torch.
+// /diagnostics, and serves again once they return. A pixels checkpoint is
+// served through a spec with a camera (images:): the camera's images and the
+// goal image are decoded and resized by robot_fields.h DecodeImage, as
+// training did, and frame-stacked as the checkpoint says; a malformed image is
+// rejected and counted (bad_images on /diagnostics), and a silent camera is
+// stale like any input. This header does not include torch.
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +26,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "msspr_core/frame_stack.h"
 #include "policy_node.h"
 #include "robot_fields.h"
 #include "robot_spec.h"
@@ -45,6 +51,7 @@ class RobotServer {
 
   struct Counters {
     uint64_t messages = 0, rejected = 0, commands = 0, stops = 0, stale_events = 0, inference_errors = 0;
+    uint64_t images = 0, bad_images = 0;  // the camera's and goal images; bad ones are also rejected
   };
 
  private:
@@ -54,6 +61,10 @@ class RobotServer {
   void OnObservationMessage(int k, const M& msg);
   template <class M>
   void OnGoalMessage(const M& msg);
+  template <class M>
+  void OnImageMessage(const M& msg);
+  template <class M>
+  void OnGoalImage(const M& msg);
   void OnRateTick(const ros::WallTimerEvent&);
   void OnWatchdog(const ros::WallTimerEvent&);
   void OnDiagnostics(const ros::WallTimerEvent&);
@@ -93,6 +104,15 @@ class RobotServer {
   std::string stale_why_;
   ros::WallTime last_stop_;
   Counters counters_;
+  // Pixels policies: the camera (spec_.images[0]), its recent images, the
+  // episode's frame history and the goal image (stacked; empty: none yet).
+  bool pixels_ = false;
+  ros::Subscriber image_sub_;
+  TopicHistory image_history_;
+  ros::WallTime image_receipt_;
+  std::optional<core::FrameStacker> frames_;
+  ros::Time frame_stamp_;  // the stamp of the newest frame in frames_
+  std::vector<uint8_t> goal_image_;
 };
 
 }  // namespace msspr::ros_bridge

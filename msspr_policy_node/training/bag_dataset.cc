@@ -58,6 +58,7 @@ core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoad
         for (int t = 0; t < ep.num_steps; ++t) {
           r.missing_observations += ep.has_obs[t] ? 0 : 1;
           r.missing_actions += ep.has_action[t] ? 0 : 1;
+          r.missing_images += options.images && ep.image_size && !ep.has_image[t] ? 1 : 0;
         }
       }
       if (!options.split.empty() && ep.meta.split != options.split) {

@@ -92,7 +92,9 @@ std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list, co
   lo.images = options.network.obs_mode == "pixels";
   lo.robot = g_robot.get();
   if (g_robot) {
-    if (lo.images) throw msspr::core::DatasetError("--robot: robot specs have no images yet (use --obs-mode state)");
+    if (lo.images && g_robot->images.empty())
+      throw msspr::core::DatasetError("--robot: " + g_robot->source +
+                                      " names no camera (images:): a pixels policy needs one, or use --obs-mode state");
     if (split != "train") throw msspr::core::DatasetError("--robot: a robot's bags have no \"val\" split");
   }
   BagLoadReport report;

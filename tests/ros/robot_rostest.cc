@@ -4,6 +4,9 @@
 // - RobotServing (policy_robot.test): it reaches a goal, stops the robot (zero
 //   twist, /diagnostics WARN) when its inputs go stale, and serves again when
 //   they return.
+// - RobotCameraServing (policy_robot_camera.test): an untrained pixels policy
+//   served through config/robots/pointmaze_camera.yaml (camera/image and
+//   goal_image in) steps the sim; corrupt images are counted, not fatal.
 // - RobotSameActions (policy_robot_same_actions.test): the same states and
 //   goals, given to a node serving over the native msspr topics and to one
 //   serving through the spec, give the same commands: twist.linear.{x, y} =
@@ -19,6 +22,7 @@
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
+#include <sensor_msgs/Image.h>
 
 #include "msspr/Pause.h"
 #include "msspr/Reset.h"
@@ -110,6 +114,63 @@ TEST(RobotServing, ReachesGoalStopsWhenStaleAndResumes) {
       << "not serving again after the pause";
   EXPECT_NE(last.linear.x * last.linear.x + last.linear.y * last.linear.y, 0.0);
   EXPECT_TRUE(h.WaitFor([&] { return level.rfind("0 serving", 0) == 0; }, 5.0)) << level;
+}
+
+// A pixels policy served through config/robots/pointmaze_camera.yaml
+// (policy_robot_camera.test): the sim's camera/image and goal_image in,
+// cmd_vel out. The node answers every step; corrupt images on the camera topic
+// are rejected and counted (bad_images on /diagnostics) and it keeps serving.
+TEST(RobotCameraServing, ServesPixelsAndCountsCorruptImages) {
+  RosTestHelper h;
+  constexpr char kCameraStatus[] = "robot pointmaze_camera";
+  uint64_t twists = 0, moving = 0;
+  ros::Subscriber cmd = h.nh().subscribe<geometry_msgs::Twist>("cmd_vel", 1000, [&](const geometry_msgs::Twist::ConstPtr& t) {
+    ++twists;
+    if (t->linear.x != 0.0 || t->linear.y != 0.0) ++moving;
+  });
+  ros::Publisher bad_pub = h.nh().advertise<sensor_msgs::Image>("camera/image", 10);
+  ros::ServiceClient reset = h.nh().serviceClient<msspr::Reset>("reset");
+  ASSERT_TRUE(reset.waitForExistence(ros::Duration(60.0)));
+  ASSERT_TRUE(h.WaitFor([&] { return cmd.getNumPublishers() > 0 && bad_pub.getNumSubscribers() > 0 &&
+                                     !h.DiagValue(kCameraStatus, "bad_images").empty(); }, 60.0))
+      << "policy node not serving cmd_vel through the camera spec (its fatal error, if any, is on its stderr)";
+  msspr::Reset r;
+  r.request.task_id = 1;
+  r.request.seed = 3;
+  ASSERT_TRUE(reset.call(r));
+  ASSERT_TRUE(r.response.ok) << r.response.message;
+  const uint32_t id = r.response.observation.episode_id;
+  auto counters = [&] {
+    std::string s;
+    for (const char* k : {"messages", "images", "bad_images", "rejected", "commands", "stop_commands"})
+      s += std::string(k) + "=" + h.DiagValue(kCameraStatus, k) + " ";
+    return s + "twists=" + std::to_string(twists);
+  };
+  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step >= 15; }, 30.0))
+      << "the pixels policy does not step the sim: step " << (h.latest() ? h.latest()->step : 0) << "; "
+      << counters();
+  EXPECT_GT(moving, 0u) << "only stop commands: " << counters();
+  EXPECT_EQ(h.DiagValue(kCameraStatus, "bad_images"), "0") << counters();
+
+  // Corrupt images on the camera topic: too little data, a wrong encoding.
+  sensor_msgs::Image bad;
+  bad.header.stamp = h.latest()->header.stamp;
+  bad.height = bad.width = 64;
+  bad.encoding = "rgb8";
+  bad.step = 64 * 3;
+  bad.data.assign(10, 0);
+  bad_pub.publish(bad);
+  bad.encoding = "32FC1";
+  bad.data.assign(64 * 64 * 4, 0);
+  bad.step = 64 * 4;
+  bad_pub.publish(bad);
+  EXPECT_TRUE(h.WaitFor([&] { return h.DiagNumber(kCameraStatus, "bad_images") >= 2; }, 10.0)) << counters();
+  EXPECT_GE(h.DiagNumber(kCameraStatus, "rejected"), 2) << counters();
+  // Still serving: the episode moves on.
+  const uint32_t step = h.latest()->step;
+  EXPECT_TRUE(h.WaitFor([&] { return h.latest()->episode_id == id && h.latest()->step >= step + 10; }, 20.0))
+      << "not serving after the corrupt images: step " << h.latest()->step << "; " << counters();
+  std::printf("camera spec: %s\n", counters().c_str());
 }
 
 // Feeds states and goals to both nodes one at a time and compares their answers.

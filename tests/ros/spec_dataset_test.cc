@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -132,6 +133,93 @@ TEST_F(SpecDatasetTest, TrainWithRobotStoresTheSpecAndBagInfoReports) {
   info = RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + other + " " + Path("a.bag"));
   EXPECT_EQ(info.status, 2) << info.text;
   EXPECT_NE(info.text.find(Path("a.bag") + ": no topic wheel_odom (field 'position' of " + other), std::string::npos)
+      << info.text;
+}
+
+// A camera: bags with sensor_msgs/Image through config/robots/pointmaze_camera.yaml
+// (its camera on the bag's standard camera topic) give the native image dataset
+// of the same episodes; msspr_train --robot trains a pixels policy from them,
+// which the policy node's check accepts; msspr_bag_info --robot reports the camera.
+TEST_F(SpecDatasetTest, CameraBagsGiveTheNativeImageDatasetAndTrainPixels) {
+  test::SynthBagOptions o;
+  o.images = true;
+  o.camera_format = "bgr8";  // 128x128 bgr8, resized to 64x64 rgb8
+  test::WriteSynthBag(Path("a.bag"), test::MakeSynthEpisodes(3, 20, 51), o);
+  test::WriteSynthBag(Path("b.bag"), test::MakeSynthEpisodes(2, 15, 52), o);
+  std::string text = test::ReadTextFile(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_camera.yaml");
+  text.replace(text.find("topic: camera/image"), 19, "topic: robot_camera");
+  const std::string cam_spec = test::WriteTextFile(Path("camera.yaml"), text);
+  const ros_bridge::RobotSpec spec = ros_bridge::LoadRobotSpec(cam_spec);
+  agent::BagLoadOptions native_opt, spec_opt;
+  native_opt.images = spec_opt.images = true;
+  spec_opt.robot = &spec;
+  agent::BagLoadReport nr, sr;
+  const core::Dataset native = agent::LoadBagDataset({Path("a.bag"), Path("b.bag")}, native_opt, &nr);
+  const core::Dataset via_spec = agent::LoadBagDataset({Path("a.bag"), Path("b.bag")}, spec_opt, &sr);
+  ASSERT_EQ(native.size(), 3 * 20 + 2 * 15);
+  ASSERT_EQ(via_spec.size(), native.size());
+  ASSERT_TRUE(native.has_images());
+  ASSERT_TRUE(via_spec.has_images());
+  EXPECT_EQ(via_spec.image_shape().height, 64);
+  EXPECT_EQ(via_spec.image_shape().width, 64);
+  EXPECT_EQ(via_spec.image_shape().channels, 3);
+  EXPECT_EQ(via_spec.trajectory_starts(), native.trajectory_starts());
+  const size_t bytes = static_cast<size_t>(native.image_shape().numel());
+  for (int64_t i = 0; i < native.size(); ++i)
+    ASSERT_EQ(std::memcmp(via_spec.image(i), native.image(i), bytes), 0) << "image " << i;
+  for (size_t i = 0; i < native.states().size(); ++i)
+    ASSERT_NEAR(via_spec.states()[i], native.states()[i], 1e-5) << i;
+  for (size_t i = 0; i < native.actions().size(); ++i)
+    ASSERT_NEAR(via_spec.actions()[i], native.actions()[i], 1e-5) << i;
+  EXPECT_EQ(sr.incomplete_episodes, 0u) << sr.Summary();
+
+  core::MsprOptions opt = core::testing_util::TinyOptions();
+  opt.network.obs_mode = "pixels";
+  opt.network.cnn = "light";
+  const std::string config = Path("tiny_pixels.yaml");
+  std::ofstream(config) << core::OptionsToYaml(opt);
+  const std::string out = Path("run");
+  const Output t = RunTool(std::string(MSSPR_TRAIN_EXE) + " --data " + Path("a.bag") + " " + Path("b.bag") +
+                           " --robot " + cam_spec + " --config " + config +
+                           " --steps 2 --batch 8 --eval-every 0 --threads 1 --quiet --out " + out);
+  ASSERT_EQ(t.status, 0) << t.text;
+  EXPECT_NE(t.text.find("2 bag(s): 5 episodes read -> 5 trajectories, 90 steps"), std::string::npos) << t.text;
+  const core::CheckpointFile f = core::ReadCheckpointFile(out + "/policy.pt");
+  const core::CheckpointHeader h = core::ParseCheckpointHeader(f.header, out + "/policy.pt");
+  ASSERT_TRUE(h.metadata.count(ros_bridge::kRobotSpecCheckpointKey));
+  EXPECT_EQ(h.metadata.at(ros_bridge::kRobotSpecCheckpointKey), spec.text);
+  bool stored = false;
+  EXPECT_EQ(ros_bridge::CheckCheckpointAgainstSpec(out + "/policy.pt", spec, 2, 2, &stored), "");
+  EXPECT_TRUE(stored);
+  std::string other = text;
+  other.replace(other.find("size: 64"), 8, "size: 32");
+  const std::string refusal = ros_bridge::CheckCheckpointAgainstSpec(
+      out + "/policy.pt", ros_bridge::ParseRobotSpec(other, "small.yaml"), 2, 2);
+  EXPECT_NE(refusal.find("image 0 'camera' (topic robot_camera): size 64 vs 32"), std::string::npos) << refusal;
+  // A state spec cannot train pixels.
+  const Output bad = RunTool(std::string(MSSPR_TRAIN_EXE) + " --data " + Path("a.bag") + " --robot " + spec_path_ +
+                             " --config " + config + " --steps 2 --batch 8 --eval-every 0 --threads 1 --quiet --out " +
+                             Path("run2"));
+  EXPECT_NE(bad.status, 0) << bad.text;
+  EXPECT_NE(bad.text.find("names no camera (images:)"), std::string::npos) << bad.text;
+
+  // msspr_bag_info --robot: the camera's row and its bad images, counted and not fatal.
+  Output info = RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + cam_spec + " " + Path("a.bag"));
+  EXPECT_EQ(info.status, 0) << info.text;
+  EXPECT_NE(info.text.find("60 ticks, 60 with observation, image and action"), std::string::npos) << info.text;
+  EXPECT_NE(info.text.find("image:        camera (topic robot_camera, sensor_msgs/Image -> 64x64 rgb8): 60 images"),
+            std::string::npos)
+      << info.text;
+  o.bad_image_steps = {4, 30};
+  test::WriteSynthBag(Path("bad.bag"), test::MakeSynthEpisodes(2, 20, 53), o);
+  info = RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + cam_spec + " " + Path("bad.bag"));
+  EXPECT_EQ(info.status, 1) << info.text;
+  EXPECT_NE(info.text.find("38 images at"), std::string::npos) << info.text;
+  EXPECT_NE(info.text.find("2 bad images (undecodable, wrong encoding or size) rejected"), std::string::npos)
+      << info.text;
+  EXPECT_NE(info.text.find("topic robot_camera (image 'camera'): 2 bad images rejected (first: image 'camera' "
+                           "(topic robot_camera, sensor_msgs/Image): encoding '32FC1'"),
+            std::string::npos)
       << info.text;
 }
 
