@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -33,6 +34,11 @@ namespace msspr::test {
 inline std::string WriteTextFile(const std::string& path, const std::string& text) {
   std::ofstream(path) << text;
   return path;
+}
+
+inline std::string ReadTextFile(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 // One synthetic point-maze episode: states [T, 2], actions [T, 2] in [-1, 1], a goal.
