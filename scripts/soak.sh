@@ -12,6 +12,8 @@
 # minimum and 5th percentile over the windows after the warm-up) and
 # soak_samples_PATH.csv. Each run has a private ROS master, so two run side by side.
 #   scripts/soak.sh [BUILD] [SECONDS] [native|robot]
+#   MSSPR_SOAK_BIN=DIR: the node executables from DIR (a copy, so that a rebuild
+#   during a long soak does not replace them); default the devel space's.
 #   MSSPR_SOAK_S=600 make bench    runs both paths, one after the other
 set -euo pipefail
 BUILD=${1:-build}
@@ -20,7 +22,7 @@ SOAK_PATH=${3:-native}
 cd "$(dirname "$0")/.."
 source scripts/ros_env.sh
 OUT=$PWD/$BUILD/bench
-BIN=$DEVEL/lib/msspr
+BIN=${MSSPR_SOAK_BIN:-$DEVEL/lib/msspr}
 CKPT=$PWD/msspr_policy_node/checkpoints/pointmaze-medium-state.pt
 SPEC=$PWD/config/robots/pointmaze_base.yaml
 RATE=100
@@ -51,7 +53,7 @@ WARMUP=$(( WARMUP > SOAK_S / 2 ? SOAK_S / 2 : WARMUP ))
 SAMPLES=$OUT/soak_samples_$SOAK_PATH.csv
 if ! /usr/bin/python3 scripts/soak_sampler.py --sim-pid "$SIM" --policy-pid "$POLICY" --topic "$TOPIC" \
   --seconds "$SOAK_S" --period "$PERIOD" --out "$SAMPLES"; then
-  tail -5 "$LOG.sim" "$LOG.policy" >&2
+  tail -n 5 "$LOG.sim" "$LOG.policy" >&2
   exit 1
 fi
 python3 - "$SAMPLES" "$OUT/soak_$SOAK_PATH.json" "$SOAK_S" "$WARMUP" "$SOAK_PATH" "$RATE" <<'PY'
