@@ -273,7 +273,8 @@ torch::Tensor PolicyInput(const PolicyInputs& in, std::vector<torch::Tensor> lat
   if (!in.latent) latent.clear();
   if (in.raw) {
     for (const auto& t : raw)
-      TORCH_CHECK(t.defined(), "network.policy_inputs reads the raw state, action and goal: not given");
+      TORCH_CHECK(t.defined(),
+                  "network.policy_inputs reads the raw state, action and goal: not given");
     latent.insert(latent.end(), raw.begin(), raw.end());
   }
   return torch::cat(latent, -1);

@@ -181,8 +181,8 @@ torch::Tensor Policy::Q(const torch::Tensor& obs_in, const torch::Tensor& action
   }
   const torch::Tensor zs = repr_->state_encoder->forward(obs);
   const torch::Tensor zg = repr_->state_encoder->forward(goal);
-  torch::Tensor q =
-      critic_->forward(repr_->Zsa(zs, action), repr_->goal_head->forward(zs, zg), obs, action, goal);
+  torch::Tensor q = critic_->forward(repr_->Zsa(zs, action), repr_->goal_head->forward(zs, zg), obs,
+                                     action, goal);
   return single ? q.squeeze(0) : q;
 }
 
