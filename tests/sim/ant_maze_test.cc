@@ -47,7 +47,7 @@ Eigen::VectorXd MidRangePose(const mjModel* m, double z) {
   return q;
 }
 
-TEST(AntMazeTest, EnvIdsNameTheMedium_AndLargeMazes) {
+TEST(AntMazeTest, EnvIdsNameTheMediumAndLargeMazes) {
   EXPECT_EQ(AntMaze::EnvIds(), (std::vector<std::string>{"antmaze-medium", "antmaze-large"}));
   EXPECT_EQ(AntMaze::MazeFromEnvId("antmaze-large"), "large");
   EXPECT_THROW(AntMaze::MazeFromEnvId("pointmaze-medium"), std::invalid_argument);
