@@ -8,6 +8,13 @@
 //
 //   msspr_collect_npz --maze medium --episodes 1000 --val-episodes 100 --seed 7
 //                     --threads 16 --out /data/pix.npz      # + /data/pix-val.npz
+//
+// --env antmaze-medium | antmaze-large: OGBench's antmaze datasets with the
+// waypoint expert (ant_dataset.h, the episodes of msspr_collect --env
+// antmaze-*): observations [N, 29], actions [N, 8], terminals, qpos [N, 15],
+// qvel [N, 14].
+#include <torch/torch.h>
+
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -25,6 +32,9 @@
 #include "msspr_core/cli_args.h"
 #include "msspr_core/dataset.h"
 #include "msspr_core/npz.h"
+#include "msspr_core/sac.h"
+#include "msspr_eval/ant_dataset.h"
+#include "msspr_sim/ant_maze.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/point_maze.h"
@@ -32,17 +42,91 @@
 namespace {
 
 constexpr const char* kUsage = R"(usage: msspr_collect_npz --out FILE.npz [options]
-Collects point-maze episodes (those of msspr_collect) into .npz datasets, without ROS.
+Collects point-maze or ant-maze episodes (those of msspr_collect) into .npz datasets,
+without ROS.
   --out FILE.npz      training split (required); the validation split goes to FILE-val.npz
-  --maze NAME         arena, medium, large or giant (default medium)
+  --env ENV           pointmaze | antmaze-medium | antmaze-large (default pointmaze)
+  --maze NAME         arena, medium, large or giant (default medium; pointmaze)
   --kind KIND         navigate | stitch (default navigate)
   --episodes N        training episodes (default 1000)
   --val-episodes N    validation episodes (default episodes / 10)
   --length N          steps per episode (default 1001)
   --seed S            dataset seed (default 0)
   --threads N         collection threads (default: the machine's cores)
-  --no-images         states only (default: 64x64 camera images too)
+  --no-images         states only (default: 64x64 camera images too; pointmaze)
+antmaze-*: the waypoint expert's datasets, states with qpos and qvel (no images);
+stitch defaults to 5000 + 500 episodes of 201 steps.
+  --expert FILE       the locomotion expert, sac_policy.pt of msspr_train_expert (required)
+  --noise STD         the expert's action noise std (default 0.2)
 )";
+
+// --env antmaze-*: CollectAntEpisode on T threads, one AntMaze and expert each.
+int CollectAntNpz(const std::string& env_id, const std::string& expert,
+                  const msspr::agent::AntCollectOptions& opt, long episodes, long val, long threads,
+                  const std::string& out) {
+  namespace sim = msspr::sim;
+  const long total = episodes + val;
+  std::vector<msspr::agent::AntEpisode> eps(static_cast<size_t>(total));
+  std::atomic<long> next_k{0}, done{0};
+  std::mutex err_mu;
+  std::string error;
+  const auto t0 = std::chrono::steady_clock::now();
+  torch::set_num_threads(1);
+  auto worker = [&]() {
+    try {
+      msspr::core::SacPolicy policy(expert);
+      sim::AntMazeOptions eo;
+      eo.maze = sim::AntMaze::MazeFromEnvId(env_id);
+      eo.max_episode_steps = opt.episode_length;
+      std::unique_ptr<sim::AntMaze> env;
+      {
+        std::lock_guard<std::mutex> lock(err_mu);  // MuJoCo's XML compiler is not thread-safe
+        env = std::make_unique<sim::AntMaze>(eo);
+      }
+      for (long k = next_k++; k < total; k = next_k++) {
+        eps[static_cast<size_t>(k)] =
+            msspr::agent::CollectAntEpisode(*env, policy, opt, static_cast<uint64_t>(k));
+        const long d = ++done;
+        if (d % 10 == 0 || d == total) {
+          const double s =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          std::fprintf(stderr, "[msspr_collect_npz] %ld/%ld episodes, %.0f s, %.0f steps/s\n", d,
+                       total, s, d * double(opt.episode_length) / s);
+        }
+      }
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(err_mu);
+      error = e.what();
+      next_k = total;
+    }
+  };
+  std::vector<std::thread> pool;
+  for (long t = 0; t < threads; ++t) pool.emplace_back(worker);
+  for (auto& t : pool) t.join();
+  if (!error.empty()) {
+    std::fprintf(stderr, "msspr_collect_npz: %s\n", error.c_str());
+    return 1;
+  }
+  auto write = [&](long from, long to, const std::string& path) {
+    if (to <= from) return;
+    std::vector<const msspr::agent::AntEpisode*> part;
+    for (long k = from; k < to; ++k) part.push_back(&eps[static_cast<size_t>(k)]);
+    msspr::agent::SaveAntNpz(part, path);
+    std::fprintf(stderr, "[msspr_collect_npz] wrote %s: %ld episodes, %lld steps\n", path.c_str(),
+                 to - from, static_cast<long long>((to - from) * opt.episode_length));
+  };
+  try {
+    write(0, episodes, out);
+    write(episodes, total, out.substr(0, out.size() - 4) + "-val.npz");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "msspr_collect_npz: %s\n", e.what());
+    return 1;
+  }
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::fprintf(stderr, "[msspr_collect_npz] %ld episodes in %.1f s on %ld threads (%.0f steps/s)\n",
+               total, s, threads, total * double(opt.episode_length) / s);
+  return 0;
+}
 
 }  // namespace
 
@@ -51,11 +135,12 @@ int main(int argc, char** argv) {
   namespace core = msspr::core;
   sim::CollectOptions opt;
   long episodes = 1000, val = -1, threads = 1;
-  std::string out;
+  std::string out, env_id, expert;
+  msspr::agent::AntCollectOptions ant;
   try {
-    msspr::cli::CliArgs args(
-        argc, argv, {"help", "no-images"},
-        {"out", "maze", "kind", "episodes", "val-episodes", "length", "seed", "threads"});
+    msspr::cli::CliArgs args(argc, argv, {"help", "no-images"},
+                             {"out", "env", "maze", "kind", "episodes", "val-episodes", "length",
+                              "seed", "threads", "expert", "noise"});
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
@@ -65,13 +150,31 @@ int main(int argc, char** argv) {
     out = args.Get("out", "");
     if (out.size() < 5 || out.substr(out.size() - 4) != ".npz")
       throw msspr::cli::CliError("--out FILE.npz is required");
+    env_id = args.GetChoice("env", "pointmaze", {"pointmaze", "antmaze-medium", "antmaze-large"});
+    const bool is_ant = env_id != "pointmaze";
+    for (const char* f : {"maze", "no-images"})
+      if (is_ant && args.Has(f))
+        throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env " + env_id);
+    for (const char* f : {"expert", "noise"})
+      if (!is_ant && args.Has(f))
+        throw msspr::cli::CliError(std::string("--") + f +
+                                   " needs --env antmaze-medium or antmaze-large");
+    expert = args.Get("expert", "");
+    if (is_ant && expert.empty())
+      throw msspr::cli::CliError("--expert FILE is required for " + env_id);
     const auto names = sim::MazeMap::Names();
     opt.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
     opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
-    episodes = args.GetInt("episodes", 1000, 0, 100000000);
+    const bool ant_stitch = is_ant && opt.kind == sim::DatasetKind::kStitch;
+    episodes = args.GetInt("episodes", ant_stitch ? 5000 : 1000, 0, 100000000);
     val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
-    opt.episode_length = static_cast<int>(args.GetInt("length", 1001, 2, 100000000));
+    opt.episode_length =
+        static_cast<int>(args.GetInt("length", ant_stitch ? 201 : 1001, 2, 100000000));
     opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+    ant.kind = opt.kind;
+    ant.episode_length = opt.episode_length;
+    ant.seed = opt.seed;
+    ant.noise_std = args.GetDouble("noise", 0.2, 0.0, 1e6);
     const long cores = static_cast<long>(std::thread::hardware_concurrency());
     threads = args.GetInt("threads", cores > 0 ? cores : 1, 1, 4096);
     opt.images = !args.Has("no-images");
@@ -80,6 +183,7 @@ int main(int argc, char** argv) {
     std::cerr << "msspr_collect_npz: " << e.what() << "\n" << kUsage;
     return 2;
   }
+  if (env_id != "pointmaze") return CollectAntNpz(env_id, expert, ant, episodes, val, threads, out);
   const long total = episodes + val;
   const int size = 64;
 
