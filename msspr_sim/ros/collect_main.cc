@@ -17,13 +17,19 @@
 #include "msspr_sim/expert.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/point_maze.h"
+#ifdef MSSPR_COLLECT_ANT
+#include "msspr_core/sac.h"
+#include "msspr_eval/ant_dataset.h"
+#include "msspr_sim/ant_maze.h"
+#endif
 
 namespace {
 
 constexpr char kUsage[] = R"(usage: msspr_collect --out FILE.bag [options]
-Writes an expert dataset of an msspr point maze, or OGBench's cube-single-play
-dataset of the URDF arm, into a rosbag (LZ4).
-  --env ENV              pointmaze | cube-single               (default pointmaze)
+Writes an expert dataset of an msspr point maze, OGBench's cube-single-play
+dataset of the URDF arm, or an ant maze's dataset, into a rosbag (LZ4).
+  --env ENV              pointmaze | cube-single | antmaze-medium | antmaze-large
+                                                               (default pointmaze)
   --maze NAME            arena | medium | large | giant        (default medium)
   --kind KIND            navigate | stitch                     (default navigate)
   --episodes N           training episodes (default: 1000 navigate, 5000 stitch)
@@ -41,10 +47,17 @@ play oracle (CubePlayOracle) from collection resets, 1000 + 100 episodes of
 1001 steps by default; --episodes, --val-episodes, --length, --images,
 --image-episodes, --seed as above, and
   --urdf FILE            the arm's URDF (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
+antmaze-medium, antmaze-large (--maze and images do not apply): OGBench's
+antmaze datasets with the waypoint expert; --kind, --episodes, --val-episodes,
+--length, --seed as above, and
+  --expert FILE          the locomotion expert, sac_policy.pt of msspr_train_expert (required)
+  --noise STD            the expert's action noise std (default 0.2)
 Example (the full pointmaze-medium-navigate dataset, states only):
   rosrun msspr msspr_collect --maze medium --kind navigate --out medium-navigate.bag
 Example (the full cube-single-play dataset, states only):
   rosrun msspr msspr_collect --env cube-single --out cube-single-play.bag
+Example (the full antmaze-medium-navigate dataset):
+  rosrun msspr msspr_collect --env antmaze-medium --expert sac_policy.pt --out antmaze-medium-navigate.bag
 )";
 
 // Progress line on stderr: every 200 ms on a terminal, every 5 s otherwise, and at the end.
@@ -143,6 +156,66 @@ int CollectCube(const msspr::ros_bridge::CliArgs& args) {
   return 0;
 }
 
+// antmaze-medium / antmaze-large: agent::CollectAntEpisode per episode (states only).
+int CollectAnt(const msspr::ros_bridge::CliArgs& args, const std::string& env_name) {
+  using namespace msspr;
+#ifndef MSSPR_COLLECT_ANT
+  (void)args;
+  std::cerr << "msspr_collect: --env " << env_name
+            << " needs the waypoint expert (msspr_eval_core); this build has no msspr_core\n";
+  return 2;
+#else
+  agent::AntCollectOptions opt;
+  std::string expert_path;
+  long episodes = 0, val = 0;
+  try {
+    if (!args.positional().empty())
+      throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    for (const char* f : {"maze", "images", "image-episodes"})
+      if (args.Has(f))
+        throw cli::CliError(std::string("--") + f + " does not apply to --env " + env_name);
+    expert_path = args.Get("expert", "");
+    if (expert_path.empty())
+      throw cli::CliError("--env " + env_name + " needs --expert FILE (sac_policy.pt)");
+    opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
+    const bool stitch = opt.kind == sim::DatasetKind::kStitch;
+    episodes = args.GetInt("episodes", stitch ? 5000 : 1000, 1, 100000000);
+    val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
+    opt.episode_length = static_cast<int>(args.GetInt("length", stitch ? 201 : 1001, 2, 1000000));
+    opt.noise_std = args.GetDouble("noise", 0.2, 0.0, 1e6);
+    opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  ros::Time::init();
+  core::SacPolicy policy(expert_path);
+  sim::AntMazeOptions env_opt;
+  env_opt.maze = sim::AntMaze::MazeFromEnvId(env_name);
+  env_opt.max_episode_steps = opt.episode_length;
+  sim::AntMaze env(env_opt);
+  const double control_dt = sim::kAntTimestep * sim::AntMaze::kFrameSkip;
+  ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
+  WriteAllEpisodes(args, writer, episodes, val, 0, opt.episode_length, env_name,
+                   env_name + "-" + sim::DatasetKindName(opt.kind),
+                   [&](long k, ros_bridge::EpisodeMeta& meta, bool) {
+                     const agent::AntEpisode ep =
+                         agent::CollectAntEpisode(env, policy, opt, static_cast<uint64_t>(k));
+                     meta.seed = ep.seed;
+                     meta.start.assign(ep.observations.begin(),
+                                       ep.observations.begin() + sim::AntMaze::kObsDim);
+                     meta.goal.assign(ep.goal.data(), ep.goal.data() + ep.goal.size());
+                     // the success flags compare the whole 29-D state with the goal: only
+                     // a row at the goal's full state is marked (the ant's success is xy)
+                     writer.WriteEpisode(meta, ep.length, sim::AntMaze::kObsDim,
+                                         sim::AntMaze::kActionDim, ep.observations.data(),
+                                         ep.actions.data(), nullptr, 0, env_opt.success_radius);
+                     return ep.length;
+                   });
+  return 0;
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -151,8 +224,8 @@ int main(int argc, char** argv) {
   try {
     parsed = std::make_unique<ros_bridge::CliArgs>(
         argc, argv, std::set<std::string>{"images", "no-compress", "quiet", "help"},
-        std::set<std::string>{"out", "env", "urdf", "maze", "kind", "episodes", "val-episodes", "length", "noise",
-                              "image-episodes", "seed"});
+        std::set<std::string>{"out", "env", "urdf", "maze", "kind", "episodes", "val-episodes",
+                              "length", "noise", "image-episodes", "seed", "expert"});
   } catch (const std::exception& e) {
     std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
     return 2;
@@ -169,13 +242,17 @@ int main(int argc, char** argv) {
     }
     std::string env_kind;
     try {
-      env_kind = args.GetChoice("env", "pointmaze", {"pointmaze", "cube-single"});
+      env_kind = args.GetChoice("env", "pointmaze",
+                                {"pointmaze", "cube-single", "antmaze-medium", "antmaze-large"});
       if (env_kind != "cube-single" && args.Has("urdf")) throw cli::CliError("--urdf needs --env cube-single");
+      if (env_kind.rfind("antmaze-", 0) != 0 && args.Has("expert"))
+        throw cli::CliError("--expert needs --env antmaze-medium or antmaze-large");
     } catch (const std::exception& e) {
       std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
       return 2;
     }
     if (env_kind == "cube-single") return CollectCube(args);
+    if (env_kind.rfind("antmaze-", 0) == 0) return CollectAnt(args, env_kind);
     sim::CollectOptions opt;
     long episodes = 0, val = 0, image_episodes = 0;
     try {  // every flag is checked first: a bad one is a usage error (exit 2)
