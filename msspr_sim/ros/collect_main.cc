@@ -205,11 +205,11 @@ int CollectAnt(const msspr::ros_bridge::CliArgs& args, const std::string& env_na
                      meta.start.assign(ep.observations.begin(),
                                        ep.observations.begin() + sim::AntMaze::kObsDim);
                      meta.goal.assign(ep.goal.data(), ep.goal.data() + ep.goal.size());
-                     // the success flags compare the whole 29-D state with the goal: only
-                     // a row at the goal's full state is marked (the ant's success is xy)
+                     // success as the env counts it: the torso's xy within the radius
                      writer.WriteEpisode(meta, ep.length, sim::AntMaze::kObsDim,
                                          sim::AntMaze::kActionDim, ep.observations.data(),
-                                         ep.actions.data(), nullptr, 0, env_opt.success_radius);
+                                         ep.actions.data(), nullptr, 0, env_opt.success_radius,
+                                         /*success_dims=*/2);
                      return ep.length;
                    });
   return 0;

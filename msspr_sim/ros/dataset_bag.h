@@ -73,9 +73,12 @@ class DatasetBagWriter {
   // Writes one episode of `length` steps. observations/actions: [length, obs_dim] /
   // [length, act_dim] float32 row-major; images: [length, image_size, image_size, 3]
   // uint8 or nullptr. Stamps follow TickToTime: one tick for the reset, one per step.
+  // A step's `success` flag: the distance between the first `success_dims` values of
+  // the state and of the goal (all of them when < 1) is within success_radius (the
+  // ant mazes: 2, the torso's xy; the goal is a full state).
   void WriteEpisode(const EpisodeMeta& meta, int length, int obs_dim, int act_dim,
                     const float* observations, const float* actions, const uint8_t* images,
-                    int image_size, double success_radius);
+                    int image_size, double success_radius, int success_dims = 0);
 
   uint64_t messages() const { return messages_; }
   // Finishes the bag and renames it to `path`; throws BagError.

@@ -3,6 +3,7 @@
 #include <rosbag/bag.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -52,7 +53,8 @@ void DatasetBagWriter::Close() {
 
 void DatasetBagWriter::WriteEpisode(const EpisodeMeta& meta, int length, int obs_dim, int act_dim,
                                     const float* observations, const float* actions,
-                                    const uint8_t* images, int image_size, double success_radius) {
+                                    const uint8_t* images, int image_size, double success_radius,
+                                    int success_dims) {
   if (closed_ || !bag_->isOpen()) throw BagError(path_ + ": writer already closed");
   ++tick_;  // the reset
   const ros::Time t0 = TickToTime(tick_, control_dt_);
@@ -83,7 +85,8 @@ void DatasetBagWriter::WriteEpisode(const EpisodeMeta& meta, int length, int obs
     obs.state.assign(observations + static_cast<size_t>(t) * obs_dim,
                      observations + static_cast<size_t>(t + 1) * obs_dim);
     double d2 = 0.0;
-    for (int k = 0; k < obs_dim && k < static_cast<int>(meta.goal.size()); ++k) {
+    const int dims = success_dims > 0 ? std::min(success_dims, obs_dim) : obs_dim;
+    for (int k = 0; k < dims && k < static_cast<int>(meta.goal.size()); ++k) {
       const double d = static_cast<double>(obs.state[k]) - meta.goal[k];
       d2 += d * d;
     }

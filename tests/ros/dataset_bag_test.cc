@@ -4,6 +4,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <unistd.h>
@@ -84,6 +85,36 @@ TEST(DatasetBag, RoundTripIsBitExact) {
   EXPECT_EQ(r.report().steps, 480u);
   EXPECT_TRUE(r.report().problems.empty());
   std::remove(path.c_str());
+}
+
+TEST(DatasetBag, SuccessFlagsMeasureTheFirstSuccessDimsOnly) {
+  // A 4-D state whose first two values reach the goal's while the other two
+  // never do (the ant: xy against a full-state goal).
+  const std::vector<float> obs{0, 0, 5, 5, 0.9f, 0, 5, 5, 3, 0, 5, 5};  // 3 steps
+  const std::vector<float> act(3, 0.0f);
+  EpisodeMeta meta;
+  meta.env = "test";
+  meta.split = "train";
+  meta.goal = {1, 0, -5, -5};
+  for (int dims : {0, 2}) {
+    const std::string path = TempPath("success" + std::to_string(dims) + ".bag");
+    {
+      DatasetBagWriter w(path, 0.1);
+      w.WriteEpisode(meta, 3, 4, 1, obs.data(), act.data(), nullptr, 0, 0.5, dims);
+      w.Close();
+    }
+    rosbag::Bag bag(path);
+    std::vector<bool> flags;
+    for (const rosbag::MessageInstance& m :
+         rosbag::View(bag, rosbag::TopicQuery(kObservationTopic)))
+      flags.push_back(m.instantiate<msspr::Observation>()->success);
+    bag.close();
+    std::remove(path.c_str());
+    // dims 2: |(0.9, 0) - (1, 0)| = 0.1 is within 0.5; the others are not. All 4: never.
+    EXPECT_EQ(flags, (dims == 2 ? std::vector<bool>{false, true, false}
+                                : std::vector<bool>{false, false, false}))
+        << "success_dims " << dims;
+  }
 }
 
 TEST(DatasetBag, ImagesRoundTrip) {
