@@ -150,8 +150,10 @@ SacActorImpl::SacActorImpl(int64_t obs_dim, int64_t action_dim, const SacOptions
   trunk = register_module("trunk", OgMlp(sizes, /*activate_final=*/true, o.layer_norm));
   mean = register_module("mean", torch::nn::Linear(o.hidden, action_dim));
   log_std = register_module("log_std", torch::nn::Linear(o.hidden, action_dim));
-  for (auto* head : {&mean, &log_std}) {  // OGBench's default_init: Xavier uniform, zero bias
-    torch::nn::init::xavier_uniform_((*head)->weight);
+  // OGBench's actor_fc_scale 0.01: variance_scaling(0.01, fan_avg, uniform), i.e. Xavier
+  // uniform with gain 0.1, zero bias; the policy starts near mean 0 and log-std 0.
+  for (auto* head : {&mean, &log_std}) {
+    torch::nn::init::xavier_uniform_((*head)->weight, /*gain=*/0.1);
     torch::nn::init::zeros_((*head)->bias);
   }
 }

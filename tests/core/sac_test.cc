@@ -99,6 +99,18 @@ TEST(SacTest, TanhGaussianLogProbIsTheChangeOfVariables) {
                               expected.masked_select(keep), 1e-3, 1e-3));
 }
 
+TEST(SacTest, ActorHeadsStartSmallAsOgbenchsFinalLayerScale) {
+  // OGBench's actor_fc_scale 0.01: at initialisation the mean and the log-std are
+  // near 0 (Xavier-scaled heads would put them near +-1).
+  torch::manual_seed(0);
+  SacActor actor(29, 8, SacOptions());
+  torch::NoGradGuard no_grad;
+  auto [mu, log_std] = actor->forward(torch::randn({256, 29}));
+  EXPECT_LT(mu.abs().max().item<float>(), 0.35f);
+  EXPECT_LT(log_std.abs().max().item<float>(), 0.35f);
+  EXPECT_GT(mu.abs().max().item<float>(), 0.0f);
+}
+
 TEST(SacTest, ResumeAfterAStopContinuesTheRunExactly) {
   torch::set_num_threads(1);
   SacOptions o = Tiny();
