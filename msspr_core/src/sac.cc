@@ -505,7 +505,8 @@ double SacTrainer::Evaluate(int episodes, uint64_t seed) {
   return total / episodes;
 }
 
-int64_t SacTrainer::Train() {
+int64_t SacTrainer::Train(const std::atomic<bool>* stop_requested) {
+  stopped_ = false;
   RunDirLock lock(out_dir_);
   const std::string csv_path = out_dir_ + "/metrics.csv";
   TruncateCsvRows(csv_path, step_);
@@ -558,7 +559,9 @@ int64_t SacTrainer::Train() {
                   std::to_string(eval_return) + " over " + std::to_string(options_.eval_episodes) +
                   " episodes");
     }
-    const bool out_of_time = options_.time_limit_s > 0 && wall() >= options_.time_limit_s;
+    stopped_ = stop_requested != nullptr && stop_requested->load();
+    const bool out_of_time =
+        stopped_ || (options_.time_limit_s > 0 && wall() >= options_.time_limit_s);
     if (step_ % options_.log_every == 0 || !std::isnan(eval_return) || step_ == options_.steps ||
         out_of_time) {
       const double mean10 =
@@ -576,8 +579,9 @@ int64_t SacTrainer::Train() {
       last_saved = step_;
     }
     if (out_of_time) {
-      bar.Message("[sac] time limit of " + std::to_string(options_.time_limit_s) +
-                  " s reached at step " + std::to_string(step_));
+      bar.Message(stopped_ ? "[sac] stop requested at step " + std::to_string(step_)
+                           : "[sac] time limit of " + std::to_string(options_.time_limit_s) +
+                                 " s reached at step " + std::to_string(step_));
       break;
     }
   }

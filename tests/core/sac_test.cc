@@ -138,6 +138,25 @@ TEST(SacTest, ResumeAfterAStopContinuesTheRunExactly) {
   EXPECT_DOUBLE_EQ(a.agent().alpha(), c.agent().alpha());
 }
 
+TEST(SacTest, AStopRequestEndsTheRunWithItsCheckpoint) {
+  torch::set_num_threads(1);
+  SacOptions o = Tiny();
+  o.steps = 300;
+  o.random_steps = 50;
+  TempDir dir;
+  std::atomic<bool> stop{true};  // already requested: the run stops after its first step
+  {
+    SacTrainer t(o, MakeDirectionEnv(), dir.path());
+    EXPECT_EQ(t.Train(&stop), 1);
+    EXPECT_TRUE(t.stopped());
+  }
+  SacTrainer again(o, MakeDirectionEnv(), dir.path());
+  EXPECT_TRUE(again.resumed());
+  EXPECT_EQ(again.step(), 1);
+  EXPECT_EQ(again.Train(), 300);
+  EXPECT_FALSE(again.stopped());
+}
+
 TEST(SacTest, CorruptCheckpointIsReportedWithItsPath) {
   TempDir dir;
   testing_util::WriteText(dir.File("sac_checkpoint.pt"), "MSSPRCKP not really a checkpoint");

@@ -15,6 +15,7 @@
 
 #include <torch/torch.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -179,8 +180,12 @@ class SacTrainer {
   // `make_env` builds the environment (called once; again for evaluations).
   SacTrainer(const SacOptions& options, std::function<std::unique_ptr<OnlineEnv>()> make_env,
              std::string out_dir);
-  // Runs to options.steps or the time limit; returns the steps done in all.
-  int64_t Train();
+  // Runs to options.steps, the time limit or until *stop_requested reads true
+  // (polled after each step: msspr_core/stop_signals.h), writing the checkpoint
+  // at the end in every case; returns the steps done in all.
+  int64_t Train(const std::atomic<bool>* stop_requested = nullptr);
+  // Whether the last Train() ended on *stop_requested.
+  bool stopped() const { return stopped_; }
   // Mean undiscounted return of the deterministic actor over `episodes`
   // episodes seeded from `seed`.
   double Evaluate(int episodes, uint64_t seed);
@@ -203,7 +208,7 @@ class SacTrainer {
   std::unique_ptr<ReplayBuffer> buffer_;
   std::mt19937_64 rng_;
   int64_t step_ = 0, episode_ = 0, updates_ = 0;
-  bool resumed_ = false;
+  bool resumed_ = false, stopped_ = false;
 };
 
 // A trained actor (sac_policy.pt) for inference: deterministic tanh(mean).

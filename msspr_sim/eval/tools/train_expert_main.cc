@@ -18,6 +18,7 @@
 #include "msspr_core/options.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/sac.h"
+#include "msspr_core/stop_signals.h"
 #include "msspr_eval/ant_expert.h"
 
 namespace {
@@ -38,6 +39,8 @@ command resumes from it) and DIR/sac_policy.pt (the actor, for the ant maze's wa
   --checkpoint-every N (default 25000)
   --log-every N        metrics.csv row period (default 1000)
   --threads N          torch threads (default 1)
+SIGINT (Ctrl-C) or SIGTERM: the run stops after the current step, writes its checkpoint and
+exits with 128 + the signal number; the same command continues it.
 Example: msspr_train_expert --out runs/ant-expert --seed 0 --time-limit 3600
 )";
 
@@ -94,7 +97,15 @@ int main(int argc, char** argv) {
               << (trainer.resumed() ? "resuming at step " + std::to_string(trainer.step())
                                     : std::string("from scratch"))
               << ", to " << o.steps << " steps, out " << out << "\n";
-    const int64_t steps = trainer.Train();
+    msspr::core::StopOnSignals signals;
+    const int64_t steps = trainer.Train(signals.flag());
+    if (trainer.stopped()) {
+      const int sig = signals.signal();
+      std::cerr << "msspr_train_expert: " << (sig == SIGINT ? "SIGINT" : "SIGTERM")
+                << ": stopped at step " << steps << "; wrote " << trainer.checkpoint_path()
+                << " and " << trainer.policy_path() << "; the same command continues\n";
+      return 128 + (sig > 0 ? sig : SIGTERM);
+    }
     const double ret = trainer.Evaluate(o.eval_episodes, o.seed + 12345);
     const double wall =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
