@@ -342,6 +342,12 @@ std::vector<float> SacAgent::Act(const std::vector<float>& obs, bool determinist
   return ToVector(deterministic ? actor->Deterministic(o) : actor->Sample(o).first);
 }
 
+std::vector<std::pair<const char*, torch::optim::Adam*>> SacAgent::NamedOptimizers() const {
+  return {{"actor_opt", actor_opt.get()},
+          {"critic_opt", critic_opt.get()},
+          {"alpha_opt", alpha_opt.get()}};
+}
+
 void SacAgent::Save(torch::serialize::OutputArchive& archive) const {
   WriteModule(archive, "actor", *actor);
   WriteModule(archive, "q1", *q1);
@@ -349,10 +355,7 @@ void SacAgent::Save(torch::serialize::OutputArchive& archive) const {
   WriteModule(archive, "target_q1", *target_q1);
   WriteModule(archive, "target_q2", *target_q2);
   archive.write("log_alpha", log_alpha.detach().clone());
-  for (const auto& [key, opt] :
-       {std::pair<const char*, torch::optim::Adam*>{"actor_opt", actor_opt.get()},
-        {"critic_opt", critic_opt.get()},
-        {"alpha_opt", alpha_opt.get()}}) {
+  for (const auto& [key, opt] : NamedOptimizers()) {
     torch::serialize::OutputArchive sub;
     opt->save(sub);
     archive.write(key, sub);
@@ -371,10 +374,7 @@ void SacAgent::Load(torch::serialize::InputArchive& archive) {
     torch::NoGradGuard no_grad;
     log_alpha.copy_(la);
   }
-  for (const auto& [key, opt] :
-       {std::pair<const char*, torch::optim::Adam*>{"actor_opt", actor_opt.get()},
-        {"critic_opt", critic_opt.get()},
-        {"alpha_opt", alpha_opt.get()}}) {
+  for (const auto& [key, opt] : NamedOptimizers()) {
     torch::serialize::InputArchive sub;
     archive.read(key, sub);
     opt->load(sub);

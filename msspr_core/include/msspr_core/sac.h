@@ -168,6 +168,8 @@ class SacAgent {
 
  private:
   torch::Tensor Q(OgMlp& q, const torch::Tensor& obs, const torch::Tensor& action);
+  // The optimisers with their checkpoint keys, for Save and Load.
+  std::vector<std::pair<const char*, torch::optim::Adam*>> NamedOptimizers() const;
   SacOptions options_;
   int64_t obs_dim_, action_dim_;
   double target_entropy_;

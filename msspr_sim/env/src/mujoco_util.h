@@ -7,6 +7,9 @@
 
 #include <memory>
 #include <string>
+#include <vector>
+
+#include "msspr_sim/point_maze.h"
 
 namespace msspr::sim::internal {
 
@@ -26,6 +29,9 @@ using DataPtr = std::unique_ptr<mjData, DataDeleter>;
 // Compiles MJCF text through a virtual file `name`.xml; throws
 // std::runtime_error with MuJoCo's message naming that file if it fails.
 ModelPtr LoadInlineModel(const std::string& xml, const std::string& name);
+
+// Every joint of a model: name, type, axis and range (for the URDF checks).
+std::vector<PointMaze::AgentJoint> ModelJoints(const mjModel* m);
 
 }  // namespace msspr::sim::internal
 

@@ -169,33 +169,7 @@ std::vector<uint8_t> PointMaze::RenderAt(const Eigen::Vector2d& xy) const {
 std::vector<uint8_t> PointMaze::RenderGoal() const { return RenderAt(goal_); }
 
 std::vector<PointMaze::AgentJoint> PointMaze::AgentJoints() const {
-  const mjModel* m = impl_->model.get();
-  std::vector<AgentJoint> out;
-  for (int j = 0; j < m->njnt; ++j) {
-    AgentJoint a;
-    const char* name = mj_id2name(m, mjOBJ_JOINT, j);
-    a.name = name ? name : "";
-    switch (m->jnt_type[j]) {
-      case mjJNT_SLIDE:
-        a.type = "slide";
-        break;
-      case mjJNT_HINGE:
-        a.type = "hinge";
-        break;
-      case mjJNT_BALL:
-        a.type = "ball";
-        break;
-      default:
-        a.type = "free";
-        break;
-    }
-    a.axis = Eigen::Vector3d(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1], m->jnt_axis[3 * j + 2]);
-    a.limited = m->jnt_limited[j] != 0;
-    a.lower = m->jnt_range[2 * j];
-    a.upper = m->jnt_range[2 * j + 1];
-    out.push_back(a);
-  }
-  return out;
+  return internal::ModelJoints(impl_->model.get());
 }
 
 double PointMaze::AgentRadius() const {
