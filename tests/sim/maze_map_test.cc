@@ -106,6 +106,20 @@ TEST(MazeMapTest, TasksMatchBenchmark) {
   ExpectTasks("arena", {{1, 1, 6, 6}, {6, 1, 1, 6}, {6, 6, 1, 1}, {1, 6, 6, 1}, {1, 1, 6, 1}});
 }
 
+TEST(MazeMapTest, TaskByIdFindsTheTaskOrNamesTheValidIds) {
+  const MazeMap map = MazeMap::FromName("large");
+  for (const MazeMap::Task& t : map.Tasks()) EXPECT_EQ(&map.TaskById(t.id, "caller"), &t);
+  for (int bad : {0, 6}) {
+    try {
+      map.TaskById(bad, "Env::ResetToTask");
+      ADD_FAILURE() << "task " << bad << " was found";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(std::string(e.what()), "Env::ResetToTask: no task " + std::to_string(bad) +
+                                           " in maze large (valid: 1..5)");
+    }
+  }
+}
+
 TEST(MazeMapTest, FreeAndVertexCells) {
   const MazeMap m = MazeMap::FromName("medium");
   int free_count = 0;

@@ -77,17 +77,10 @@ Eigen::VectorXd AntMaze::Reset(const Eigen::Vector2d& start_xy, const Eigen::Vec
 }
 
 Eigen::VectorXd AntMaze::ResetToTask(int task_id, uint64_t seed) {
-  const auto& tasks = map_.Tasks();
-  const auto it = std::find_if(tasks.begin(), tasks.end(),
-                               [task_id](const MazeMap::Task& t) { return t.id == task_id; });
-  if (it == tasks.end()) {
-    throw std::invalid_argument("AntMaze::ResetToTask: no task " + std::to_string(task_id) +
-                                " in maze " + map_.name() + " (valid: 1.." +
-                                std::to_string(tasks.size()) + ")");
-  }
+  const MazeMap::Task& task = map_.TaskById(task_id, "AntMaze::ResetToTask");
   std::mt19937_64 rng(seed);
-  Eigen::Vector2d start = map_.CellCenter(it->start);
-  Eigen::Vector2d goal = map_.CellCenter(it->goal);
+  Eigen::Vector2d start = map_.CellCenter(task.start);
+  Eigen::Vector2d goal = map_.CellCenter(task.goal);
   for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -kCellNoise, kCellNoise);
   for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -kCellNoise, kCellNoise);
   return Reset(start, goal, rng());

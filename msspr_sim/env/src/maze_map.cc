@@ -98,6 +98,16 @@ MazeMap MazeMap::FromName(const std::string& name) {
   throw std::invalid_argument(msg.str());
 }
 
+const MazeMap::Task& MazeMap::TaskById(int id, const std::string& caller) const {
+  const auto it =
+      std::find_if(tasks_.begin(), tasks_.end(), [id](const Task& t) { return t.id == id; });
+  if (it == tasks_.end()) {
+    throw std::invalid_argument(caller + ": no task " + std::to_string(id) + " in maze " + name_ +
+                                " (valid: 1.." + std::to_string(tasks_.size()) + ")");
+  }
+  return *it;
+}
+
 std::vector<std::string> MazeMap::Names() {
   std::vector<std::string> names;
   for (const MapSpec& s : Specs()) names.emplace_back(s.name);

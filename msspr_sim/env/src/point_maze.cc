@@ -80,17 +80,10 @@ Eigen::Vector2d PointMaze::Reset(const Eigen::Vector2d& start, const Eigen::Vect
 }
 
 Eigen::Vector2d PointMaze::ResetToTask(int task_id, uint64_t seed) {
-  const auto& tasks = map_.Tasks();
-  const auto it = std::find_if(tasks.begin(), tasks.end(),
-                               [task_id](const MazeMap::Task& t) { return t.id == task_id; });
-  if (it == tasks.end()) {
-    throw std::invalid_argument("PointMaze::ResetToTask: no task " + std::to_string(task_id) +
-                                " in maze " + map_.name() + " (valid: 1.." +
-                                std::to_string(tasks.size()) + ")");
-  }
+  const MazeMap::Task& task = map_.TaskById(task_id, "PointMaze::ResetToTask");
   std::mt19937_64 rng(seed);
-  Eigen::Vector2d start = map_.CellCenter(it->start);
-  Eigen::Vector2d goal = map_.CellCenter(it->goal);
+  Eigen::Vector2d start = map_.CellCenter(task.start);
+  Eigen::Vector2d goal = map_.CellCenter(task.goal);
   for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -1.0, 1.0);
   for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -1.0, 1.0);
   for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -0.1, 0.1);  // qpos noise

@@ -63,6 +63,9 @@ class MazeMap {
   // The 5 evaluation tasks, ids 1..5 (benchmark.md for medium, large, giant;
   // this project's own corner-to-corner tasks for arena).
   const std::vector<Task>& Tasks() const { return tasks_; }
+  // The task of id `id`; throws std::invalid_argument "<caller>: no task <id>
+  // in maze <name> (valid: 1..<n>)".
+  const Task& TaskById(int id, const std::string& caller) const;
 
   // The full MJCF of the maze: walls, the agent (sphere on two slide joints,
   // joints "agent_x", "agent_y"), floor tiles coloured by a position gradient,
