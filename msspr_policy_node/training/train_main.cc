@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <vector>
 #include <sstream>
 
@@ -15,6 +16,7 @@
 #include "robot_spec.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/learning_curve.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/process_env.h"
@@ -175,7 +177,10 @@ int main(int argc, char** argv) {
     using msspr::cli::ParseInt;
     eo.episodes = static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
     eo.seed = static_cast<uint64_t>(ParseInt("eval-seed", get("eval-seed", "0"), 0));
-    const bool cube = get("eval-maze", "").empty() && g_env == "cube-single";
+    // The bags' env label ("pointmaze-medium", "cube-single"); none for a robot's own bags.
+    const std::optional<msspr::sim::EnvLabelParts> bags = msspr::sim::ParseEnvLabel(g_env);
+    const bool cube =
+        get("eval-maze", "").empty() && bags && bags->id == msspr::sim::EnvId::kCubeSingle;
     eo.max_steps =
         static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", cube ? "200" : "1000"), 1, 100000000));
     eo.tasks.clear();
@@ -183,8 +188,7 @@ int main(int argc, char** argv) {
       eo.tasks.push_back(static_cast<int>(ParseInt("eval-tasks", t, 1, 5)));
     if (eo.tasks.empty()) throw msspr::cli::CliError("--eval-tasks needs at least one task id");
     std::string maze = get("eval-maze", "");
-    const std::string prefix = "pointmaze-";
-    if (maze.empty() && g_env.rfind(prefix, 0) == 0) maze = g_env.substr(prefix.size());
+    if (maze.empty() && bags && bags->id == msspr::sim::EnvId::kPointMaze) maze = bags->maze;
     if (!maze.empty()) {
       try {
         msspr::sim::MazeMap::FromName(maze);

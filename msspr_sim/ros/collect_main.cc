@@ -14,7 +14,9 @@
 #include "dataset_bag.h"
 #include "msspr_sim/cube_dataset.h"
 #include "msspr_sim/dataset_gen.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/expert.h"
+#include "msspr_sim/maze_map.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/point_maze.h"
 #ifdef MSSPR_COLLECT_ANT
@@ -135,7 +137,7 @@ int CollectCube(const msspr::ros_bridge::CliArgs& args) {
   ros::Time::init();
   env_opt.enable_rendering = image_episodes > 0;
   sim::CubeEnv env(env_opt);
-  const std::string env_name = "cube-single";
+  const std::string env_name = sim::EnvLabel(sim::EnvId::kCubeSingle);
   const double control_dt = env_opt.scene.timestep * env_opt.substeps;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
   WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name,
@@ -157,8 +159,9 @@ int CollectCube(const msspr::ros_bridge::CliArgs& args) {
 }
 
 // antmaze-medium / antmaze-large: agent::CollectAntEpisode per episode (states only).
-int CollectAnt(const msspr::ros_bridge::CliArgs& args, const std::string& env_name) {
+int CollectAnt(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvId env_id) {
   using namespace msspr;
+  const std::string env_name = sim::EnvIdName(env_id);
 #ifndef MSSPR_COLLECT_ANT
   (void)args;
   std::cerr << "msspr_collect: --env " << env_name
@@ -191,13 +194,13 @@ int CollectAnt(const msspr::ros_bridge::CliArgs& args, const std::string& env_na
   ros::Time::init();
   core::SacPolicy policy(expert_path);
   sim::AntMazeOptions env_opt;
-  env_opt.maze = sim::AntMaze::MazeFromEnvId(env_name);
+  env_opt.maze = sim::AntMazeName(env_id);
   env_opt.max_episode_steps = opt.episode_length;
   sim::AntMaze env(env_opt);
   const double control_dt = sim::kAntTimestep * sim::AntMaze::kFrameSkip;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
-  WriteAllEpisodes(args, writer, episodes, val, 0, opt.episode_length, env_name,
-                   env_name + "-" + sim::DatasetKindName(opt.kind),
+  WriteAllEpisodes(args, writer, episodes, val, 0, opt.episode_length, sim::EnvLabel(env_id),
+                   sim::EnvLabel(env_id) + "-" + sim::DatasetKindName(opt.kind),
                    [&](long k, ros_bridge::EpisodeMeta& meta, bool) {
                      const agent::AntEpisode ep =
                          agent::CollectAntEpisode(env, policy, opt, static_cast<uint64_t>(k));
@@ -240,24 +243,33 @@ int main(int argc, char** argv) {
       std::cerr << "msspr_collect: --out FILE.bag is required\n" << kUsage;
       return 2;
     }
-    std::string env_kind;
+    sim::EnvId env_id = sim::EnvId::kPointMaze;
     try {
-      env_kind = args.GetChoice("env", "pointmaze",
-                                {"pointmaze", "cube-single", "antmaze-medium", "antmaze-large"});
-      if (env_kind != "cube-single" && args.Has("urdf")) throw cli::CliError("--urdf needs --env cube-single");
-      if (env_kind.rfind("antmaze-", 0) != 0 && args.Has("expert"))
+      env_id = sim::ParseEnvId(args.GetChoice("env", sim::EnvIdName(env_id), sim::EnvIdNames()));
+      if (env_id != sim::EnvId::kCubeSingle && args.Has("urdf"))
+        throw cli::CliError("--urdf needs --env " + sim::EnvIdName(sim::EnvId::kCubeSingle));
+      if (!sim::IsAntMaze(env_id) && args.Has("expert"))
         throw cli::CliError("--expert needs --env antmaze-medium or antmaze-large");
     } catch (const std::exception& e) {
       std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
       return 2;
     }
-    if (env_kind == "cube-single") return CollectCube(args);
-    if (env_kind.rfind("antmaze-", 0) == 0) return CollectAnt(args, env_kind);
+    switch (env_id) {
+      case sim::EnvId::kCubeSingle:
+        return CollectCube(args);
+      case sim::EnvId::kAntMazeMedium:
+      case sim::EnvId::kAntMazeLarge:
+        return CollectAnt(args, env_id);
+      case sim::EnvId::kPointMaze:
+        break;
+    }
     sim::CollectOptions opt;
     long episodes = 0, val = 0, image_episodes = 0;
     try {  // every flag is checked first: a bad one is a usage error (exit 2)
       if (!args.positional().empty()) throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
-      opt.maze = args.GetChoice("maze", "medium", {"arena", "medium", "large", "giant"});
+      const auto names = sim::MazeMap::Names();
+      opt.maze =
+          args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
       opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
       const bool stitch = opt.kind == sim::DatasetKind::kStitch;
       episodes = args.GetInt("episodes", stitch ? 5000 : (opt.maze == "giant" ? 500 : 1000), 1, 100000000);
@@ -276,7 +288,7 @@ int main(int argc, char** argv) {
     env_opt.maze = opt.maze;
     env_opt.enable_rendering = image_episodes > 0;
     sim::PointMaze env(env_opt);
-    const std::string env_name = "pointmaze-" + opt.maze;
+    const std::string env_name = sim::EnvLabel(sim::EnvId::kPointMaze, opt.maze);
     const double control_dt = 0.02 * sim::PointMaze::kFrameSkip;
     ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
     WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name,

@@ -14,6 +14,7 @@
 #include "dataset_bag.h"
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/package_files.h"
 #include "robot_model.h"
 
@@ -152,8 +153,9 @@ CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
 }
 
 CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimNodeOptions& options)
-    : SimNodeBase(nh, pnh, options, kAct, sim::CubeSceneOptions().timestep * sim::CubeEnvOptions().substeps,
-                  "cube-single"),
+    : SimNodeBase(nh, pnh, options, kAct,
+                  sim::CubeSceneOptions().timestep * sim::CubeEnvOptions().substeps,
+                  sim::EnvLabel(sim::EnvId::kCubeSingle)),
       options_(options) {
   // The URDF: robot_description when set (written to a temporary file for
   // CubeEnv, which parses a path), else ~urdf, then served as robot_description.

@@ -31,6 +31,7 @@
 #include "msspr/Reset.h"
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/custom_tasks.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/maze_plot.h"
@@ -195,7 +196,8 @@ int main(int argc, char** argv) {
   std::unique_ptr<CliArgs> args;
   std::unique_ptr<msspr::sim::MazeMap> map_ptr;
   std::string maze;
-  bool cube = false;
+  using msspr::sim::EnvId;
+  EnvId env = EnvId::kPointMaze;
   std::vector<int> tasks;
   std::map<int, std::pair<std::vector<float>, std::vector<float>>> custom;  // id -> start, goal
   int episodes = 0, max_steps = 0;
@@ -212,10 +214,14 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (!args->positional().empty()) throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
-    cube = args->GetChoice("env", "pointmaze", {"pointmaze", "cube-single"}) == "cube-single";
-    if (cube)
+    env = msspr::sim::ParseEnvId(
+        args->GetChoice("env", msspr::sim::EnvIdName(env),
+                        msspr::sim::EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle})));
+    if (env == EnvId::kCubeSingle)
       for (const char* f : {"maze", "plot", "tasks-file"})
-        if (args->Has(f)) throw std::invalid_argument(std::string("--") + f + " does not apply to --env cube-single");
+        if (args->Has(f))
+          throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
+                                      msspr::sim::EnvIdName(env));
     maze = args->Get("maze", "medium");
     map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (args->Has("tasks-file")) {
@@ -229,7 +235,8 @@ int main(int argc, char** argv) {
         tasks.push_back(static_cast<int>(id));
     }
     episodes = static_cast<int>(args->GetInt("episodes", 50, 1, 1000000));
-    max_steps = static_cast<int>(args->GetInt("max-steps", cube ? 200 : 1000, 1, 100000000));
+    max_steps = static_cast<int>(
+        args->GetInt("max-steps", env == EnvId::kCubeSingle ? 200 : 1000, 1, 100000000));
     seed = static_cast<uint64_t>(args->GetInt("seed", 0, 0));
     step_timeout = args->GetDouble("step-timeout", 10.0, 1e-3, 1e6);
     wait_s = args->GetDouble("wait", 60.0, 0.0, 1e6);
@@ -329,7 +336,7 @@ int main(int argc, char** argv) {
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
   msspr::sim::EvalReport report;
-  report.env = cube ? "cube-single" : "pointmaze-" + maze;
+  report.env = msspr::sim::EnvLabel(env, maze);
   report.agent = args->Get("agent", "agent");
   report.robot = args->Get("robot", "");
   report.episodes_per_task = episodes;
@@ -352,7 +359,7 @@ int main(int argc, char** argv) {
     if (auto it = custom.find(t.task_id); it != custom.end()) {
       t.start.assign(it->second.first.begin(), it->second.first.end());
       t.goal.assign(it->second.second.begin(), it->second.second.end());
-    } else if (cube) {  // the cube's start and goal xy (m)
+    } else if (env == EnvId::kCubeSingle) {  // the cube's start and goal xy (m)
       const auto& ct = msspr::sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];
       t.start = {ct.start.x(), ct.start.y()};
       t.goal = {ct.goal.x(), ct.goal.y()};

@@ -12,6 +12,7 @@
 #include "dataset_bag.h"
 #include "msg_conversion.h"
 #include "msspr/EpisodeInfo.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/expert.h"
 #include "msspr_sim/maze_map.h"
 
@@ -60,7 +61,7 @@ SimNodeOptions LoadSimNodeOptions(const ros::NodeHandle& pnh) {
 
 SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& options)
     : SimNodeBase(nh, pnh, options, sim::PointMaze::kActionDim, 0.02 * sim::PointMaze::kFrameSkip,
-                  "pointmaze-" + options.maze),
+                  sim::EnvLabel(sim::EnvId::kPointMaze, options.maze)),
       options_(options) {
   sim::PointMazeOptions env_opt;
   env_opt.maze = options_.maze;

@@ -1,6 +1,9 @@
 #include <ros/ros.h>
 
+#include <optional>
+
 #include "cube_sim_node.h"
+#include "msspr_sim/env_id.h"
 #include "sim_node.h"
 
 // ~env picks the environment: pointmaze (default; ~maze picks the maze) or
@@ -10,17 +13,19 @@ int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_sim_node");
   ros::NodeHandle nh, pnh("~");
   try {
-    std::string env = "pointmaze";
+    using msspr::sim::EnvId;
+    std::string env = msspr::sim::EnvIdName(EnvId::kPointMaze);
     pnh.param<std::string>("env", env, env);
-    if (env == "cube-single") {
+    const std::optional<EnvId> id = msspr::sim::TryParseEnvId(env);
+    if (id == EnvId::kCubeSingle) {
       const auto options = msspr::ros_bridge::LoadCubeSimNodeOptions(pnh);
       msspr::ros_bridge::CubeSimNode node(nh, pnh, options);
       ros::spin();
-    } else if (env == "pointmaze") {
+    } else if (id == EnvId::kPointMaze) {
       const auto options = msspr::ros_bridge::LoadSimNodeOptions(pnh);
       msspr::ros_bridge::SimNode node(nh, pnh, options);
       ros::spin();
-    } else {
+    } else {  // unknown, or an env this node does not serve (the ant mazes)
       throw std::invalid_argument("~env must be pointmaze or cube-single, got '" + env + "'");
     }
   } catch (const std::exception& e) {

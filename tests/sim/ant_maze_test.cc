@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
 #include <stdexcept>
 #include <string>
 
 #include "msspr_sim/ant_model.h"
 #include "msspr_sim/ant_planner.h"
 #include "msspr_sim/ant_xy_env.h"
+#include "msspr_sim/env_id.h"
 
 namespace msspr::sim {
 namespace {
@@ -48,10 +50,12 @@ Eigen::VectorXd MidRangePose(const mjModel* m, double z) {
 }
 
 TEST(AntMazeTest, EnvIdsNameTheMediumAndLargeMazes) {
-  EXPECT_EQ(AntMaze::EnvIds(), (std::vector<std::string>{"antmaze-medium", "antmaze-large"}));
-  EXPECT_EQ(AntMaze::MazeFromEnvId("antmaze-large"), "large");
-  EXPECT_THROW(AntMaze::MazeFromEnvId("pointmaze-medium"), std::invalid_argument);
-  EXPECT_EQ(AntMaze(Options("large")).env_id(), "antmaze-large");
+  EXPECT_EQ(EnvIdNames(AntMazeEnvIds()),
+            (std::set<std::string>{"antmaze-medium", "antmaze-large"}));
+  EXPECT_EQ(AntMazeName(ParseEnvId("antmaze-large")), "large");
+  EXPECT_THROW(ParseEnvId("pointmaze-medium"), std::invalid_argument);
+  EXPECT_THROW(AntMazeName(EnvId::kPointMaze), std::invalid_argument);
+  EXPECT_EQ(EnvIdName(AntMaze(Options("large")).env_id()), "antmaze-large");
   EXPECT_THROW(AntMaze(Options("nope")), std::invalid_argument);
 }
 

@@ -1,43 +1,16 @@
 #include "msspr_sim/ant_maze.h"
 
-#include <algorithm>
-#include <sstream>
 #include <stdexcept>
 
 #include "ant_physics.h"
 #include "random_util.h"
 
 namespace msspr::sim {
-namespace {
-
-constexpr const char* kEnvPrefix = "antmaze-";
-const std::vector<std::string>& AntMazeNames() {
-  static const std::vector<std::string> names = {"medium", "large"};
-  return names;
-}
-
-}  // namespace
 
 struct AntMaze::Impl {
   explicit Impl(const MazeMap& map) : physics(AntMjcf(&map), "antmaze_" + map.name()) {}
   internal::AntPhysics physics;
 };
-
-std::vector<std::string> AntMaze::EnvIds() {
-  std::vector<std::string> ids;
-  for (const std::string& n : AntMazeNames()) ids.push_back(kEnvPrefix + n);
-  return ids;
-}
-
-std::string AntMaze::MazeFromEnvId(const std::string& env_id) {
-  for (const std::string& n : AntMazeNames()) {
-    if (env_id == kEnvPrefix + n) return n;
-  }
-  std::ostringstream msg;
-  msg << "unknown ant maze env id '" << env_id << "'; valid ids:";
-  for (const std::string& id : EnvIds()) msg << ' ' << id;
-  throw std::invalid_argument(msg.str());
-}
 
 AntMaze::AntMaze(const AntMazeOptions& options)
     : options_(options), map_(MazeMap::FromName(options.maze)) {

@@ -9,6 +9,7 @@
 
 #include "msspr_core/policy.h"
 #include "msspr_sim/cube_env.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/package_files.h"
 
 namespace msspr::agent {
@@ -109,8 +110,8 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
 
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
                                    const std::string& agent) {
-  sim::EvalReport report = MakeTaskReport(result, "cube-single", agent, options.episodes,
-                                          options.max_steps, options.seed);
+  sim::EvalReport report = MakeTaskReport(result, sim::EnvLabel(sim::EnvId::kCubeSingle), agent,
+                                          options.episodes, options.max_steps, options.seed);
   for (auto& t :
        report.tasks) {  // the cube's start and goal xy (m), as msspr_eval --env cube-single
     const auto& ct = sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];

@@ -16,6 +16,7 @@
 
 #include "msspr_core/frame_stack.h"
 #include "msspr_core/policy.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/maze_plot.h"
@@ -380,7 +381,8 @@ void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
                            options.goal, title, dir + "/value_error.png");
   std::ostringstream js;
   js.precision(6);
-  js << "{\n  \"env\": \"pointmaze-" << options.maze << "\",\n  \"agent\": \"" << agent << "\",\n"
+  js << "{\n  \"env\": \"" << sim::EnvLabel(sim::EnvId::kPointMaze, options.maze)
+     << "\",\n  \"agent\": \"" << agent << "\",\n"
      << "  \"goal\": [" << options.goal.x() << ", " << options.goal.y() << "],\n"
      << "  \"per_cell\": " << options.per_cell << ", \"rollouts\": " << options.rollouts
      << ", \"start_noise\": " << options.start_noise << ", \"max_steps\": " << options.max_steps
@@ -401,8 +403,9 @@ void WriteValueMap(const ValueMapResult& result, const ValueMapOptions& options,
 
 sim::EvalReport MakeEvalReport(const MazeEvalResult& result, const MazeEvalOptions& options,
                                const std::string& agent) {
-  sim::EvalReport report = MakeTaskReport(result, "pointmaze-" + options.maze, agent,
-                                          options.episodes, options.max_steps, options.seed);
+  sim::EvalReport report =
+      MakeTaskReport(result, sim::EnvLabel(sim::EnvId::kPointMaze, options.maze), agent,
+                     options.episodes, options.max_steps, options.seed);
   for (size_t i = 0; i < report.tasks.size() && i < options.custom_tasks.size(); ++i) {
     const auto& c = options.custom_tasks[i];
     report.tasks[i].start = {c.start.x(), c.start.y()};

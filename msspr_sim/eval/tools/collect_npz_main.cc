@@ -36,6 +36,7 @@
 #include "msspr_eval/ant_dataset.h"
 #include "msspr_sim/ant_maze.h"
 #include "msspr_sim/dataset_gen.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/point_maze.h"
 
@@ -61,7 +62,7 @@ stitch defaults to 5000 + 500 episodes of 201 steps.
 )";
 
 // --env antmaze-*: CollectAntEpisode on T threads, one AntMaze and expert each.
-int CollectAntNpz(const std::string& env_id, const std::string& expert,
+int CollectAntNpz(msspr::sim::EnvId env_id, const std::string& expert,
                   const msspr::agent::AntCollectOptions& opt, long episodes, long val, long threads,
                   const std::string& out) {
   namespace sim = msspr::sim;
@@ -76,7 +77,7 @@ int CollectAntNpz(const std::string& env_id, const std::string& expert,
     try {
       msspr::core::SacPolicy policy(expert);
       sim::AntMazeOptions eo;
-      eo.maze = sim::AntMaze::MazeFromEnvId(env_id);
+      eo.maze = sim::AntMazeName(env_id);
       eo.max_episode_steps = opt.episode_length;
       std::unique_ptr<sim::AntMaze> env;
       {
@@ -135,7 +136,8 @@ int main(int argc, char** argv) {
   namespace core = msspr::core;
   sim::CollectOptions opt;
   long episodes = 1000, val = -1, threads = 1;
-  std::string out, env_id, expert;
+  sim::EnvId env_id = sim::EnvId::kPointMaze;
+  std::string out, expert;
   msspr::agent::AntCollectOptions ant;
   try {
     msspr::cli::CliArgs args(argc, argv, {"help", "no-images"},
@@ -150,18 +152,22 @@ int main(int argc, char** argv) {
     out = args.Get("out", "");
     if (out.size() < 5 || out.substr(out.size() - 4) != ".npz")
       throw msspr::cli::CliError("--out FILE.npz is required");
-    env_id = args.GetChoice("env", "pointmaze", {"pointmaze", "antmaze-medium", "antmaze-large"});
-    const bool is_ant = env_id != "pointmaze";
+    env_id = sim::ParseEnvId(
+        args.GetChoice("env", sim::EnvIdName(env_id),
+                       sim::EnvIdNames({sim::EnvId::kPointMaze, sim::EnvId::kAntMazeMedium,
+                                        sim::EnvId::kAntMazeLarge})));
+    const bool is_ant = sim::IsAntMaze(env_id);
     for (const char* f : {"maze", "no-images"})
       if (is_ant && args.Has(f))
-        throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env " + env_id);
+        throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env " +
+                                   sim::EnvIdName(env_id));
     for (const char* f : {"expert", "noise"})
       if (!is_ant && args.Has(f))
         throw msspr::cli::CliError(std::string("--") + f +
                                    " needs --env antmaze-medium or antmaze-large");
     expert = args.Get("expert", "");
     if (is_ant && expert.empty())
-      throw msspr::cli::CliError("--expert FILE is required for " + env_id);
+      throw msspr::cli::CliError("--expert FILE is required for " + sim::EnvIdName(env_id));
     const auto names = sim::MazeMap::Names();
     opt.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
     opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
@@ -183,7 +189,8 @@ int main(int argc, char** argv) {
     std::cerr << "msspr_collect_npz: " << e.what() << "\n" << kUsage;
     return 2;
   }
-  if (env_id != "pointmaze") return CollectAntNpz(env_id, expert, ant, episodes, val, threads, out);
+  if (sim::IsAntMaze(env_id))
+    return CollectAntNpz(env_id, expert, ant, episodes, val, threads, out);
   const long total = episodes + val;
   const int size = 64;
 

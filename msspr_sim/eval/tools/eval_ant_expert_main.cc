@@ -17,6 +17,7 @@
 #include "msspr_core/sac.h"
 #include "msspr_eval/ant_waypoint_expert.h"
 #include "msspr_sim/ant_maze.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 
@@ -42,7 +43,8 @@ int main(int argc, char** argv) {
   msspr::core::ReexecWithPassiveOpenMpWait(argv);
   namespace sim = msspr::sim;
   msspr::agent::AntExpertEvalOptions o;
-  std::string expert_path, env_id, out;
+  sim::EnvId env_id = sim::EnvId::kAntMazeMedium;
+  std::string expert_path, out;
   bool quiet = false;
   try {
     msspr::cli::CliArgs args(
@@ -56,9 +58,9 @@ int main(int argc, char** argv) {
       throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
     expert_path = args.Get("expert", "");
     if (expert_path.empty()) throw msspr::cli::CliError("--expert is required");
-    const auto ids = sim::AntMaze::EnvIds();
-    env_id = args.GetChoice("env", "antmaze-medium", std::set<std::string>(ids.begin(), ids.end()));
-    o.maze = sim::AntMaze::MazeFromEnvId(env_id);
+    env_id = sim::ParseEnvId(
+        args.GetChoice("env", sim::EnvIdName(env_id), sim::EnvIdNames(sim::AntMazeEnvIds())));
+    o.maze = sim::AntMazeName(env_id);
     o.tasks.clear();
     for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, 5))
       o.tasks.push_back(static_cast<int>(t));
@@ -75,7 +77,7 @@ int main(int argc, char** argv) {
   try {
     msspr::core::SacPolicy policy(expert_path);
     std::cerr << "msspr_eval_ant_expert: " << expert_path << ", " << o.tasks.size() << " tasks x "
-              << o.episodes << " episodes on " << env_id << " (noise-free) ...\n";
+              << o.episodes << " episodes on " << sim::EnvIdName(env_id) << " (noise-free) ...\n";
     if (!quiet) {
       o.on_episode = [&](int task, int e, bool success, int steps) {
         std::fprintf(stderr, "[msspr_eval_ant_expert] task %d episode %d/%d: %s in %d steps\n",
@@ -85,8 +87,8 @@ int main(int argc, char** argv) {
     const auto r = msspr::agent::EvaluateAntExpert(policy, o);
     const sim::MazeMap map = sim::MazeMap::FromName(o.maze);
     const std::string agent = expert_path.substr(expert_path.find_last_of('/') + 1);
-    const sim::EvalReport report =
-        msspr::agent::MakeTaskReport(r, env_id, agent, o.episodes, o.max_steps, o.seed);
+    const sim::EvalReport report = msspr::agent::MakeTaskReport(r, sim::EnvLabel(env_id), agent,
+                                                                o.episodes, o.max_steps, o.seed);
     std::cout << sim::EvalReportTable(map, report);
     std::ostringstream speed;
     speed << std::fixed << std::setprecision(3);

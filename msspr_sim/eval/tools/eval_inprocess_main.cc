@@ -13,6 +13,7 @@
 #include "msspr_core/process_env.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/maze_plot.h"
@@ -61,7 +62,10 @@ int main(int argc, char** argv) {
       throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
     policy_path = args.Get("policy", "");
     if (policy_path.empty()) throw msspr::cli::CliError("--policy is required");
-    cube = args.GetChoice("env", "pointmaze", {"pointmaze", "cube-single"}) == "cube-single";
+    using sim::EnvId;
+    cube = sim::ParseEnvId(args.GetChoice(
+               "env", sim::EnvIdName(EnvId::kPointMaze),
+               sim::EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle}))) == EnvId::kCubeSingle;
     if (cube) {
       for (const char* f : {"maze", "tasks-file", "plot"})
         if (args.Has(f))

@@ -16,13 +16,14 @@
 #include <vector>
 
 #include "msspr_sim/ant_model.h"
+#include "msspr_sim/env_id.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/point_maze.h"
 
 namespace msspr::sim {
 
 struct AntMazeOptions {
-  std::string maze = "medium";   // a MazeMap name ("medium", "large")
+  std::string maze = "medium";   // a MazeMap name ("medium", "large": AntMazeName of an EnvId)
   int max_episode_steps = 1000;  // for bookkeeping; Step() never auto-resets
   double success_radius = 0.5;   // metres, on the torso's xy
 };
@@ -40,12 +41,6 @@ class AntMaze {
   static constexpr int kGoalRandomSteps = 5;
   // Noise added to the start and goal cell centres, U[-1, 1] m per axis.
   static constexpr double kCellNoise = 1.0;
-
-  // The env ids: "antmaze-medium", "antmaze-large".
-  static std::vector<std::string> EnvIds();
-  // "antmaze-medium" -> "medium" (for AntMazeOptions::maze); throws
-  // std::invalid_argument naming the valid ids.
-  static std::string MazeFromEnvId(const std::string& env_id);
 
   // Builds the model of options.maze; throws std::invalid_argument for a bad
   // maze name or options, std::runtime_error with MuJoCo's text otherwise.
@@ -100,8 +95,9 @@ class AntMaze {
 
   const MazeMap& map() const { return map_; }
   const AntMazeOptions& options() const { return options_; }
-  // "antmaze-<maze>".
-  std::string env_id() const { return "antmaze-" + map_.name(); }
+  // EnvId::kAntMazeMedium or kAntMazeLarge (env_id.h: AntMazeEnvIds,
+  // AntMazeName); throws std::invalid_argument for a maze with no ant env id.
+  EnvId env_id() const { return AntMazeEnvId(map_.name()); }
 
   // The ant's joints in model order (root free joint, then the hinges).
   std::vector<PointMaze::AgentJoint> AgentJoints() const;

@@ -1,0 +1,57 @@
+// The environments msspr simulates, named in one place: the ids that --env
+// and ~env take ("pointmaze", "cube-single", "antmaze-medium",
+// "antmaze-large") and the env labels that datasets and evaluation reports
+// carry ("pointmaze-medium", "cube-single", "antmaze-large"). Tools and nodes
+// parse a name once, where it comes in (a flag, a parameter, a bag), and
+// switch on the enum from then on.
+#ifndef MSSPR_SIM_ENV_ID_H_
+#define MSSPR_SIM_ENV_ID_H_
+
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace msspr::sim {
+
+enum class EnvId { kPointMaze, kCubeSingle, kAntMazeMedium, kAntMazeLarge };
+
+// Every id, in the order above.
+const std::vector<EnvId>& AllEnvIds();
+// "pointmaze", "cube-single", "antmaze-medium", "antmaze-large".
+std::string EnvIdName(EnvId id);
+// The inverse of EnvIdName; nullopt for any other name.
+std::optional<EnvId> TryParseEnvId(const std::string& name);
+// The inverse of EnvIdName; throws std::invalid_argument naming `name` and
+// listing the valid ids.
+EnvId ParseEnvId(const std::string& name);
+// The names of `ids`, as a set (the choices of cli::CliArgs::GetChoice).
+std::set<std::string> EnvIdNames(const std::vector<EnvId>& ids = AllEnvIds());
+
+// The ant mazes: antmaze-medium, antmaze-large.
+const std::vector<EnvId>& AntMazeEnvIds();
+bool IsAntMaze(EnvId id);
+// antmaze-large -> "large" (a MazeMap name, for AntMazeOptions::maze); throws
+// std::invalid_argument for an id that is no ant maze.
+std::string AntMazeName(EnvId id);
+// "large" -> antmaze-large; throws std::invalid_argument naming `maze` and
+// listing the ant mazes.
+EnvId AntMazeEnvId(const std::string& maze);
+
+// The env label of a dataset or an evaluation report: "pointmaze-<maze>"
+// (maze: a MazeMap name), "cube-single", or the ant maze's id (`maze` is
+// ignored but for the point maze). Throws std::invalid_argument for the point
+// maze without a maze.
+std::string EnvLabel(EnvId id, const std::string& maze = "");
+// An env label read back: the env and, for the point maze, the maze name
+// (unchecked; "" for the others).
+struct EnvLabelParts {
+  EnvId id;
+  std::string maze;
+};
+// nullopt for a label of no msspr env (e.g. a robot's own bags, or "").
+std::optional<EnvLabelParts> ParseEnvLabel(const std::string& label);
+
+}  // namespace msspr::sim
+
+#endif  // MSSPR_SIM_ENV_ID_H_

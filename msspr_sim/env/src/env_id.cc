@@ -1,0 +1,105 @@
+#include "msspr_sim/env_id.h"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace msspr::sim {
+namespace {
+
+constexpr const char* kPointMazePrefix = "pointmaze-";
+
+std::string JoinNames(const std::vector<EnvId>& ids) {
+  std::string s;
+  for (EnvId id : ids) s += (s.empty() ? "" : " ") + EnvIdName(id);
+  return s;
+}
+
+}  // namespace
+
+const std::vector<EnvId>& AllEnvIds() {
+  static const std::vector<EnvId> ids = {EnvId::kPointMaze, EnvId::kCubeSingle,
+                                         EnvId::kAntMazeMedium, EnvId::kAntMazeLarge};
+  return ids;
+}
+
+std::string EnvIdName(EnvId id) {
+  switch (id) {
+    case EnvId::kPointMaze:
+      return "pointmaze";
+    case EnvId::kCubeSingle:
+      return "cube-single";
+    case EnvId::kAntMazeMedium:
+      return "antmaze-medium";
+    case EnvId::kAntMazeLarge:
+      return "antmaze-large";
+  }
+  throw std::invalid_argument("EnvIdName: not an EnvId (" + std::to_string(static_cast<int>(id)) +
+                              ")");
+}
+
+std::optional<EnvId> TryParseEnvId(const std::string& name) {
+  for (EnvId id : AllEnvIds()) {
+    if (EnvIdName(id) == name) return id;
+  }
+  return std::nullopt;
+}
+
+EnvId ParseEnvId(const std::string& name) {
+  if (const auto id = TryParseEnvId(name)) return *id;
+  throw std::invalid_argument("unknown env id '" + name +
+                              "'; valid ids: " + JoinNames(AllEnvIds()));
+}
+
+std::set<std::string> EnvIdNames(const std::vector<EnvId>& ids) {
+  std::set<std::string> names;
+  for (EnvId id : ids) names.insert(EnvIdName(id));
+  return names;
+}
+
+const std::vector<EnvId>& AntMazeEnvIds() {
+  static const std::vector<EnvId> ids = {EnvId::kAntMazeMedium, EnvId::kAntMazeLarge};
+  return ids;
+}
+
+bool IsAntMaze(EnvId id) { return id == EnvId::kAntMazeMedium || id == EnvId::kAntMazeLarge; }
+
+std::string AntMazeName(EnvId id) {
+  switch (id) {
+    case EnvId::kAntMazeMedium:
+      return "medium";
+    case EnvId::kAntMazeLarge:
+      return "large";
+    case EnvId::kPointMaze:
+    case EnvId::kCubeSingle:
+      break;
+  }
+  throw std::invalid_argument("'" + EnvIdName(id) +
+                              "' is no ant maze; ant mazes: " + JoinNames(AntMazeEnvIds()));
+}
+
+EnvId AntMazeEnvId(const std::string& maze) {
+  for (EnvId id : AntMazeEnvIds()) {
+    if (AntMazeName(id) == maze) return id;
+  }
+  std::ostringstream msg;
+  msg << "no ant maze '" << maze << "'; ant mazes:";
+  for (EnvId id : AntMazeEnvIds()) msg << ' ' << AntMazeName(id);
+  throw std::invalid_argument(msg.str());
+}
+
+std::string EnvLabel(EnvId id, const std::string& maze) {
+  if (id != EnvId::kPointMaze) return EnvIdName(id);
+  if (maze.empty()) throw std::invalid_argument("EnvLabel: the point maze's label needs a maze");
+  return kPointMazePrefix + maze;
+}
+
+std::optional<EnvLabelParts> ParseEnvLabel(const std::string& label) {
+  const std::string prefix = kPointMazePrefix;
+  if (label.size() > prefix.size() && label.compare(0, prefix.size(), prefix) == 0)
+    return EnvLabelParts{EnvId::kPointMaze, label.substr(prefix.size())};
+  const auto id = TryParseEnvId(label);
+  if (!id || *id == EnvId::kPointMaze) return std::nullopt;
+  return EnvLabelParts{*id, ""};
+}
+
+}  // namespace msspr::sim

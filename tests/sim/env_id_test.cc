@@ -1,0 +1,89 @@
+#include "msspr_sim/env_id.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace msspr::sim {
+namespace {
+
+// The names are user-visible (--env, ~env, bag and report labels): spelled
+// out here so that a change to env_id.cc fails.
+TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
+  const std::vector<std::pair<EnvId, std::string>> expected = {
+      {EnvId::kPointMaze, "pointmaze"},
+      {EnvId::kCubeSingle, "cube-single"},
+      {EnvId::kAntMazeMedium, "antmaze-medium"},
+      {EnvId::kAntMazeLarge, "antmaze-large"}};
+  ASSERT_EQ(AllEnvIds().size(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) {
+    const auto& [id, name] = expected[i];
+    EXPECT_EQ(AllEnvIds()[i], id) << name;
+    EXPECT_EQ(EnvIdName(id), name);
+    EXPECT_EQ(ParseEnvId(name), id) << name;
+    EXPECT_EQ(TryParseEnvId(name), id) << name;
+  }
+  EXPECT_EQ(EnvIdNames(),
+            (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium", "antmaze-large"}));
+  EXPECT_EQ(EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle}),
+            (std::set<std::string>{"pointmaze", "cube-single"}));
+}
+
+TEST(EnvIdTest, AnUnknownIdIsRejectedByNameWithTheValidOnes) {
+  for (const std::string bad : {"cube-double", "pointmaze-medium", "PointMaze", "antmaze", ""}) {
+    EXPECT_EQ(TryParseEnvId(bad), std::nullopt) << bad;
+    try {
+      ParseEnvId(bad);
+      ADD_FAILURE() << "'" << bad << "' was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(std::string(e.what()),
+                "unknown env id '" + bad +
+                    "'; valid ids: pointmaze cube-single antmaze-medium antmaze-large");
+    }
+  }
+}
+
+TEST(EnvIdTest, AntMazesMapToTheirMazes) {
+  EXPECT_EQ(AntMazeEnvIds(), (std::vector<EnvId>{EnvId::kAntMazeMedium, EnvId::kAntMazeLarge}));
+  for (EnvId id : AllEnvIds()) {
+    const bool ant = id == EnvId::kAntMazeMedium || id == EnvId::kAntMazeLarge;
+    EXPECT_EQ(IsAntMaze(id), ant) << EnvIdName(id);
+    if (ant) {
+      EXPECT_EQ(AntMazeEnvId(AntMazeName(id)), id);
+      EXPECT_EQ("antmaze-" + AntMazeName(id), EnvIdName(id));
+    } else {
+      EXPECT_THROW(AntMazeName(id), std::invalid_argument) << EnvIdName(id);
+    }
+  }
+  EXPECT_EQ(AntMazeName(EnvId::kAntMazeLarge), "large");
+  try {
+    AntMazeEnvId("giant");
+    ADD_FAILURE() << "antmaze giant was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "no ant maze 'giant'; ant mazes: medium large");
+  }
+}
+
+TEST(EnvIdTest, EnvLabelsRoundTrip) {
+  EXPECT_EQ(EnvLabel(EnvId::kPointMaze, "medium"), "pointmaze-medium");
+  EXPECT_EQ(EnvLabel(EnvId::kCubeSingle), "cube-single");
+  EXPECT_EQ(EnvLabel(EnvId::kAntMazeLarge), "antmaze-large");
+  EXPECT_EQ(EnvLabel(EnvId::kAntMazeLarge, "medium"), "antmaze-large");  // the maze is the id's
+  EXPECT_THROW(EnvLabel(EnvId::kPointMaze), std::invalid_argument);
+  for (EnvId id : AllEnvIds()) {
+    const std::string maze = id == EnvId::kPointMaze ? "giant" : "";
+    const auto parts = ParseEnvLabel(EnvLabel(id, maze));
+    ASSERT_TRUE(parts.has_value()) << EnvIdName(id);
+    EXPECT_EQ(parts->id, id);
+    EXPECT_EQ(parts->maze, maze);
+  }
+  // Labels of no msspr env (e.g. a robot's own bags).
+  for (const std::string other : {"", "pointmaze", "pointmaze-", "ur5e", "antmaze-giant"})
+    EXPECT_EQ(ParseEnvLabel(other).has_value(), false) << other;
+}
+
+}  // namespace
+}  // namespace msspr::sim
