@@ -21,6 +21,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <mutex>
@@ -61,38 +62,33 @@ stitch defaults to 5000 + 500 episodes of 201 steps.
   --noise STD         the expert's action noise std (default 0.2)
 )";
 
-// --env antmaze-*: CollectAntEpisode on T threads, one AntMaze and expert each.
-int CollectAntNpz(msspr::sim::EnvId env_id, const std::string& expert,
-                  const msspr::agent::AntCollectOptions& opt, long episodes, long val, long threads,
-                  const std::string& out) {
-  namespace sim = msspr::sim;
-  const long total = episodes + val;
-  std::vector<msspr::agent::AntEpisode> eps(static_cast<size_t>(total));
+// Collects episodes 0 .. total - 1 on `threads` threads. Each thread builds its
+// own collector, collect(k) filling episode k, with make_collector(), one thread
+// at a time (MuJoCo's XML compiler, the GL context and its function loader are
+// not thread-safe); the episodes then run in parallel, each thread taking the
+// next index. A progress line every `every` episodes and at the end. Returns the
+// error of a thread that failed (the others stop), "" when all went well.
+std::string CollectOnThreads(long total, long threads, int episode_length, long every,
+                             std::chrono::steady_clock::time_point t0,
+                             const std::function<std::function<void(long)>()>& make_collector) {
   std::atomic<long> next_k{0}, done{0};
-  std::mutex err_mu;
+  std::mutex err_mu, init_mu;
   std::string error;
-  const auto t0 = std::chrono::steady_clock::now();
-  torch::set_num_threads(1);
   auto worker = [&]() {
     try {
-      msspr::core::SacPolicy policy(expert);
-      sim::AntMazeOptions eo;
-      eo.maze = sim::AntMazeName(env_id);
-      eo.max_episode_steps = opt.episode_length;
-      std::unique_ptr<sim::AntMaze> env;
+      std::function<void(long)> collect;
       {
-        std::lock_guard<std::mutex> lock(err_mu);  // MuJoCo's XML compiler is not thread-safe
-        env = std::make_unique<sim::AntMaze>(eo);
+        std::lock_guard<std::mutex> lock(init_mu);
+        collect = make_collector();
       }
       for (long k = next_k++; k < total; k = next_k++) {
-        eps[static_cast<size_t>(k)] =
-            msspr::agent::CollectAntEpisode(*env, policy, opt, static_cast<uint64_t>(k));
+        collect(k);
         const long d = ++done;
-        if (d % 10 == 0 || d == total) {
+        if (d % every == 0 || d == total) {
           const double s =
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           std::fprintf(stderr, "[msspr_collect_npz] %ld/%ld episodes, %.0f s, %.0f steps/s\n", d,
-                       total, s, d * double(opt.episode_length) / s);
+                       total, s, d * double(episode_length) / s);
         }
       }
     } catch (const std::exception& e) {
@@ -104,6 +100,30 @@ int CollectAntNpz(msspr::sim::EnvId env_id, const std::string& expert,
   std::vector<std::thread> pool;
   for (long t = 0; t < threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
+  return error;
+}
+
+// --env antmaze-*: CollectAntEpisode on T threads, one AntMaze and expert each.
+int CollectAntNpz(msspr::sim::EnvId env_id, const std::string& expert,
+                  const msspr::agent::AntCollectOptions& opt, long episodes, long val, long threads,
+                  const std::string& out) {
+  namespace sim = msspr::sim;
+  const long total = episodes + val;
+  std::vector<msspr::agent::AntEpisode> eps(static_cast<size_t>(total));
+  const auto t0 = std::chrono::steady_clock::now();
+  torch::set_num_threads(1);
+  sim::AntMazeOptions eo;
+  eo.maze = sim::AntMazeName(env_id);
+  eo.max_episode_steps = opt.episode_length;
+  const std::string error = CollectOnThreads(
+      total, threads, opt.episode_length, 10, t0, [&]() -> std::function<void(long)> {
+        auto policy = std::make_shared<msspr::core::SacPolicy>(expert);
+        auto env = std::make_shared<sim::AntMaze>(eo);
+        return [policy, env, &eps, &opt](long k) {
+          eps[static_cast<size_t>(k)] =
+              msspr::agent::CollectAntEpisode(*env, *policy, opt, static_cast<uint64_t>(k));
+        };
+      });
   if (!error.empty()) {
     std::fprintf(stderr, "msspr_collect_npz: %s\n", error.c_str());
     return 1;
@@ -195,43 +215,18 @@ int main(int argc, char** argv) {
   const int size = 64;
 
   std::vector<sim::Episode> eps(static_cast<size_t>(total));
-  std::atomic<long> next_k{0}, done{0};
-  std::mutex err_mu, init_mu;
-  std::string error;
   const auto t0 = std::chrono::steady_clock::now();
-  auto worker = [&]() {
-    try {
-      sim::PointMazeOptions eo;
-      eo.maze = opt.maze;
-      eo.enable_rendering = opt.images;
-      eo.image_size = size;
-      // Construction (MuJoCo's XML compiler, the GL context and its function
-      // loader) is not thread-safe: one at a time; episodes then run in parallel.
-      std::unique_ptr<sim::PointMaze> env_ptr;
-      {
-        std::lock_guard<std::mutex> lock(init_mu);
-        env_ptr = std::make_unique<sim::PointMaze>(eo);
-      }
-      sim::PointMaze& env = *env_ptr;
-      for (long k = next_k++; k < total; k = next_k++) {
-        eps[static_cast<size_t>(k)] = sim::CollectEpisode(env, opt, static_cast<uint64_t>(k));
-        const long d = ++done;
-        if (d % 50 == 0 || d == total) {
-          const double s =
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-          std::fprintf(stderr, "[msspr_collect_npz] %ld/%ld episodes, %.0f s, %.0f steps/s\n", d,
-                       total, s, d * double(opt.episode_length) / s);
-        }
-      }
-    } catch (const std::exception& e) {
-      std::lock_guard<std::mutex> lock(err_mu);
-      error = e.what();
-      next_k = total;
-    }
-  };
-  std::vector<std::thread> pool;
-  for (long t = 0; t < threads; ++t) pool.emplace_back(worker);
-  for (auto& t : pool) t.join();
+  sim::PointMazeOptions eo;
+  eo.maze = opt.maze;
+  eo.enable_rendering = opt.images;
+  eo.image_size = size;
+  const std::string error = CollectOnThreads(
+      total, threads, opt.episode_length, 50, t0, [&]() -> std::function<void(long)> {
+        auto env = std::make_shared<sim::PointMaze>(eo);
+        return [env, &eps, &opt](long k) {
+          eps[static_cast<size_t>(k)] = sim::CollectEpisode(*env, opt, static_cast<uint64_t>(k));
+        };
+      });
   if (!error.empty()) {
     std::fprintf(stderr, "msspr_collect_npz: %s\n", error.c_str());
     return 1;
