@@ -1,8 +1,10 @@
 #include "msspr_core/foreach_adamw.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <string>
 #include <type_traits>
@@ -24,7 +26,77 @@ typename Map::key_type StateKey(const Map&, const torch::Tensor& p) {
   }
 }
 
+// The flat update: fp32 contiguous parameters and gradients on the CPU.
+bool FlatUpdateApplies(const std::vector<torch::Tensor>& ps, const std::vector<torch::Tensor>& gs) {
+  for (size_t i = 0; i < ps.size(); ++i) {
+    for (const torch::Tensor* t : {&ps[i], &gs[i]}) {
+      if (!t->device().is_cpu() || t->scalar_type() != torch::kFloat32 || !t->is_contiguous())
+        return false;
+    }
+  }
+  return !ps.empty();
+}
+
+torch::Tensor Concat(const std::vector<torch::Tensor>& ts) {
+  std::vector<torch::Tensor> flat;
+  flat.reserve(ts.size());
+  for (const auto& t : ts) flat.push_back(t.reshape(-1));
+  return torch::cat(flat);
+}
+
 }  // namespace
+
+ForeachAdamW::FlatMoments& ForeachAdamW::Flat(
+    const std::vector<torch::Tensor>& ps,
+    const std::vector<torch::optim::AdamWParamState*>& states) {
+  std::vector<const c10::TensorImpl*> impls;
+  for (const auto& p : ps) impls.push_back(p.unsafeGetTensorImpl());
+  FlatMoments* flat = nullptr;
+  for (auto& f : flat_) {
+    if (f.params == impls) flat = &f;
+  }
+  bool views = flat != nullptr;
+  if (flat) {
+    // Still views into the buffers? (A load or a reset replaces the state's tensors.)
+    int64_t offset = 0;
+    for (size_t i = 0; i < ps.size() && views; ++i) {
+      const torch::Tensor &m = states[i]->exp_avg(), &v = states[i]->exp_avg_sq();
+      views = m.scalar_type() == torch::kFloat32 && v.scalar_type() == torch::kFloat32 &&
+              m.data_ptr<float>() == flat->exp_avg.data_ptr<float>() + offset &&
+              v.data_ptr<float>() == flat->exp_avg_sq.data_ptr<float>() + offset &&
+              m.sizes() == ps[i].sizes() && v.sizes() == ps[i].sizes();
+      offset += ps[i].numel();
+    }
+  } else {
+    // A parameter's moments live in one buffer: drop older lists that share one.
+    const std::set<const c10::TensorImpl*> mine(impls.begin(), impls.end());
+    flat_.erase(std::remove_if(flat_.begin(), flat_.end(),
+                               [&](const FlatMoments& f) {
+                                 return std::any_of(f.params.begin(), f.params.end(),
+                                                    [&](auto* p) { return mine.count(p) > 0; });
+                               }),
+                flat_.end());
+    flat_.push_back(FlatMoments{impls, {}, {}});
+    flat = &flat_.back();
+  }
+  if (!views) {
+    std::vector<torch::Tensor> m, v;
+    for (auto* s : states) {
+      m.push_back(s->exp_avg().to(torch::kFloat32));
+      v.push_back(s->exp_avg_sq().to(torch::kFloat32));
+    }
+    flat->exp_avg = Concat(m);
+    flat->exp_avg_sq = Concat(v);
+    int64_t offset = 0;
+    for (size_t i = 0; i < ps.size(); ++i) {
+      const int64_t n = ps[i].numel();
+      states[i]->exp_avg(flat->exp_avg.narrow(0, offset, n).view(ps[i].sizes()));
+      states[i]->exp_avg_sq(flat->exp_avg_sq.narrow(0, offset, n).view(ps[i].sizes()));
+      offset += n;
+    }
+  }
+  return *flat;
+}
 
 torch::Tensor ForeachAdamW::step(LossClosure closure) {
   for (auto& group : param_groups_) {
@@ -45,6 +117,7 @@ torch::Tensor ForeachAdamW::step(LossClosure closure) {
     // Parameters that share a step count (all of them, except after a
     // partial update) share the bias corrections: one list each.
     std::map<int64_t, std::vector<torch::Tensor>> params, grads, exp_avgs, exp_avg_sqs;
+    std::map<int64_t, std::vector<torch::optim::AdamWParamState*>> states;
     for (auto& p : group.params()) {
       if (!p.grad().defined()) continue;
       TORCH_CHECK(!p.grad().is_sparse(), "ForeachAdamW does not support sparse gradients");
@@ -59,6 +132,7 @@ torch::Tensor ForeachAdamW::step(LossClosure closure) {
       }
       auto& s = static_cast<torch::optim::AdamWParamState&>(*it->second);
       s.step(s.step() + 1);
+      states[s.step()].push_back(&s);
       params[s.step()].push_back(p);
       grads[s.step()].push_back(p.grad());
       exp_avgs[s.step()].push_back(s.exp_avg());
@@ -68,10 +142,30 @@ torch::Tensor ForeachAdamW::step(LossClosure closure) {
       const auto& gs = grads[step];
       auto& m = exp_avgs[step];
       auto& v = exp_avg_sqs[step];
-      if (options.weight_decay() != 0)
-        torch::_foreach_mul_(ps, 1 - options.lr() * options.weight_decay());
       const double bias_correction1 = 1 - std::pow(beta1, step);
       const double bias_correction2 = 1 - std::pow(beta2, step);
+      if (FlatUpdateApplies(ps, gs)) {
+        // The same ops in the same order, each once over all the parameters.
+        FlatMoments& flat = Flat(ps, states[step]);
+        torch::Tensor p_flat = Concat(ps), g_flat = Concat(gs);
+        if (options.weight_decay() != 0) p_flat.mul_(1 - options.lr() * options.weight_decay());
+        flat.exp_avg.mul_(beta1);
+        flat.exp_avg.add_(g_flat, 1 - beta1);
+        flat.exp_avg_sq.mul_(beta2);
+        flat.exp_avg_sq.addcmul_(g_flat, g_flat, 1 - beta2);
+        torch::Tensor denom = flat.exp_avg_sq.sqrt();
+        denom.div_(std::sqrt(bias_correction2));
+        denom.add_(options.eps());
+        p_flat.addcdiv_(flat.exp_avg, denom, -options.lr() / bias_correction1);
+        int64_t offset = 0;
+        for (auto& p : ps) {
+          p.view(-1).copy_(p_flat.narrow(0, offset, p.numel()));
+          offset += p.numel();
+        }
+        continue;
+      }
+      if (options.weight_decay() != 0)
+        torch::_foreach_mul_(ps, 1 - options.lr() * options.weight_decay());
       torch::_foreach_mul_(m, beta1);
       torch::_foreach_add_(m, gs, 1 - beta1);
       torch::_foreach_mul_(v, beta2);

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "layer_norm_bf16.h"
+
 namespace msspr {
 namespace core {
 namespace nn = torch::nn;
@@ -25,11 +27,18 @@ MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer
 
 torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
   // Under bf16 autocast (trainer.precision) a Linear returns bfloat16, and
-  // LayerNorm (fp32 weights) is computed in fp32: its input is cast up here.
-  // In fp32 the casts are no-ops.
+  // LayerNorm (fp32 weights) is computed in fp32. On the CPU one op does it
+  // and returns bfloat16 for the next Linear (internal::LayerNormBf16);
+  // elsewhere its input is cast up here. In fp32 the casts are no-ops.
   torch::Tensor h = x;
   for (auto& layer : *net) {
-    if (layer.ptr()->as<nn::LayerNorm>()) h = h.to(torch::kFloat32);
+    if (auto* norm = layer.ptr()->as<nn::LayerNorm>()) {
+      if (internal::UseLayerNormBf16(h)) {
+        h = internal::LayerNormBf16(h, norm->weight, norm->bias, norm->options.eps());
+        continue;
+      }
+      h = h.to(torch::kFloat32);
+    }
     h = layer.forward(h);
   }
   return h;

@@ -1,5 +1,6 @@
 #include "msspr_core/networks.h"
 
+#include <ATen/autocast_mode.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -32,6 +33,87 @@ TEST(NetworksTest, MlpPreLayerNormPlacement) {
   ASSERT_NE(ln, nullptr);
   EXPECT_DOUBLE_EQ(ln->options.eps(), 1e-6);
   EXPECT_EQ(mlp->forward(torch::randn({7, 4})).sizes(), (std::vector<int64_t>{7, 3}));
+}
+
+// CPU bf16 autocast on for a scope (the trainer's trainer.precision: bf16).
+class CpuBf16Autocast {
+ public:
+  CpuBf16Autocast() {
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
+    at::autocast::set_autocast_dtype(at::kCPU, at::kBFloat16);
+    at::autocast::set_autocast_enabled(at::kCPU, true);
+#else
+    at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
+    at::autocast::set_cpu_enabled(true);
+#endif
+  }
+  ~CpuBf16Autocast() {
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
+    at::autocast::set_autocast_enabled(at::kCPU, false);
+#else
+    at::autocast::set_cpu_enabled(false);
+#endif
+    at::autocast::clear_cache();
+  }
+};
+
+double RelativeError(const torch::Tensor& a, const torch::Tensor& b) {
+  return ((a.to(torch::kFloat64) - b.to(torch::kFloat64)).norm() /
+          b.to(torch::kFloat64).norm().clamp_min(1e-30))
+      .item<double>();
+}
+
+// Under bf16 autocast on the CPU, an Mlp's LayerNorms run as one bfloat16 op
+// each way (statistics in fp32). It must give what the chain it replaces gives:
+// cast the bfloat16 activation up, fp32 LayerNorm, cast down for the next
+// Linear; outputs and every parameter's gradient, over more rows than one
+// parallel chunk.
+TEST(NetworksTest, Bf16LayerNormEqualsCastFp32LayerNormInValueAndGradient) {
+  torch::manual_seed(0);
+  Mlp mlp(std::vector<int64_t>{16, 256, 256, 8}, /*output_gelu=*/false);
+  // Non-trivial affine parameters, so that their use and gradients count.
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : mlp->named_parameters()) {
+      if (p.key().find("weight") != std::string::npos && p.value().dim() == 1)
+        p.value().uniform_(0.5, 1.5);
+      if (p.key().find("bias") != std::string::npos) p.value().uniform_(-0.2, 0.2);
+    }
+  }
+  const torch::Tensor x = torch::randn({300, 16}) * 3.0;
+  const torch::Tensor w_out = torch::randn({300, 8});
+  auto run = [&](bool fused) {
+    mlp->zero_grad();
+    torch::Tensor y;
+    {
+      CpuBf16Autocast autocast;
+      if (fused) {
+        y = mlp->forward(x);
+      } else {
+        torch::Tensor h = x;
+        for (auto& layer : *mlp->net) {
+          if (layer.ptr()->as<torch::nn::LayerNorm>()) h = h.to(torch::kFloat32);
+          h = layer.forward(h);
+        }
+        y = h;
+      }
+    }
+    EXPECT_EQ(y.scalar_type(), torch::kBFloat16);
+    (y.to(torch::kFloat32) * w_out).sum().backward();
+    std::vector<torch::Tensor> grads;
+    for (const auto& p : mlp->parameters()) grads.push_back(p.grad().clone());
+    return std::make_pair(y.to(torch::kFloat32), grads);
+  };
+  const auto fused = run(true);
+  const auto chain = run(false);
+  EXPECT_LT(RelativeError(fused.first, chain.first), 5e-3);
+  ASSERT_EQ(fused.second.size(), chain.second.size());
+  for (size_t i = 0; i < fused.second.size(); ++i) {
+    EXPECT_LT(RelativeError(fused.second[i], chain.second[i]), 2e-2) << "parameter " << i;
+  }
+  // And against fp32 throughout, within bfloat16's precision.
+  const torch::Tensor y32 = mlp->forward(x);
+  EXPECT_LT(RelativeError(fused.first, y32), 3e-2);
 }
 
 TEST(NetworksTest, StateModuleShapes) {
