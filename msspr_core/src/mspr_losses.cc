@@ -1,15 +1,18 @@
-// Ms.PR's losses: the representation loss (Eq. 1), the critic's n-step TD
-// loss with its TD3 target (Eq. 2) and the TD3+BC actor loss (Eq. 3).
-#include <vector>
+// Ms.PR's losses as free functions (mspr_losses.h): the representation loss
+// (Eq. 1), the critic's n-step TD loss with its TD3 target (Eq. 2) and the
+// TD3+BC actor loss (Eq. 3).
+#include "msspr_core/mspr_losses.h"
 
-#include "msspr_core/trainer.h"
-#include "trainer_internal.h"
+#include <tuple>
+#include <vector>
 
 namespace msspr {
 namespace core {
-using namespace trainer_internal;
+namespace mspr {
 
 namespace {
+
+torch::Tensor F32(const torch::Tensor& t) { return t.to(torch::kFloat32); }
 
 torch::Tensor Huber(const torch::Tensor& diff, double delta) {
   const torch::Tensor a = diff.abs();
@@ -23,12 +26,14 @@ torch::Tensor SumOfMaskedMeans(const torch::Tensor& values, const torch::Tensor&
 
 }  // namespace
 
-torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
-  const RepresentationOptions& r = options_.representation;
-  const int64_t k = options_.network.goal_horizon;
+torch::Tensor RepresentationLoss(const MsprOptions& options, RepresentationImpl& online,
+                                 RepresentationImpl& target, const torch::Tensor& bins,
+                                 const ChunkBatch& batch, LossInfo* info) {
+  const RepresentationOptions& r = options.representation;
+  const int64_t k = options.network.goal_horizon;
   const int64_t b = batch.states.size(0), l = batch.states.size(1);
   const int64_t horizon = batch.mc_return.size(1);
-  auto& pred = repr_->predictors;
+  auto& pred = online.predictors;
   // Terms with weight 0 (the ablations D, DI, DIR) are not computed; the goal
   // head is only needed by the reward and goal-level terms.
   const bool use_rew = r.weight_rew != 0, use_inv = r.weight_inv != 0;
@@ -38,25 +43,24 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
   torch::Tensor targets;  // [B, L - 1, zs] target-encoder latents of s_1..s_{L-1}
   {
     torch::NoGradGuard no_grad;
-    targets =
-        F32(target_repr_->state_encoder->forward(batch.states.narrow(1, 1, l - 1).flatten(0, 1)))
-            .view({b, l - 1, -1});
+    targets = F32(target.state_encoder->forward(batch.states.narrow(1, 1, l - 1).flatten(0, 1)))
+                  .view({b, l - 1, -1});
   }
   // One encoder call for the chunk's first state and the goal.
   torch::Tensor z, zg;
   if (use_goal) {
     const torch::Tensor both =
-        repr_->state_encoder->forward(torch::cat({batch.states.select(1, 0), batch.goal}, 0));
+        online.state_encoder->forward(torch::cat({batch.states.select(1, 0), batch.goal}, 0));
     z = both.narrow(0, 0, b);
     zg = both.narrow(0, b, b);
   } else {
-    z = repr_->state_encoder->forward(batch.states.select(1, 0));
+    z = online.state_encoder->forward(batch.states.select(1, 0));
   }
   // The latent unroll is sequential: z^{h+1} = f_dyn(E_sa(z^h, a_h)).
   // Everything else is computed for all h at once on [H * B] rows.
   std::vector<torch::Tensor> zs_list{z}, zsa_list;
   for (int64_t h = 0; h < horizon; ++h) {
-    zsa_list.push_back(repr_->Zsa(zs_list.back(), batch.actions.select(1, h)));
+    zsa_list.push_back(online.Zsa(zs_list.back(), batch.actions.select(1, h)));
     zs_list.push_back(pred->Dynamics(zsa_list.back()));
   }
   const torch::Tensor z_h =
@@ -78,16 +82,16 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
                            mask);
   }
   torch::Tensor grep;
-  if (use_goal) grep = repr_->goal_head->forward(z_h, zg.repeat({horizon, 1}));  // [H*B, goal]
+  if (use_goal) grep = online.goal_head->forward(z_h, zg.repeat({horizon, 1}));  // [H*B, goal]
   if (use_rew) {
     const torch::Tensor logits = F32(pred->Reward(torch::cat(zsa_list, 0), grep));  // [H*B, bins]
     const torch::Tensor ret = batch.mc_return.t().reshape({horizon * b});
     torch::Tensor per;
     if (r.reward_loss == "mse") {
-      per = (TwoHotDecode(logits, bins_) - ret).pow(2);
+      per = (TwoHotDecode(logits, bins) - ret).pow(2);
     } else {
       const torch::Tensor two_hot =
-          TwoHotEncode(ret, bins_, -1.0 / (1.0 - options_.agent.gamma), 0.0);
+          TwoHotEncode(ret, bins, -1.0 / (1.0 - options.agent.gamma), 0.0);
       per = -(two_hot * torch::log_softmax(logits, -1)).sum(-1);
     }
     // representation.reward_goals "trajectory": only goals ahead in the
@@ -131,18 +135,13 @@ torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* inf
   return total;
 }
 
-Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& batch) {
-  Sync();
-  return Encode(batch);
-}
-
-Trainer::TransitionLatents Trainer::Encode(const TransitionBatch& batch) {
+TransitionLatents EncodeTransitions(RepresentationImpl& repr, const TransitionBatch& batch) {
   // One call of the online encoder over observation, value goal and actor
   // goal (no gradient: actor and critic read the encoders detached).
   torch::NoGradGuard no_grad;
   const int64_t b = batch.obs.size(0);
   const torch::Tensor z =
-      repr_->state_encoder->forward(torch::cat({batch.obs, batch.value_goal, batch.actor_goal}, 0));
+      repr.state_encoder->forward(torch::cat({batch.obs, batch.value_goal, batch.actor_goal}, 0));
   TransitionLatents lat;
   lat.zs = z.narrow(0, 0, b);
   lat.z_value_goal = z.narrow(0, b, b);
@@ -150,66 +149,47 @@ Trainer::TransitionLatents Trainer::Encode(const TransitionBatch& batch) {
   return lat;
 }
 
-Trainer::TransitionLatents Trainer::EncodeTransitionsForUpdate(const TransitionBatch& batch) {
-  PrecisionScope precision(bf16(), device_);
-  return Encode(batch);
-}
-
-torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
-                                  LossInfo* info) {
-  if (options_.agent.critic_grad_to_encoder && torch::GradMode::is_enabled()) {
-    return CriticLoss(batch, nullptr, noise, info);
-  }
-  const TransitionLatents lat = EncodeTransitions(batch);
-  return CriticLoss(batch, &lat, noise, info);
-}
-
-torch::Tensor Trainer::CriticTarget(const TransitionBatch& batch, const torch::Tensor& noise) {
-  const AgentOptions& a = options_.agent;
+torch::Tensor CriticTarget(const AgentOptions& a, MsprNetworks& target,
+                           const TransitionBatch& batch, const torch::Tensor& noise) {
   const int64_t b = batch.obs.size(0);
   torch::NoGradGuard no_grad;
+  RepresentationImpl& repr = *target.repr;
   const torch::Tensor z =
-      target_repr_->state_encoder->forward(torch::cat({batch.next_obs, batch.value_goal}, 0));
+      repr.state_encoder->forward(torch::cat({batch.next_obs, batch.value_goal}, 0));
   const torch::Tensor zs_next = z.narrow(0, 0, b), zg = z.narrow(0, b, b);
-  const torch::Tensor grep_next = target_repr_->goal_head->forward(zs_next, zg);
-  const torch::Tensor eps =
-      (noise.to(device_) * a.target_noise).clamp(-a.target_noise_clip, a.target_noise_clip);
+  const torch::Tensor grep_next = repr.goal_head->forward(zs_next, zg);
+  const torch::Tensor eps = (noise.to(batch.ret.device()) * a.target_noise)
+                                .clamp(-a.target_noise_clip, a.target_noise_clip);
   const torch::Tensor a_next =
-      (F32(target_actor_->forward(zs_next, grep_next, batch.next_obs, batch.value_goal)) + eps)
+      (F32(target.actor->forward(zs_next, grep_next, batch.next_obs, batch.value_goal)) + eps)
           .clamp(-1.0, 1.0);
   const torch::Tensor q_next =
-      std::get<0>(F32(target_critic_->forward(target_repr_->Zsa(zs_next, a_next), grep_next,
-                                              batch.next_obs, a_next, batch.value_goal))
+      std::get<0>(F32(target.critic->forward(repr.Zsa(zs_next, a_next), grep_next, batch.next_obs,
+                                             a_next, batch.value_goal))
                       .min(-1));
   torch::Tensor y = batch.ret + batch.discount * q_next;  // [B]
   if (a.clip_target) y = y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
   return y;
 }
 
-torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
-                                  const torch::Tensor& noise, LossInfo* info) {
-  return CriticLossFromTarget(batch, lat, CriticTarget(batch, noise), info);
-}
-
-torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch,
-                                            const TransitionLatents* lat, const torch::Tensor& y,
-                                            LossInfo* info) {
-  const AgentOptions& a = options_.agent;
+torch::Tensor CriticLoss(const AgentOptions& a, MsprNetworks& online, const TransitionBatch& batch,
+                         const TransitionLatents* lat, const torch::Tensor& y, LossInfo* info) {
   const int64_t b = batch.obs.size(0);
+  RepresentationImpl& repr = *online.repr;
   torch::Tensor zsa, grep;
   if (lat) {
     torch::NoGradGuard no_grad;
-    grep = repr_->goal_head->forward(lat->zs, lat->z_value_goal);
-    zsa = repr_->Zsa(lat->zs, batch.action);
+    grep = repr.goal_head->forward(lat->zs, lat->z_value_goal);
+    zsa = repr.Zsa(lat->zs, batch.action);
   } else {
     // The critic's gradient reaches the encoders (agent.critic_grad_to_encoder).
     const torch::Tensor z =
-        repr_->state_encoder->forward(torch::cat({batch.obs, batch.value_goal}, 0));
-    grep = repr_->goal_head->forward(z.narrow(0, 0, b), z.narrow(0, b, b));
-    zsa = repr_->Zsa(z.narrow(0, 0, b), batch.action);
+        repr.state_encoder->forward(torch::cat({batch.obs, batch.value_goal}, 0));
+    grep = repr.goal_head->forward(z.narrow(0, 0, b), z.narrow(0, b, b));
+    zsa = repr.Zsa(z.narrow(0, 0, b), batch.action);
   }
   const torch::Tensor q =
-      F32(critic_->forward(zsa, grep, batch.obs, batch.action, batch.value_goal));  // [B, 2]
+      F32(online.critic->forward(zsa, grep, batch.obs, batch.action, batch.value_goal));  // [B, 2]
   const torch::Tensor loss = Huber(q - y.unsqueeze(-1), a.huber_delta).mean(0).sum();
   if (info) {
     const torch::Tensor host =
@@ -220,22 +200,17 @@ torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch,
   return loss;
 }
 
-torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, LossInfo* info) {
-  const TransitionLatents lat = EncodeTransitions(batch);
-  return ActorLoss(batch, lat, info);
-}
-
-torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat,
-                                 LossInfo* info) {
-  const AgentOptions& a = options_.agent;
+torch::Tensor ActorLoss(const AgentOptions& a, MsprNetworks& online, const TransitionBatch& batch,
+                        const TransitionLatents& lat, LossInfo* info) {
+  RepresentationImpl& repr = *online.repr;
   torch::Tensor grep;
   {
     torch::NoGradGuard no_grad;
-    grep = repr_->goal_head->forward(lat.zs, lat.z_actor_goal);
+    grep = repr.goal_head->forward(lat.zs, lat.z_actor_goal);
   }
-  const torch::Tensor pi = F32(actor_->forward(lat.zs, grep, batch.obs, batch.actor_goal));
+  const torch::Tensor pi = F32(online.actor->forward(lat.zs, grep, batch.obs, batch.actor_goal));
   const torch::Tensor q = std::get<0>(
-      F32(critic_->forward(repr_->Zsa(lat.zs, pi), grep, batch.obs, pi, batch.actor_goal))
+      F32(online.critic->forward(repr.Zsa(lat.zs, pi), grep, batch.obs, pi, batch.actor_goal))
           .min(-1));  // [B]
   const torch::Tensor scale = q.abs().mean().detach().clamp_min(1e-6);
   const torch::Tensor q_loss = -q.mean() / scale;
@@ -250,28 +225,6 @@ torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionL
   return loss;
 }
 
-LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed) {
-  Sync();
-  const MsprOptions& o = options_;
-  BatchSampler sampler(data, o.relabel, o.agent.gamma, o.agent.n_step, o.representation.horizon,
-                       o.network.goal_horizon);
-  std::mt19937_64 rng(seed);
-  torch::NoGradGuard no_grad;
-  LossInfo info;
-  if (agent_) {
-    agent_->Loss(
-        MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, agent_->SubgoalSteps()),
-                            false, &data),
-        &info.agent);
-    return info;
-  }
-  RepresentationLoss(MakeChunkBatch(sampler.SampleChunks(batch, rng), false, &data), &info);
-  const TransitionBatch tb =
-      MakeTransitionBatch(sampler.SampleTransitions(batch, rng), false, &data);
-  CriticLoss(tb, torch::zeros({tb.action.size(0), tb.action.size(1)}), &info);
-  ActorLoss(tb, &info);
-  return info;
-}
-
+}  // namespace mspr
 }  // namespace core
 }  // namespace msspr

@@ -339,5 +339,85 @@ Policy Trainer::MakePolicy() {
   return Policy(options_, repr_, actor_, critic_, device_);
 }
 
+// --- Ms.PR's losses on the trainer's networks (mspr_losses.h) ---------------
+
+Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& batch) {
+  Sync();
+  return Encode(batch);
+}
+
+Trainer::TransitionLatents Trainer::Encode(const TransitionBatch& batch) {
+  return mspr::EncodeTransitions(*repr_, batch);
+}
+
+Trainer::TransitionLatents Trainer::EncodeTransitionsForUpdate(const TransitionBatch& batch) {
+  PrecisionScope precision(bf16(), device_);
+  return Encode(batch);
+}
+
+torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
+  return mspr::RepresentationLoss(options_, *repr_, *target_repr_, bins_, batch, info);
+}
+
+torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
+                                  LossInfo* info) {
+  if (options_.agent.critic_grad_to_encoder && torch::GradMode::is_enabled()) {
+    return CriticLoss(batch, nullptr, noise, info);
+  }
+  const TransitionLatents lat = EncodeTransitions(batch);
+  return CriticLoss(batch, &lat, noise, info);
+}
+
+torch::Tensor Trainer::CriticTarget(const TransitionBatch& batch, const torch::Tensor& noise) {
+  MsprNetworks target{target_repr_, target_critic_, target_actor_};
+  return mspr::CriticTarget(options_.agent, target, batch, noise);
+}
+
+torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
+                                  const torch::Tensor& noise, LossInfo* info) {
+  return CriticLossFromTarget(batch, lat, CriticTarget(batch, noise), info);
+}
+
+torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch,
+                                            const TransitionLatents* lat, const torch::Tensor& y,
+                                            LossInfo* info) {
+  MsprNetworks online{repr_, critic_, actor_};
+  return mspr::CriticLoss(options_.agent, online, batch, lat, y, info);
+}
+
+torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, LossInfo* info) {
+  const TransitionLatents lat = EncodeTransitions(batch);
+  return ActorLoss(batch, lat, info);
+}
+
+torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat,
+                                 LossInfo* info) {
+  MsprNetworks online{repr_, critic_, actor_};
+  return mspr::ActorLoss(options_.agent, online, batch, lat, info);
+}
+
+LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed) {
+  Sync();
+  const MsprOptions& o = options_;
+  BatchSampler sampler(data, o.relabel, o.agent.gamma, o.agent.n_step, o.representation.horizon,
+                       o.network.goal_horizon);
+  std::mt19937_64 rng(seed);
+  torch::NoGradGuard no_grad;
+  LossInfo info;
+  if (agent_) {
+    agent_->Loss(
+        MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, agent_->SubgoalSteps()),
+                            false, &data),
+        &info.agent);
+    return info;
+  }
+  RepresentationLoss(MakeChunkBatch(sampler.SampleChunks(batch, rng), false, &data), &info);
+  const TransitionBatch tb =
+      MakeTransitionBatch(sampler.SampleTransitions(batch, rng), false, &data);
+  CriticLoss(tb, torch::zeros({tb.action.size(0), tb.action.size(1)}), &info);
+  ActorLoss(tb, &info);
+  return info;
+}
+
 }  // namespace core
 }  // namespace msspr

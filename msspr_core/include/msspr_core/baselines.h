@@ -23,14 +23,11 @@
 #include <utility>
 #include <vector>
 
+#include "msspr_core/batches.h"
 #include "msspr_core/options.h"
 
 namespace msspr {
 namespace core {
-
-struct TransitionBatch;
-
-using NamedValues = std::vector<std::pair<std::string, double>>;
 
 // OGBench's MLP. sizes = {in, hidden..., out}; the last layer has GELU (and
 // LayerNorm when layer_norm) only when activate_final.

@@ -18,8 +18,10 @@
 
 #include "msspr_core/baselines.h"
 #include "msspr_core/batch_sampler.h"
+#include "msspr_core/batches.h"
 #include "msspr_core/dataset.h"
 #include "msspr_core/distributed.h"
+#include "msspr_core/mspr_losses.h"
 #include "msspr_core/networks.h"
 #include "msspr_core/options.h"
 #include "msspr_core/policy.h"
@@ -28,42 +30,6 @@ namespace msspr {
 namespace core {
 
 class AsyncWorker;
-
-// Observations below ("obs"): [B, obs_dim] float32 (state mode) or
-// [B, H, W, C * frame_stack] uint8 (pixels mode); goals likewise.
-struct TransitionBatch {
-  torch::Tensor obs;         // [B, ...] s_t
-  torch::Tensor action;      // [B, action_dim] float32 a_t
-  torch::Tensor next_obs;    // [B, ...] bootstrap state s_{t+m}
-  torch::Tensor value_goal;  // [B, ...] goal of the critic
-  torch::Tensor actor_goal;  // [B, ...] goal of the actor
-  torch::Tensor ret;         // [B] float32 n-step return (rewards -1 / 0)
-  torch::Tensor discount;    // [B] float32 gamma^m, 0 after success
-  // HIQL's subgoals (undefined unless sampled): low-level goal, high-level
-  // goal and the subgoal target (see TransitionIndices).
-  torch::Tensor low_goal, high_goal, high_target;
-};
-
-struct ChunkBatch {
-  torch::Tensor states;       // [B, L, ...] s_t..s_{t+L-1}
-  torch::Tensor state_mask;   // [B, L] float32
-  torch::Tensor actions;      // [B, A, action_dim] float32
-  torch::Tensor action_mask;  // [B, A] float32
-  torch::Tensor goal;         // [B, ...]
-  torch::Tensor mc_return;    // [B, H] float32 Monte Carlo return to the goal
-  torch::Tensor goal_ahead;   // [B, H] float32 1 when the goal is ahead in the same trajectory
-                              // (only with representation.reward_goals "trajectory")
-};
-
-// Latest losses (NaN when not computed in that step).
-struct LossInfo {
-  double repr = NAN, dyn = NAN, rew = NAN, inv = NAN, goal_dyn = NAN, goal_act = NAN;
-  double critic = NAN, q_mean = NAN, actor = NAN, bc = NAN;
-  // A baseline agent's values (GcAgentImpl::LossNames order); when not
-  // empty, Named() returns these instead of Ms.PR's.
-  std::vector<std::pair<std::string, double>> agent;
-  std::vector<std::pair<std::string, double>> Named() const;
-};
 
 // Evaluator hook: receives a Policy sharing the trainer's online networks
 // and the step; returns (name, value) pairs, e.g. per-task success rates,
@@ -161,9 +127,7 @@ class Trainer {
 
   // Online-encoder latents of a transition batch (no gradient), shared by
   // the critic and the actor update of a step.
-  struct TransitionLatents {
-    torch::Tensor zs, z_value_goal, z_actor_goal;  // [B, zs_dim]
-  };
+  using TransitionLatents = mspr::TransitionLatents;
   TransitionLatents EncodeTransitions(const TransitionBatch& batch);
 
   // Single updates (used by Step; public for tests).
