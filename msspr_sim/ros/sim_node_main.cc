@@ -2,13 +2,14 @@
 
 #include <optional>
 
+#include "ant_sim_node.h"
 #include "cube_sim_node.h"
 #include "msspr_sim/env_id.h"
 #include "sim_node.h"
 
-// ~env picks the environment: pointmaze (default; ~maze picks the maze) or
-// cube-single (the URDF arm, cube_sim_node.h). Both serve the same topics,
-// messages and services.
+// ~env picks the environment: pointmaze (default; ~maze picks the maze),
+// cube-single (the URDF arm, cube_sim_node.h) or antmaze-medium / antmaze-large
+// (the ant, ant_sim_node.h). All serve the same topics, messages and services.
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_sim_node");
   ros::NodeHandle nh, pnh("~");
@@ -25,8 +26,13 @@ int main(int argc, char** argv) {
       const auto options = msspr::ros_bridge::LoadSimNodeOptions(pnh);
       msspr::ros_bridge::SimNode node(nh, pnh, options);
       ros::spin();
-    } else {  // unknown, or an env this node does not serve (the ant mazes)
-      throw std::invalid_argument("~env must be pointmaze or cube-single, got '" + env + "'");
+    } else if (id && msspr::sim::IsAntMaze(*id)) {
+      const auto options = msspr::ros_bridge::LoadAntSimNodeOptions(pnh, *id);
+      msspr::ros_bridge::AntSimNode node(nh, pnh, options);
+      ros::spin();
+    } else {
+      throw std::invalid_argument("~env must be pointmaze, cube-single, antmaze-medium or antmaze-large, got '" +
+                                  env + "'");
     }
   } catch (const std::exception& e) {
     ROS_FATAL_STREAM("msspr_sim_node: " << e.what());
