@@ -54,6 +54,7 @@ for f in setup.bash _setup_util.py \
   share/msspr/config/robots/pointmaze_base.yaml share/msspr/config/robots/ur5e_cube.yaml \
   share/msspr/config/robots/pointmaze_camera.yaml \
   share/msspr/msspr_sim/urdf/point_robot.urdf share/msspr/msspr_sim/urdf/ur5e_2f85.urdf \
+  share/msspr/msspr_sim/urdf/ant.urdf share/msspr/msspr_sim/experts/ant_xy_expert.pt \
   share/msspr/msspr_policy_node/checkpoints/pointmaze-medium-state.pt \
   share/msspr/msspr_policy_node/checkpoints/pointmaze-medium-pixels.pt \
   share/msspr/msspr_policy_node/checkpoints/cube-single-state.pt; do

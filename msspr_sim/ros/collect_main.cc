@@ -52,14 +52,15 @@ play oracle (CubePlayOracle) from collection resets, 1000 + 100 episodes of
 antmaze-medium, antmaze-large (--maze and images do not apply): OGBench's
 antmaze datasets with the waypoint expert; --kind, --episodes, --val-episodes,
 --length, --seed as above, and
-  --expert FILE          the locomotion expert, sac_policy.pt of msspr_train_expert (required)
+  --expert FILE          the locomotion expert, sac_policy.pt of msspr_train_expert
+                         (default: the shipped msspr_sim/experts/ant_xy_expert.pt)
   --noise STD            the expert's action noise std (default 0.2)
 Example (the full pointmaze-medium-navigate dataset, states only):
   rosrun msspr msspr_collect --maze medium --kind navigate --out medium-navigate.bag
 Example (the full cube-single-play dataset, states only):
   rosrun msspr msspr_collect --env cube-single --out cube-single-play.bag
 Example (the full antmaze-medium-navigate dataset):
-  rosrun msspr msspr_collect --env antmaze-medium --expert sac_policy.pt --out antmaze-medium-navigate.bag
+  rosrun msspr msspr_collect --env antmaze-medium --out antmaze-medium-navigate.bag
 )";
 
 // Progress line on stderr: every 200 ms on a terminal, every 5 s otherwise, and at the end.
@@ -177,9 +178,7 @@ int CollectAnt(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvId env_id)
     for (const char* f : {"maze", "images", "image-episodes"})
       if (args.Has(f))
         throw cli::CliError(std::string("--") + f + " does not apply to --env " + env_name);
-    expert_path = args.Get("expert", "");
-    if (expert_path.empty())
-      throw cli::CliError("--env " + env_name + " needs --expert FILE (sac_policy.pt)");
+    expert_path = args.Get("expert", sim::DefaultAntExpert());
     opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
     const bool stitch = opt.kind == sim::DatasetKind::kStitch;
     episodes = args.GetInt("episodes", stitch ? 5000 : 1000, 1, 100000000);

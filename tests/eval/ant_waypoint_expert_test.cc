@@ -23,6 +23,7 @@
 #include "msspr_eval/ant_dataset.h"
 #include "msspr_sim/ant_maze.h"
 #include "msspr_sim/ant_planner.h"
+#include "msspr_sim/package_files.h"
 
 namespace msspr::agent {
 namespace {
@@ -254,6 +255,18 @@ TEST_F(AntExpertTest, EvaluationCountsStepsAndSpeed) {
   EXPECT_EQ(r.mean_success, 0.0);
   o.tasks = {6};
   EXPECT_THROW(EvaluateAntExpert(*policy_, o), std::invalid_argument);
+}
+
+// The shipped expert (msspr_sim/experts/ant_xy_expert.pt) with the planner,
+// noise-free, reaches the goals of antmaze-medium's five tasks (92% over 5 x 50
+// episodes when it was shipped; here 2 episodes each).
+TEST(ShippedAntExpert, ReachesAntmazeMediumGoals) {
+  core::SacPolicy policy(sim::DefaultAntExpert());
+  AntExpertEvalOptions o;
+  o.episodes = 2;
+  const AntExpertEvalResult r = EvaluateAntExpert(policy, o);
+  EXPECT_GE(r.mean_success, 0.8) << "mean success over 5 tasks x 2 episodes";
+  EXPECT_GT(r.mean_speed, 0.8) << "m/s";
 }
 
 }  // namespace

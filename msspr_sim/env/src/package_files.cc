@@ -66,4 +66,6 @@ std::string PackageFile(const std::string& relative) {
 
 std::string DefaultArmUrdf() { return PackageFile("msspr_sim/urdf/ur5e_2f85.urdf"); }
 
+std::string DefaultAntExpert() { return PackageFile("msspr_sim/experts/ant_xy_expert.pt"); }
+
 }  // namespace msspr::sim

@@ -39,6 +39,7 @@
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/maze_map.h"
+#include "msspr_sim/package_files.h"
 #include "msspr_sim/point_maze.h"
 
 namespace {
@@ -58,7 +59,8 @@ without ROS.
   --no-images         states only (default: 64x64 camera images too; pointmaze)
 antmaze-*: the waypoint expert's datasets, states with qpos and qvel (no images);
 stitch defaults to 5000 + 500 episodes of 201 steps.
-  --expert FILE       the locomotion expert, sac_policy.pt of msspr_train_expert (required)
+  --expert FILE       the locomotion expert, sac_policy.pt of msspr_train_expert
+                      (default: the shipped msspr_sim/experts/ant_xy_expert.pt)
   --noise STD         the expert's action noise std (default 0.2)
 )";
 
@@ -185,9 +187,7 @@ int main(int argc, char** argv) {
       if (!is_ant && args.Has(f))
         throw msspr::cli::CliError(std::string("--") + f +
                                    " needs --env antmaze-medium or antmaze-large");
-    expert = args.Get("expert", "");
-    if (is_ant && expert.empty())
-      throw msspr::cli::CliError("--expert FILE is required for " + sim::EnvIdName(env_id));
+    expert = args.Get("expert", sim::DefaultAntExpert());
     const auto names = sim::MazeMap::Names();
     opt.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
     opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));

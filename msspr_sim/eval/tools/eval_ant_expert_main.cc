@@ -20,13 +20,16 @@
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
+#include "msspr_sim/package_files.h"
 
 namespace {
 
-constexpr const char* kUsage = R"(usage: msspr_eval_ant_expert --expert DIR/sac_policy.pt [options]
+constexpr const char* kUsage =
+    R"(usage: msspr_eval_ant_expert [--expert DIR/sac_policy.pt] [options]
 Evaluates the ant's locomotion expert with the BFS waypoint planner (noise-free) on an
 ant maze's evaluation tasks: success per task, mean success, the torso's mean speed.
-  --expert FILE       the expert's actor, sac_policy.pt of msspr_train_expert (required)
+  --expert FILE       the expert's actor, sac_policy.pt of msspr_train_expert
+                      (default: the shipped msspr_sim/experts/ant_xy_expert.pt)
   --env ENV           antmaze-medium | antmaze-large (default antmaze-medium)
   --tasks LIST        task ids (default 1,2,3,4,5)
   --episodes N        episodes per task (default 50)
@@ -56,8 +59,7 @@ int main(int argc, char** argv) {
     }
     if (!args.positional().empty())
       throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
-    expert_path = args.Get("expert", "");
-    if (expert_path.empty()) throw msspr::cli::CliError("--expert is required");
+    expert_path = args.Get("expert", sim::DefaultAntExpert());
     env_id = sim::ParseEnvId(
         args.GetChoice("env", sim::EnvIdName(env_id), sim::EnvIdNames(sim::AntMazeEnvIds())));
     o.maze = sim::AntMazeName(env_id);

@@ -26,6 +26,10 @@ std::string PackageFile(const std::string& relative);
 // The cube-single arm: PackageFile("msspr_sim/urdf/ur5e_2f85.urdf").
 std::string DefaultArmUrdf();
 
+// The ant's shipped direction-following expert (sac_policy.pt of
+// msspr_train_expert, seed 0, 400k steps): PackageFile("msspr_sim/experts/ant_xy_expert.pt").
+std::string DefaultAntExpert();
+
 }  // namespace msspr::sim
 
 #endif  // MSSPR_SIM_PACKAGE_FILES_H_
