@@ -31,7 +31,7 @@ class ValueMarkers;
 
 struct PolicyNodeOptions {
   std::string checkpoint;                  // required: Trainer::ExportPolicy file or full checkpoint
-  // A robot interface spec (config/robots/*.yaml, issue 28): serve over the robot's
+  // A robot interface spec (config/robots/*.yaml): serve over the robot's
   // standard topics through it (robot_server.h) instead of msspr/Observation and Action.
   std::string robot;
   std::string observation_mode = "state";  // state | pixels; must match the checkpoint

@@ -11,7 +11,7 @@ int main(int argc, char** argv) {
   try {
     const auto options = msspr::ros_bridge::LoadPolicyNodeOptions(pnh);
     if (!options.robot.empty()) {
-      // Over the robot's standard topics, through its spec (issue 28).
+      // Over the robot's standard topics, through its spec.
       auto spec = msspr::ros_bridge::LoadRobotSpec(options.robot);
       msspr::ros_bridge::RobotServer server(nh, pnh, options, std::move(spec),
                                             msspr::ros_bridge::LoadPolicyForNode(options));

@@ -1,4 +1,4 @@
-// msspr_policy_node with ~robot SPEC.yaml (issue 28): serves a policy over a
+// msspr_policy_node with ~robot SPEC.yaml: serves a policy over a
 // robot's standard topics through its robot interface spec (robot_spec.h). It
 // subscribes to the spec's observation and goal topics, assembles the
 // observation as training did (robot_fields.h: SampleObservation), and

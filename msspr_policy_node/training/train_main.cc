@@ -141,7 +141,7 @@ int main(int argc, char** argv) {
       "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
       "DIR/eval/step_<N>.json (the msspr_eval results format); with --eval-tasks-file also\n"
       "success_custom<id> and mean_success_custom, and DIR/eval/step_<N>_custom.json.\n"
-      "\nA robot's own bags (issue 28): --robot SPEC.yaml reads --data's bags of standard messages\n"
+      "\nA robot's own bags: --robot SPEC.yaml reads --data's bags of standard messages\n"
       "  (nav_msgs/Odometry, geometry_msgs/Twist, ...) through the robot interface spec (see\n"
       "  docs/bring_your_own_robot.md); checkpoints and policy.pt store the spec.\n"
       "Example: rosrun msspr msspr_train --data medium-navigate.bag --scale cpu --steps 20000 \\\n"

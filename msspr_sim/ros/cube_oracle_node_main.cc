@@ -2,7 +2,7 @@
 // answers each observation of msspr_sim_node (~env cube-single) with the
 // oracle's action, in lockstep. ~mode goal (default): toward the
 // observation's goal, noise off; the agent that msspr_eval --env cube-single
-// and the oracle rostest drive (issue 11). ~mode play: OGBench's play
+// and the oracle rostest drive. ~mode play: OGBench's play
 // oracle (random targets, noise 0.1), the agent of a live collection
 // (launch/collect.launch env:=cube-single, the sim in collection mode).
 #include <cmath>

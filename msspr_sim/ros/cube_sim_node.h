@@ -1,4 +1,4 @@
-// The cube-single side of msspr_sim_node (~env cube-single, issue 11): serves
+// The cube-single side of msspr_sim_node (~env cube-single): serves
 // a sim::CubeEnv (the URDF arm and one cube) with the point-maze node's
 // interface: the same topics, messages and services (observation, action,
 // episode, camera/image, goal_image, reset, set_goal, pause, /clock,

@@ -29,7 +29,7 @@ class ExpertNode {
     pnh.param("noise_std", noise_, mode_ == "goal" ? 0.0 : 0.5);
     pnh.param("seed", seed_, 0);
     // "action": msspr/Action on action; "cmd_vel": geometry_msgs/Twist on cmd_vel with
-    // linear = cmd_vel_max_speed * action (a robot's command, issue 28).
+    // linear = cmd_vel_max_speed * action (a robot's command).
     pnh.param<std::string>("command", command_, "action");
     pnh.param("cmd_vel_max_speed", max_speed_, 2.0);
     if (command_ != "action" && command_ != "cmd_vel")

@@ -1,4 +1,4 @@
-// The robot interface spec (issue 28): one YAML file per robot that says what
+// The robot interface spec: one YAML file per robot that says what
 // the policy's observation is (an ordered list of fields of standard ROS
 // messages), what its action means (fields of the command message), where the
 // goal comes from, the control rate, time alignment and episode boundaries.

@@ -40,7 +40,7 @@ struct SimNodeOptions : SimNodeCommonOptions {  // control_rate 10 Hz: real time
   bool publish_markers = true;             // markers: walls, goal, recent path (latched)
   int path_length = 500;                   // points of the path marker
   double marker_rate = 5.0;                // Hz of wall time, at most
-  // Standard messages beside the native ones (issue 28; config/robots/pointmaze_base.yaml):
+  // Standard messages beside the native ones (config/robots/pointmaze_base.yaml):
   // nav_msgs/Odometry on odom (odom_frame -> base_frame, and that tf), the goal as
   // geometry_msgs/PoseStamped on goal_pose (latched, once per episode or goal), and
   // geometry_msgs/Twist commands on cmd_vel: action = linear.{x,y} / cmd_vel_max_speed.

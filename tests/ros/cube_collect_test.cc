@@ -1,4 +1,4 @@
-// msspr_collect --env cube-single (issue 11): the bag it writes has the
+// msspr_collect --env cube-single: the bag it writes has the
 // dataset layout, cube-single-play's dimensions and splits, and its stored
 // actions, replayed from each episode's collection reset, reproduce its
 // stored observations bit for bit. Also usage errors. No master needed.

@@ -1,4 +1,4 @@
-// rostest scenarios of msspr_sim_node with ~env cube-single (issue 11): the
+// rostest scenarios of msspr_sim_node with ~env cube-single: the
 // play oracle, as a client that sees only the ROS observations
 // (CubeGoalOracle), reaches the goals of the 5 evaluation tasks; the node
 // serves robot_description, joint_states and tf2 for every URDF link, the

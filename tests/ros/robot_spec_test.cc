@@ -1,4 +1,4 @@
-// Robot interface specs (issue 28): the loader, field extraction, and reading
+// Robot interface specs: the loader, field extraction, and reading
 // a robot's bags through a spec (msspr_sim/ros/robot_spec.*, robot_fields.*,
 // spec_bag.*). No master needed.
 #include <gtest/gtest.h>

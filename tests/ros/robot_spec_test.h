@@ -1,4 +1,4 @@
-// Test helpers for robot interface specs (issue 28): specs as inline YAML, and
+// Test helpers for robot interface specs: specs as inline YAML, and
 // synthetic bags that hold the same episodes twice, as msspr's own topics
 // (/msspr/episode, /msspr/observation, /msspr/action, as DatasetBagWriter
 // writes them) and as a robot's standard messages (nav_msgs/Odometry on

@@ -1,4 +1,4 @@
-// Training from a robot's own bags through a robot interface spec (issue 28):
+// Training from a robot's own bags through a robot interface spec:
 // the spec-built dataset equals the native-topic dataset of the same
 // episodes; msspr_train --robot trains from such bags and stores the spec in
 // its checkpoints; msspr_bag_info --robot reports per field. No master needed.
