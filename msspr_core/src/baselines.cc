@@ -3,8 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "module_io.h"
 #include "msspr_core/networks.h"
-#include "msspr_core/trainer.h"
 
 namespace msspr {
 namespace core {
@@ -151,12 +151,10 @@ torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_
   return a * components.mean(-1) + (1.0 - a) * std::get<0>(components.max(-1));
 }
 
-// --- GcAgentImpl --------------------------------------------------------------
+// --- OgbenchAgent -------------------------------------------------------------
 
-GcAgentImpl::GcAgentImpl(const MsprOptions& options)
-    : options_(options),
-      obs_dim_(options.network.obs_dim),
-      action_dim_(options.network.action_dim) {
+OgbenchAgent::OgbenchAgent(const MsprOptions& options)
+    : GcAgent(options), obs_dim_(options.network.obs_dim), action_dim_(options.network.action_dim) {
   if (options.network.obs_mode != "state") {
     throw OptionsError("baseline agent '" + options.baseline.agent +
                        "': only state observations (network.obs_mode 'state') are supported");
@@ -167,11 +165,37 @@ GcAgentImpl::GcAgentImpl(const MsprOptions& options)
   }
 }
 
-torch::Tensor GcAgentImpl::Value(const torch::Tensor&, const torch::Tensor&, const torch::Tensor&) {
-  throw std::logic_error("agent '" + agent_name() + "' has no value function");
+void OgbenchAgent::PrepareTraining(torch::Device device) {
+  to(device);
+  optimizer_ = std::make_unique<torch::optim::Adam>(
+      TrainableParameters(), torch::optim::AdamOptions(options_.baseline.lr));
 }
 
-std::vector<torch::Tensor> GcAgentImpl::TrainableParameters() {
+LossInfo OgbenchAgent::Step(TrainingContext& context, bool collect_info) {
+  LossInfo info;
+  NamedValues named;
+  const TransitionBatch batch = context.SampleOgbenchTransitions(SubgoalSteps());
+  const torch::Tensor loss = Loss(batch, collect_info ? &named : nullptr);
+  optimizer_->zero_grad();
+  loss.backward();
+  AverageGradients(optimizer_->parameters());
+  optimizer_->step();
+  UpdateTargets();
+  if (collect_info) info.agent = std::move(named);
+  return info;
+}
+
+LossInfo OgbenchAgent::ValidationLosses(BatchSource& batches) {
+  LossInfo info;
+  Loss(batches.SampleOgbenchTransitions(SubgoalSteps()), &info.agent);
+  return info;
+}
+
+void OgbenchAgent::ReadPolicy(torch::serialize::InputArchive& archive, bool) {
+  ReadModule(archive, "agent", *this);
+}
+
+std::vector<torch::Tensor> OgbenchAgent::TrainableParameters() {
   std::vector<torch::Tensor> out;
   for (const auto& p : parameters()) {
     if (p.requires_grad()) out.push_back(p);
@@ -179,12 +203,12 @@ std::vector<torch::Tensor> GcAgentImpl::TrainableParameters() {
   return out;
 }
 
-void GcAgentImpl::InitTarget(torch::nn::Module& target, const torch::nn::Module& online) {
+void OgbenchAgent::InitTarget(torch::nn::Module& target, const torch::nn::Module& online) {
   HardUpdate(target, online);
   SetRequiresGrad(target, false);
 }
 
-void GcAgentImpl::Polyak(torch::nn::Module& target, const torch::nn::Module& online) {
+void OgbenchAgent::Polyak(torch::nn::Module& target, const torch::nn::Module& online) {
   torch::NoGradGuard no_grad;
   const auto t = target.parameters();
   const auto o = online.parameters();
@@ -193,19 +217,19 @@ void GcAgentImpl::Polyak(torch::nn::Module& target, const torch::nn::Module& onl
   for (size_t i = 0; i < t.size(); ++i) t[i].mul_(1.0 - tau).add_(o[i], tau);
 }
 
-torch::Tensor GcAgentImpl::Cat(const torch::Tensor& a, const torch::Tensor& b) {
+torch::Tensor OgbenchAgent::Cat(const torch::Tensor& a, const torch::Tensor& b) {
   return torch::cat({a, b}, -1);
 }
 
-std::vector<int64_t> GcAgentImpl::Sizes(int64_t in, int64_t out) const {
+std::vector<int64_t> OgbenchAgent::Sizes(int64_t in, int64_t out) const {
   std::vector<int64_t> sizes{in};
   for (int i = 0; i < options_.baseline.layers; ++i) sizes.push_back(options_.baseline.hidden);
   sizes.push_back(out);
   return sizes;
 }
 
-torch::Tensor GcAgentImpl::DdpgBcLoss(const torch::Tensor& q, const torch::Tensor& log_prob,
-                                      NamedValues* info) {
+torch::Tensor OgbenchAgent::DdpgBcLoss(const torch::Tensor& q, const torch::Tensor& log_prob,
+                                       NamedValues* info) {
   const torch::Tensor q_loss = -q.mean() / (q.abs().mean().detach() + 1e-6);
   const torch::Tensor bc = -(options_.baseline.alpha * log_prob).mean();
   const torch::Tensor loss = q_loss + bc;
@@ -483,7 +507,7 @@ torch::Tensor CrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& act
 
 // --- HIQL ---------------------------------------------------------------------
 
-HiqlAgent::HiqlAgent(const MsprOptions& o) : GcAgentImpl(o) {
+HiqlAgent::HiqlAgent(const MsprOptions& o) : OgbenchAgent(o) {
   const BaselineOptions& b = o.baseline;
   const int64_t in_v = obs_dim_ + b.rep_dim;
   goal_rep = register_module("goal_rep", OgMlp(Sizes(2 * obs_dim_, b.rep_dim), false, true));
@@ -568,7 +592,7 @@ torch::Tensor HiqlAgent::Value(const torch::Tensor& obs, const torch::Tensor&,
 
 // --- Factory ------------------------------------------------------------------
 
-std::shared_ptr<GcAgentImpl> MakeAgent(const MsprOptions& options) {
+std::shared_ptr<OgbenchAgent> MakeAgent(const MsprOptions& options) {
   const std::string& name = options.baseline.agent;
   if (name == "gcbc") return std::make_shared<GcbcAgent>(options);
   if (name == "gcivl") return std::make_shared<GcivlAgent>(options);

@@ -4,25 +4,32 @@
 
 #include "module_io.h"
 #include "msspr_core/checkpoint.h"
+#include "msspr_core/mspr_agent.h"
 
 namespace msspr {
 namespace core {
 
+namespace {
+
+MsprNetworks& MsprNetworksOf(Policy& policy) {
+  auto* m = dynamic_cast<MsprAgent*>(policy.agent().get());
+  if (!m)
+    throw std::logic_error("Policy: the " + policy.agent_name() + " agent has no Ms.PR networks");
+  return m->policy_networks();
+}
+
+}  // namespace
+
+Policy::Policy(const MsprOptions& options, std::shared_ptr<GcAgent> agent, torch::Device device)
+    : options_(options), agent_(std::move(agent)), device_(device) {}
+
 Policy::Policy(const MsprOptions& options, Representation repr, Actor actor, Critic critic,
                torch::Device device)
-    : options_(options),
-      repr_(std::move(repr)),
-      actor_(std::move(actor)),
-      critic_(std::move(critic)),
-      device_(device) {}
-
-Policy::Policy(const MsprOptions& options, std::shared_ptr<GcAgentImpl> agent, torch::Device device)
-    : options_(options),
-      repr_(nullptr),
-      actor_(nullptr),
-      critic_(nullptr),
-      agent_(std::move(agent)),
-      device_(device) {}
+    : Policy(
+          options,
+          std::make_shared<MsprAgent>(
+              options, MsprNetworks{std::move(repr), std::move(critic), std::move(actor)}, device),
+          device) {}
 
 Policy Policy::Load(const std::string& path, torch::Device device) {
   const CheckpointFile file = ReadCheckpointFile(path);
@@ -32,52 +39,28 @@ Policy Policy::Load(const std::string& path, torch::Device device) {
   const CheckpointHeader header = ParseCheckpointHeader(file.header, path);
   MsprOptions options = header.options;
   options.trainer.device = device.str();
-  if (options.baseline.agent != "mspr") {
-    std::shared_ptr<GcAgentImpl> agent;
-    try {
-      agent = MakeAgent(options);
-      torch::serialize::InputArchive archive;
-      archive.load_from(file.payload.data(), file.payload.size(), device);
-      ReadModule(archive, "agent", *agent);
-    } catch (const c10::Error& e) {
-      throw CheckpointError(path + ": cannot read the " + options.baseline.agent +
-                            " agent's networks: " + e.what_without_backtrace());
-    } catch (const OptionsError& e) {
-      throw CheckpointError(path + ": " + e.what());
-    }
-    agent->to(device);
-    agent->eval();
-    Policy policy(options, agent, device);
-    policy.step_ = header.step;
-    return policy;
-  }
-  Representation repr(options.network);
-  Actor actor(options.network);
-  Critic critic(options.network);
+  std::shared_ptr<GcAgent> agent;
   try {
+    agent = MakeGcAgent(options, device, /*training=*/false);
     torch::serialize::InputArchive archive;
     archive.load_from(file.payload.data(), file.payload.size(), device);
-    // A trainer checkpoint of a run with trainer.policy_ema holds the moving
-    // average beside the raw weights: the policy is the average, as in the
-    // run's exports.
-    const std::string prefix =
-        file.kind == "trainer" && options.trainer.policy_ema > 0 ? "ema_" : "";
-    ReadModule(archive, prefix + "repr", *repr);
-    ReadModule(archive, prefix + "actor", *actor);
-    ReadModule(archive, prefix + "critic", *critic);
+    agent->ReadPolicy(archive, file.kind == "trainer");
   } catch (const c10::Error& e) {
-    throw CheckpointError(path + ": cannot read networks: " + e.what_without_backtrace());
+    throw CheckpointError(path + ": cannot read the " + options.baseline.agent +
+                          " agent's networks: " + e.what_without_backtrace());
+  } catch (const OptionsError& e) {
+    throw CheckpointError(path + ": " + e.what());
   }
-  repr->to(device);
-  actor->to(device);
-  critic->to(device);
-  repr->eval();
-  actor->eval();
-  critic->eval();
-  Policy policy(options, repr, actor, critic, device);
+  agent->to(device);
+  agent->eval();
+  Policy policy(options, agent, device);
   policy.step_ = header.step;
   return policy;
 }
+
+Representation& Policy::repr() { return MsprNetworksOf(*this).repr; }
+Actor& Policy::actor() { return MsprNetworksOf(*this).actor; }
+Critic& Policy::critic() { return MsprNetworksOf(*this).critic; }
 
 void AveragePolicies(const std::vector<std::string>& inputs, const std::string& out) {
   if (inputs.empty()) throw std::invalid_argument("AveragePolicies: no input policies");
@@ -142,13 +125,7 @@ torch::Tensor Policy::Act(const torch::Tensor& obs_in, const torch::Tensor& goal
     obs = obs.to(torch::kFloat32);
     goal = goal.to(torch::kFloat32);
   }
-  if (agent_) {
-    const torch::Tensor a = agent_->Act(obs, goal);
-    return single ? a.squeeze(0) : a;
-  }
-  const torch::Tensor zs = repr_->state_encoder->forward(obs);
-  const torch::Tensor zg = repr_->state_encoder->forward(goal);
-  torch::Tensor a = actor_->forward(zs, repr_->goal_head->forward(zs, zg), obs, goal);
+  const torch::Tensor a = agent_->Act(obs, goal);
   return single ? a.squeeze(0) : a;
 }
 
@@ -175,14 +152,7 @@ torch::Tensor Policy::Q(const torch::Tensor& obs_in, const torch::Tensor& action
     obs = obs.to(torch::kFloat32);
     goal = goal.to(torch::kFloat32);
   }
-  if (agent_) {
-    const torch::Tensor q = agent_->Value(obs, action, goal);
-    return single ? q.squeeze(0) : q;
-  }
-  const torch::Tensor zs = repr_->state_encoder->forward(obs);
-  const torch::Tensor zg = repr_->state_encoder->forward(goal);
-  torch::Tensor q = critic_->forward(repr_->Zsa(zs, action), repr_->goal_head->forward(zs, zg), obs,
-                                     action, goal);
+  const torch::Tensor q = agent_->Value(obs, action, goal);
   return single ? q.squeeze(0) : q;
 }
 

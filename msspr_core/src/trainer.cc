@@ -1,36 +1,18 @@
-// The trainer: construction of the networks and optimisers, data-parallel
-// set-up, the baseline agents' step, the updates of Ms.PR's networks, target
-// copies and the policy's moving average. The batch builder, the losses, the
-// step schedules, the loop and checkpoint I/O are in trainer_*.cc and
-// mspr_losses.cc.
+// The trainer: construction (options, sampler, the agent), data-parallel
+// set-up, the step, validation losses, policies, and the Ms.PR parts that
+// forward to its MsprAgent. The batch builder, the loop and checkpoint I/O
+// are in trainer_*.cc; the agents in gc_agent.cc, mspr_*.cc and
+// baselines.cc.
 #include "msspr_core/trainer.h"
 
-#include <ATen/Parallel.h>
-#include <ATen/autocast_mode.h>
-#include <sys/stat.h>
-#include <torch/version.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <iostream>
-
-#include "async_worker.h"
-#include "module_io.h"
-#include "msspr_core/checkpoint.h"
-#include "msspr_core/foreach_adamw.h"
-#include "msspr_core/progress.h"
-#include "trainer_internal.h"
+#include <stdexcept>
 
 namespace msspr {
 namespace core {
-using namespace trainer_internal;
 
 namespace {
 
@@ -52,13 +34,6 @@ void KeepFreedMemoryInHeap() {
 }
 
 }  // namespace
-
-std::vector<std::pair<std::string, double>> LossInfo::Named() const {
-  if (!agent.empty()) return agent;
-  return {{"repr", repr},     {"dyn", dyn},       {"rew", rew},       {"inv", inv},
-          {"gdyn", goal_dyn}, {"gact", goal_act}, {"critic", critic}, {"q", q_mean},
-          {"actor", actor},   {"bc", bc}};
-}
 
 Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data)
     : options_(options),
@@ -92,53 +67,10 @@ Trainer::Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data
                                             options_.agent.n_step, options_.representation.horizon,
                                             n.goal_horizon);
   torch::manual_seed(options_.trainer.seed);
-  if (options_.baseline.agent != "mspr") {
-    agent_ = MakeAgent(options_);
-    agent_->to(device_);
-    // OGBench: one Adam (no weight decay) over all the agent's parameters.
-    agent_opt_ = std::make_unique<torch::optim::Adam>(
-        agent_->TrainableParameters(), torch::optim::AdamOptions(options_.baseline.lr));
-    return;
-  }
-  repr_ = Representation(n);
-  critic_ = Critic(n);
-  actor_ = Actor(n);
-  target_repr_ = Representation(n);
-  target_critic_ = Critic(n);
-  target_actor_ = Actor(n);
-  for (torch::nn::Module* m :
-       std::vector<torch::nn::Module*>{repr_.get(), critic_.get(), actor_.get(), target_repr_.get(),
-                                       target_critic_.get(), target_actor_.get()}) {
-    m->to(device_);
-  }
-  UpdateTargets();
-  SetRequiresGrad(*target_repr_, false);
-  SetRequiresGrad(*target_critic_, false);
-  SetRequiresGrad(*target_actor_, false);
-  if (options_.trainer.policy_ema > 0) {
-    ema_repr_ = Representation(n);
-    ema_critic_ = Critic(n);
-    ema_actor_ = Actor(n);
-    for (torch::nn::Module* m :
-         std::vector<torch::nn::Module*>{ema_repr_.get(), ema_critic_.get(), ema_actor_.get()}) {
-      m->to(device_);
-      SetRequiresGrad(*m, false);
-    }
-    HardUpdate(*ema_repr_, *repr_);
-    HardUpdate(*ema_critic_, *critic_);
-    HardUpdate(*ema_actor_, *actor_);
-  }
-  const RepresentationOptions& r = options_.representation;
-  const AgentOptions& a = options_.agent;
-  // Multi-tensor AdamW: the same maths and state as torch::optim::AdamW.
-  repr_opt_ = std::make_unique<ForeachAdamW>(
-      repr_->parameters(), torch::optim::AdamWOptions(r.lr).weight_decay(r.weight_decay));
-  critic_opt_ = std::make_unique<ForeachAdamW>(
-      critic_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
-  actor_opt_ = std::make_unique<ForeachAdamW>(
-      actor_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
-  bins_ = ReturnBins(n.num_bins, a.gamma).to(device_);
+  agent_ = MakeGcAgent(options_, device_, /*training=*/true);
 }
+
+Trainer::~Trainer() = default;
 
 int Trainer::local_batch() const {
   return dist_ ? options_.trainer.batch_size / dist_->world_size() : options_.trainer.batch_size;
@@ -153,6 +85,7 @@ void Trainer::SetDistributed(std::shared_ptr<Distributed> dist) {
                        " is not a multiple of the world size " + std::to_string(world));
   }
   dist_ = std::move(dist);
+  agent_->SetDistributed(dist_);
   // Each rank's own streams: batches and target-policy noise.
   std::seed_seq seq{static_cast<uint32_t>(options_.trainer.seed),
                     static_cast<uint32_t>(options_.trainer.seed >> 32), static_cast<uint32_t>(rank),
@@ -162,7 +95,7 @@ void Trainer::SetDistributed(std::shared_ptr<Distributed> dist) {
                                                   static_cast<uint64_t>(rank));
   // Identical starting weights (targets included) on every rank.
   std::vector<torch::Tensor> tensors;
-  for (const auto& [name, m] : CheckpointModules()) {
+  for (const auto& [name, m] : agent_->CheckpointModules()) {
     for (const auto& p : m->parameters()) tensors.push_back(p.detach());
     for (const auto& b : m->buffers()) tensors.push_back(b);
   }
@@ -170,253 +103,132 @@ void Trainer::SetDistributed(std::shared_ptr<Distributed> dist) {
   dist_->Broadcast(tensors, 0);
 }
 
-void Trainer::ReduceGrads(torch::nn::Module& module) {
-  if (dist_) dist_->AverageGradients(module.parameters());
-}
+// The training batches, step count and noise an agent's step draws.
+class Trainer::Batches : public TrainingContext {
+ public:
+  explicit Batches(Trainer& t) : t_(t) {}
+  ChunkBatch SampleChunks() override { return t_.SampleChunks(); }
+  TransitionBatch SampleTransitions() override { return t_.SampleTransitions(); }
+  TransitionBatch SampleOgbenchTransitions(int subgoal_steps) override {
+    return t_.MakeTransitionBatch(
+        t_.sampler_->SampleOgbenchTransitions(t_.local_batch(), t_.rng_, subgoal_steps), false);
+  }
+  int64_t step() const override { return t_.step_; }
+  torch::Tensor Noise(int64_t rows, int64_t cols) override {
+    return torch::randn({rows, cols}, t_.gen_, torch::kFloat32);
+  }
 
-LossInfo Trainer::BaselineStep(bool collect_info) {
+ private:
+  Trainer& t_;
+};
+
+// Batches of another dataset, without augmentation, from a seeded stream.
+class Trainer::ValidationBatches : public BatchSource {
+ public:
+  ValidationBatches(Trainer& t, const Dataset& data, int batch, uint64_t seed)
+      : t_(t),
+        data_(data),
+        batch_(batch),
+        sampler_(data, t.options_.relabel, t.options_.agent.gamma, t.options_.agent.n_step,
+                 t.options_.representation.horizon, t.options_.network.goal_horizon),
+        rng_(seed) {}
+  ChunkBatch SampleChunks() override {
+    return t_.MakeChunkBatch(sampler_.SampleChunks(batch_, rng_), false, &data_);
+  }
+  TransitionBatch SampleTransitions() override {
+    return t_.MakeTransitionBatch(sampler_.SampleTransitions(batch_, rng_), false, &data_);
+  }
+  TransitionBatch SampleOgbenchTransitions(int subgoal_steps) override {
+    return t_.MakeTransitionBatch(sampler_.SampleOgbenchTransitions(batch_, rng_, subgoal_steps),
+                                  false, &data_);
+  }
+
+ private:
+  Trainer& t_;
+  const Dataset& data_;
+  int batch_;
+  BatchSampler sampler_;
+  std::mt19937_64 rng_;
+};
+
+LossInfo Trainer::Step(bool collect_info) {
   ++step_;
-  LossInfo info;
-  NamedValues named;
-  const TransitionBatch batch = SampleBaselineBatch();
-  const torch::Tensor loss = agent_->Loss(batch, collect_info ? &named : nullptr);
-  agent_opt_->zero_grad();
-  loss.backward();
-  if (dist_) dist_->AverageGradients(agent_opt_->parameters());
-  agent_opt_->step();
-  agent_->UpdateTargets();
-  if (collect_info) info.agent = std::move(named);
-  return info;
-}
-
-LossInfo Trainer::EmptyLossInfo() const {
-  LossInfo info;
-  if (agent_) {
-    for (const std::string& name : agent_->LossNames()) info.agent.emplace_back(name, NAN);
-  }
-  return info;
-}
-
-std::vector<std::pair<std::string, torch::nn::Module*>> Trainer::CheckpointModules() {
-  if (agent_) return {{"agent", agent_.get()}};
-  std::vector<std::pair<std::string, torch::nn::Module*>> modules{
-      {"repr", repr_.get()},
-      {"critic", critic_.get()},
-      {"actor", actor_.get()},
-      {"target_repr", target_repr_.get()},
-      {"target_critic", target_critic_.get()},
-      {"target_actor", target_actor_.get()}};
-  if (ema_repr_) {
-    modules.emplace_back("ema_repr", ema_repr_.get());
-    modules.emplace_back("ema_critic", ema_critic_.get());
-    modules.emplace_back("ema_actor", ema_actor_.get());
-  }
-  return modules;
-}
-
-bool Trainer::bf16() const { return options_.trainer.precision == "bf16"; }
-
-void Trainer::RepresentationBackward(const ChunkBatch& batch, LossInfo* info) {
-  ClearGrads(*repr_);
-  torch::Tensor loss;
-  {
-    PrecisionScope precision(bf16(), device_);
-    loss = RepresentationLoss(batch, info);
-  }
-  loss.backward();
-}
-
-void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
-  Sync();
-  RepresentationBackward(batch, info);
-  ReduceGrads(*repr_);
-  repr_opt_->step();
-}
-
-void Trainer::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& noise,
-                           LossInfo* info) {
-  Sync();
-  const bool through = options_.agent.critic_grad_to_encoder;
-  if (through) {
-    UpdateCritic(batch, nullptr, noise, info);
-    return;
-  }
-  const TransitionLatents lat = EncodeTransitionsForUpdate(batch);
-  UpdateCritic(batch, &lat, noise, info);
-}
-
-void Trainer::UpdateCritic(const TransitionBatch& batch, const TransitionLatents* lat,
-                           const torch::Tensor& noise, LossInfo* info) {
-  torch::Tensor y;
-  {
-    PrecisionScope precision(bf16(), device_);
-    y = CriticTarget(batch, noise);
-  }
-  UpdateCriticFromTarget(batch, lat, y, info);
-}
-
-void Trainer::UpdateCriticFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
-                                     const torch::Tensor& y, LossInfo* info) {
-  ClearGrads(*critic_);
-  const bool through = lat == nullptr;
-  if (through) ClearGrads(*repr_);
-  torch::Tensor loss;
-  {
-    PrecisionScope precision(bf16(), device_);
-    loss = CriticLossFromTarget(batch, lat, y, info);
-  }
-  loss.backward();
-  ReduceGrads(*critic_);
-  critic_opt_->step();
-  if (through) {
-    ReduceGrads(*repr_);
-    repr_opt_->step();
-  }
-}
-
-void Trainer::UpdateActor(const TransitionBatch& batch, LossInfo* info) {
-  Sync();
-  const TransitionLatents lat = EncodeTransitionsForUpdate(batch);
-  UpdateActor(batch, lat, info);
-}
-
-void Trainer::UpdateActor(const TransitionBatch& batch, const TransitionLatents& lat,
-                          LossInfo* info) {
-  // Gradients only for the actor's parameters: the critic and E_sa are
-  // differentiated through but not updated by the actor loss.
-  torch::Tensor loss;
-  {
-    PrecisionScope precision(bf16(), device_);
-    loss = ActorLoss(batch, lat, info);
-  }
-  std::vector<torch::Tensor> params = actor_->parameters();
-  std::vector<torch::Tensor> grads = torch::autograd::grad({loss}, params);
-  for (size_t i = 0; i < params.size(); ++i) params[i].mutable_grad() = grads[i];
-  ReduceGrads(*actor_);
-  actor_opt_->step();
-}
-
-void Trainer::UpdateTargets() {
-  Sync();
-  if (agent_) {
-    agent_->UpdateTargets();
-    return;
-  }
-  HardUpdate(*target_repr_, *repr_);
-  HardUpdate(*target_critic_, *critic_);
-  HardUpdate(*target_actor_, *actor_);
-}
-
-void Trainer::UpdatePolicyAverage() {
-  if (!ema_repr_) return;
-  // Warm-up: the plain mean of the weights of steps 0..t until that window is
-  // longer than the average's (t > decay / (1 - decay)), so the start's
-  // random weights do not linger in it.
-  const double t = static_cast<double>(step_);
-  const double decay = std::min(options_.trainer.policy_ema, t / (t + 1.0));
-  torch::NoGradGuard no_grad;
-  std::vector<torch::Tensor> avg, raw;
-  const std::vector<std::pair<torch::nn::Module*, torch::nn::Module*>> pairs{
-      {ema_repr_.get(), repr_.get()},
-      {ema_critic_.get(), critic_.get()},
-      {ema_actor_.get(), actor_.get()}};
-  for (const auto& [e, o] : pairs) {
-    for (const auto& p : e->parameters()) avg.push_back(p);
-    for (const auto& p : o->parameters()) raw.push_back(p.detach());
-    const auto eb = e->buffers();
-    const auto ob = o->buffers();
-    for (size_t i = 0; i < eb.size(); ++i) eb[i].copy_(ob[i]);
-  }
-  TORCH_CHECK(avg.size() == raw.size(), "UpdatePolicyAverage: parameter count mismatch");
-  torch::_foreach_mul_(avg, decay);
-  torch::_foreach_add_(avg, raw, 1.0 - decay);
-}
-
-Policy Trainer::MakePolicy() {
-  Sync();
-  if (agent_) return Policy(options_, agent_, device_);
-  if (ema_repr_) return Policy(options_, ema_repr_, ema_actor_, ema_critic_, device_);
-  return Policy(options_, repr_, actor_, critic_, device_);
-}
-
-// --- Ms.PR's losses on the trainer's networks (mspr_losses.h) ---------------
-
-Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& batch) {
-  Sync();
-  return Encode(batch);
-}
-
-Trainer::TransitionLatents Trainer::Encode(const TransitionBatch& batch) {
-  return mspr::EncodeTransitions(*repr_, batch);
-}
-
-Trainer::TransitionLatents Trainer::EncodeTransitionsForUpdate(const TransitionBatch& batch) {
-  PrecisionScope precision(bf16(), device_);
-  return Encode(batch);
-}
-
-torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
-  return mspr::RepresentationLoss(options_, *repr_, *target_repr_, bins_, batch, info);
-}
-
-torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
-                                  LossInfo* info) {
-  if (options_.agent.critic_grad_to_encoder && torch::GradMode::is_enabled()) {
-    return CriticLoss(batch, nullptr, noise, info);
-  }
-  const TransitionLatents lat = EncodeTransitions(batch);
-  return CriticLoss(batch, &lat, noise, info);
-}
-
-torch::Tensor Trainer::CriticTarget(const TransitionBatch& batch, const torch::Tensor& noise) {
-  MsprNetworks target{target_repr_, target_critic_, target_actor_};
-  return mspr::CriticTarget(options_.agent, target, batch, noise);
-}
-
-torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
-                                  const torch::Tensor& noise, LossInfo* info) {
-  return CriticLossFromTarget(batch, lat, CriticTarget(batch, noise), info);
-}
-
-torch::Tensor Trainer::CriticLossFromTarget(const TransitionBatch& batch,
-                                            const TransitionLatents* lat, const torch::Tensor& y,
-                                            LossInfo* info) {
-  MsprNetworks online{repr_, critic_, actor_};
-  return mspr::CriticLoss(options_.agent, online, batch, lat, y, info);
-}
-
-torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, LossInfo* info) {
-  const TransitionLatents lat = EncodeTransitions(batch);
-  return ActorLoss(batch, lat, info);
-}
-
-torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat,
-                                 LossInfo* info) {
-  MsprNetworks online{repr_, critic_, actor_};
-  return mspr::ActorLoss(options_.agent, online, batch, lat, info);
+  Batches batches(*this);
+  return agent_->Step(batches, collect_info);
 }
 
 LossInfo Trainer::ValidationLosses(const Dataset& data, int batch, uint64_t seed) {
   Sync();
-  const MsprOptions& o = options_;
-  BatchSampler sampler(data, o.relabel, o.agent.gamma, o.agent.n_step, o.representation.horizon,
-                       o.network.goal_horizon);
-  std::mt19937_64 rng(seed);
+  ValidationBatches batches(*this, data, batch, seed);
   torch::NoGradGuard no_grad;
-  LossInfo info;
-  if (agent_) {
-    agent_->Loss(
-        MakeTransitionBatch(sampler.SampleOgbenchTransitions(batch, rng, agent_->SubgoalSteps()),
-                            false, &data),
-        &info.agent);
-    return info;
-  }
-  RepresentationLoss(MakeChunkBatch(sampler.SampleChunks(batch, rng), false, &data), &info);
-  const TransitionBatch tb =
-      MakeTransitionBatch(sampler.SampleTransitions(batch, rng), false, &data);
-  CriticLoss(tb, torch::zeros({tb.action.size(0), tb.action.size(1)}), &info);
-  ActorLoss(tb, &info);
-  return info;
+  return agent_->ValidationLosses(batches);
+}
+
+TransitionBatch Trainer::SampleBaselineBatch() {
+  const std::shared_ptr<OgbenchAgent> a = agent();
+  if (!a) throw std::logic_error("Trainer::SampleBaselineBatch: Ms.PR takes no OGBench batches");
+  return Batches(*this).SampleOgbenchTransitions(a->SubgoalSteps());
+}
+
+std::shared_ptr<OgbenchAgent> Trainer::agent() {
+  Sync();
+  return std::dynamic_pointer_cast<OgbenchAgent>(agent_);
+}
+
+void Trainer::UpdateTargets() {
+  Sync();
+  agent_->UpdateTargets();
+}
+
+Policy Trainer::MakePolicy() {
+  Sync();
+  return Policy(options_, agent_, device_);
+}
+
+// --- Ms.PR's parts --------------------------------------------------------------------
+
+MsprAgent& Trainer::mspr() {
+  Sync();
+  auto* m = dynamic_cast<MsprAgent*>(agent_.get());
+  if (!m)
+    throw std::logic_error("Trainer: the " + options_.baseline.agent +
+                           " agent has no Ms.PR networks or losses");
+  return *m;
+}
+
+torch::Tensor Trainer::RepresentationLoss(const ChunkBatch& batch, LossInfo* info) {
+  return mspr().RepresentationLoss(batch, info);
+}
+
+torch::Tensor Trainer::CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
+                                  LossInfo* info) {
+  return mspr().CriticLoss(batch, noise, info);
+}
+
+torch::Tensor Trainer::ActorLoss(const TransitionBatch& batch, LossInfo* info) {
+  return mspr().ActorLoss(batch, info);
+}
+
+Trainer::TransitionLatents Trainer::EncodeTransitions(const TransitionBatch& batch) {
+  return mspr().EncodeTransitions(batch);
+}
+
+void Trainer::UpdateRepresentation(const ChunkBatch& batch, LossInfo* info) {
+  mspr().UpdateRepresentation(batch, info);
+}
+
+void Trainer::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& noise,
+                           LossInfo* info) {
+  mspr().UpdateCritic(batch, noise, info);
+}
+
+void Trainer::UpdateActor(const TransitionBatch& batch, LossInfo* info) {
+  mspr().UpdateActor(batch, info);
+}
+
+void Trainer::UpdatePolicyAverage() {
+  auto* m = dynamic_cast<MsprAgent*>(agent_.get());
+  if (m) m->UpdatePolicyAverage(step_);
 }
 
 }  // namespace core

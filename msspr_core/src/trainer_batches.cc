@@ -161,10 +161,5 @@ ChunkBatch Trainer::SampleChunks() {
   return MakeChunkBatch(sampler_->SampleChunks(local_batch(), rng_), augment);
 }
 
-TransitionBatch Trainer::SampleBaselineBatch() {
-  return MakeTransitionBatch(
-      sampler_->SampleOgbenchTransitions(local_batch(), rng_, agent_->SubgoalSteps()), false);
-}
-
 }  // namespace core
 }  // namespace msspr

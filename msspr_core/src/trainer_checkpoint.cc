@@ -88,13 +88,14 @@ void Trainer::SaveCheckpoint(const std::string& path) {
     for (int r = 1; r < dist_->world_size(); ++r)
       rank_states.push_back(dist_->Get(key + std::to_string(r)));
   }
+  const NamedModules named = agent_->CheckpointModules();
   std::vector<torch::nn::Module*> modules;
-  for (const auto& [name, m] : CheckpointModules()) modules.push_back(m);
+  for (const auto& [name, m] : named) modules.push_back(m);
   CheckFiniteWeights(modules, step_, "checkpoint " + path);
   CheckpointHeader header;
   header.options = options_;
   header.step = step_;
-  header.repr_credit = repr_credit_;
+  header.repr_credit = agent_->schedule_credit();
   std::ostringstream rng;
   rng << rng_;
   header.sampler_rng = rng.str();
@@ -104,21 +105,11 @@ void Trainer::SaveCheckpoint(const std::string& path) {
   file.version = kCheckpointFormatVersion;
   file.header = CheckpointHeaderToYaml(header);
   torch::serialize::OutputArchive archive;
-  for (const auto& [name, m] : CheckpointModules()) WriteModule(archive, name, *m);
-  if (agent_) {
+  for (const auto& [name, m] : named) WriteModule(archive, name, *m);
+  for (const auto& [name, opt] : agent_->Optimizers()) {
     torch::serialize::OutputArchive sub;
-    agent_opt_->save(sub);
-    archive.write("agent_opt", sub);
-  } else {
-    torch::serialize::OutputArchive sub;
-    repr_opt_->save(sub);
-    archive.write("repr_opt", sub);
-    torch::serialize::OutputArchive critic_sub;
-    critic_opt_->save(critic_sub);
-    archive.write("critic_opt", critic_sub);
-    torch::serialize::OutputArchive actor_sub;
-    actor_opt_->save(actor_sub);
-    archive.write("actor_opt", actor_sub);
+    opt->save(sub);
+    archive.write(name, sub);
   }
   archive.write("torch_generator", gen_.get_state());
   std::ostringstream payload;
@@ -146,18 +137,11 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(file.payload.data(), file.payload.size(), device_);
-    for (const auto& [name, m] : CheckpointModules()) ReadModule(archive, name, *m);
-    torch::serialize::InputArchive sub;
-    if (agent_) {
-      archive.read("agent_opt", sub);
-      agent_opt_->load(sub);
-    } else {
-      archive.read("repr_opt", sub);
-      repr_opt_->load(sub);
-      archive.read("critic_opt", sub);
-      critic_opt_->load(sub);
-      archive.read("actor_opt", sub);
-      actor_opt_->load(sub);
+    for (const auto& [name, m] : agent_->CheckpointModules()) ReadModule(archive, name, *m);
+    for (const auto& [name, opt] : agent_->Optimizers()) {
+      torch::serialize::InputArchive sub;
+      archive.read(name, sub);
+      opt->load(sub);
     }
     torch::Tensor gen_state;
     archive.read("torch_generator", gen_state);
@@ -182,23 +166,20 @@ void Trainer::LoadCheckpoint(const std::string& newest) {
         " ranks; resume it with --world-size " + std::to_string(header.rank_states.size()));
   }
   step_ = header.step;
-  repr_credit_ = header.repr_credit;
+  agent_->set_schedule_credit(header.repr_credit);
 }
 
 void Trainer::ExportPolicy(const std::string& path, bool raw) {
   Sync();
-  if (agent_) {
-    CheckFiniteWeights({agent_.get()}, step_, "policy export " + path);
-    WritePolicyExport(path, options_, step_, {{"agent", agent_.get()}});
-    return;
-  }
   // The moving average when there is one: what MakePolicy() evaluates.
-  const bool average = ema_repr_ && !raw;
-  torch::nn::Module* repr = average ? ema_repr_.get() : repr_.get();
-  torch::nn::Module* actor = average ? ema_actor_.get() : actor_.get();
-  torch::nn::Module* critic = average ? ema_critic_.get() : critic_.get();
-  CheckFiniteWeights({repr, actor, critic}, step_, "policy export " + path);
-  WritePolicyExport(path, options_, step_, {{"repr", repr}, {"actor", actor}, {"critic", critic}});
+  std::vector<torch::nn::Module*> modules;
+  std::vector<std::pair<std::string, const torch::nn::Module*>> named;
+  for (const auto& [name, m] : agent_->PolicyModules(raw)) {
+    modules.push_back(m);
+    named.emplace_back(name, m);
+  }
+  CheckFiniteWeights(modules, step_, "policy export " + path);
+  WritePolicyExport(path, options_, step_, named);
 }
 
 MsprOptions ReadCheckpointOptions(const std::string& newest) {

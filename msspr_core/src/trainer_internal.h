@@ -1,4 +1,5 @@
-// Helpers shared by the trainer's source files (trainer*.cc, mspr_losses.cc):
+// Helpers shared by the trainer's and Ms.PR's source files (trainer*.cc,
+// mspr_*.cc):
 // float32 casts, gradient clearing, the bf16 autocast scope, per-thread
 // OpenMP thread counts and the representation-update credit test.
 #pragma once

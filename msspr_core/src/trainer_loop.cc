@@ -1,5 +1,6 @@
 // The training loop: steps, progress, metrics.csv and eval.csv, periodic
 // evaluation, checkpoints and policy exports, time limits and stop requests.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -8,11 +9,9 @@
 
 #include "msspr_core/progress.h"
 #include "msspr_core/trainer.h"
-#include "trainer_internal.h"
 
 namespace msspr {
 namespace core {
-using namespace trainer_internal;
 
 namespace {
 
@@ -22,14 +21,15 @@ void MakeDirs(const std::string& dir) {
   if (ec) throw std::runtime_error(dir + ": cannot create directory: " + ec.message());
 }
 
-// Losses read back on a logged step; the representation terms count only when
-// a representation update ran in that step (they are NaN by design otherwise).
-void CheckFiniteLosses(const LossInfo& info, bool repr_updated, int64_t step) {
+// Losses read back on a logged step, but those the step skipped by design
+// (GcAgent::LossesSkippedByNextStep, e.g. Ms.PR's representation terms
+// without a representation update).
+void CheckFiniteLosses(const LossInfo& info, const std::vector<std::string>& skipped,
+                       int64_t step) {
   std::string bad;
   for (const auto& [name, v] : info.Named()) {
-    const bool repr_term = name != "critic" && name != "q" && name != "actor" && name != "bc";
-    if (!std::isfinite(v) && (repr_updated || !repr_term))
-      bad += " " + name + "=" + std::to_string(v);
+    const bool was_skipped = std::find(skipped.begin(), skipped.end(), name) != skipped.end();
+    if (!std::isfinite(v) && !was_skipped) bad += " " + name + "=" + std::to_string(v);
   }
   if (!bad.empty())
     throw std::runtime_error("training diverged: non-finite loss at step " + std::to_string(step) +
@@ -52,7 +52,7 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
   const TrainerOptions& t = options_.trainer;
   const int64_t total = t.steps;
   std::unique_ptr<CsvWriter> metrics_csv, eval_csv;
-  const LossInfo names = EmptyLossInfo();
+  const LossInfo names = agent_->NoLosses();
   // Data-parallel: rank 0 alone writes, logs and evaluates.
   const bool writer = rank() == 0;
   const bool quiet = loop.quiet || !writer;
@@ -118,34 +118,14 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
     // representation updates just before them.
     const int64_t next = step_ + 1;
     const bool logged = t.log_every > 0 && (next % t.log_every == 0 || next == total);
-    const bool repr_updated = agent_ || ReprUpdateDue(options_.representation.updates_per_step);
-    const LossInfo info = Step(logged || (!agent_ && std::isnan(last.repr)));
-    if (logged) CheckFiniteLosses(info, repr_updated, step_);
-    // Keep the last representation losses on steps without a representation update.
-    LossInfo merged = info;
-    if (!agent_ && std::isnan(info.repr)) {
-      merged.repr = last.repr;
-      merged.dyn = last.dyn;
-      merged.rew = last.rew;
-      merged.inv = last.inv;
-      merged.goal_dyn = last.goal_dyn;
-      merged.goal_act = last.goal_act;
-    }
+    const std::vector<std::string> skipped = agent_->LossesSkippedByNextStep();
+    const LossInfo info = Step(logged || agent_->NeedsLosses(last));
+    if (logged) CheckFiniteLosses(info, skipped, step_);
+    // What the step skipped (e.g. Ms.PR's representation losses) from the last steps.
+    const LossInfo merged = agent_->CarryOverLosses(info, last);
     last = merged;
     if (t.log_every > 0 && (step_ % t.log_every == 0 || step_ == total)) {
-      if (!quiet) {
-        if (agent_) {
-          // The agent's first four values (its main losses).
-          auto named = merged.Named();
-          if (named.size() > 4) named.resize(4);
-          bar.Update(step_, named);
-        } else {
-          bar.Update(step_, {{"critic", merged.critic},
-                             {"actor", merged.actor},
-                             {"repr", merged.repr},
-                             {"q", merged.q_mean}});
-        }
-      }
+      if (!quiet) bar.Update(step_, agent_->ProgressValues(merged));
       if (metrics_csv) {
         const double wall =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -161,7 +141,7 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
     }
     if (writer && !loop.out_dir.empty() && t.export_every > 0 && step_ % t.export_every == 0) {
       ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + ".pt");
-      if (ema_repr_)
+      if (agent_->HasRawPolicy())
         ExportPolicy(loop.out_dir + "/policy_step" + std::to_string(step_) + "_raw.pt", true);
     }
   }
@@ -172,7 +152,7 @@ TrainEnd Trainer::Train(const TrainLoopOptions& loop, const Evaluator& evaluator
   if (!loop.out_dir.empty()) {
     SaveCheckpoint(loop.out_dir + "/checkpoint.ckpt");
     if (writer) ExportPolicy(loop.out_dir + "/policy.pt");
-    if (writer && ema_repr_) ExportPolicy(loop.out_dir + "/policy_raw.pt", true);
+    if (writer && agent_->HasRawPolicy()) ExportPolicy(loop.out_dir + "/policy_raw.pt", true);
   }
   if (writer) NotifyEvalWritten(loop);
   if (dist_ && step_ > first_step) {

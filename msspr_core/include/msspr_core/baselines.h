@@ -2,8 +2,10 @@
 // GCIQL, QRL, CRL and HIQL (docs/baselines.md, the facts of
 // github.com/seohongpark/ogbench impls/agents/*.py). They share Ms.PR's
 // dataset, relabelling (BatchSampler::SampleOgbenchTransitions), trainer
-// loop, checkpoints, export and Policy; each agent here holds only its
-// networks, its losses and its acting rule. State observations only.
+// loop, checkpoints, export and Policy through the GcAgent interface
+// (gc_agent.h); OgbenchAgent implements it once for all six, and each agent
+// here adds only its networks, its losses and its acting rule. State
+// observations only.
 //
 // Conventions, as OGBench:
 // - MLPs: Linear -> GELU (tanh approximation) -> LayerNorm (eps 1e-6) per
@@ -13,7 +15,8 @@
 //   - 0.5 D log(2 pi); acting uses the mean, clipped to [-1, 1].
 // - "Frozen" networks are evaluated with their current weights and pass no
 //   gradient to them; targets are Polyak averages (baseline.tau).
-// - One scalar loss (the sum of the agent's losses) per step.
+// - One scalar loss (the sum of the agent's losses) and one Adam step (no
+//   weight decay, all parameters but the targets') per training step.
 #pragma once
 
 #include <torch/torch.h>
@@ -24,6 +27,7 @@
 #include <vector>
 
 #include "msspr_core/batches.h"
+#include "msspr_core/gc_agent.h"
 #include "msspr_core/options.h"
 
 namespace msspr {
@@ -64,31 +68,19 @@ torch::Tensor ExpectileWeight(const torch::Tensor& adv, double expectile);
 torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_t k,
                           const torch::Tensor& alpha_raw);
 
-// The interface of every baseline agent.
-class GcAgentImpl : public torch::nn::Module {
+// What the six baseline agents share: a training step is one Adam step on
+// Loss over a batch of BatchSampler::SampleOgbenchTransitions followed by
+// UpdateTargets; checkpoints and exports hold the whole agent under the key
+// "agent" and its optimiser under "agent_opt".
+class OgbenchAgent : public GcAgent {
  public:
-  explicit GcAgentImpl(const MsprOptions& options);
-  ~GcAgentImpl() override = default;
+  explicit OgbenchAgent(const MsprOptions& options);
+  ~OgbenchAgent() override = default;
 
-  const std::string& agent_name() const { return options_.baseline.agent; }
-  // Names of the values Loss reports, in order (the columns of metrics.csv).
-  virtual std::vector<std::string> LossNames() const = 0;
   // The sum of the agent's losses on a batch of
   // BatchSampler::SampleOgbenchTransitions (ret = reward, discount = gamma *
   // mask). Fills `info` (LossNames order) when not null.
   virtual torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) = 0;
-  // Polyak update of the target networks (none for gcbc, qrl, crl).
-  virtual void UpdateTargets() {}
-  // Deterministic action: obs, goal [B, obs_dim] -> [B, action_dim] in [-1, 1].
-  virtual torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) = 0;
-  // Whether Value is defined (all but gcbc).
-  virtual bool has_value() const { return true; }
-  // The agent's value estimate of (s, a, g) as [B, 2] (two heads, or one
-  // repeated): Q ensembles for gciql; V(s, g) for gcivl and hiql (the action
-  // is ignored); -d(s', g) with the latent dynamics for qrl; the contrastive
-  // logit for crl. Only gcivl, gciql and hiql are in return units.
-  virtual torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
-                              const torch::Tensor& goal);
   // How many steps ahead the batch's subgoals lie (HIQL's k; 0: the agent
   // needs none, and the trainer samples no subgoals).
   virtual int SubgoalSteps() const { return 0; }
@@ -96,6 +88,21 @@ class GcAgentImpl : public torch::nn::Module {
   std::vector<torch::Tensor> TrainableParameters();
   // The target networks (empty when none), for checks.
   virtual std::vector<torch::nn::Module*> Targets() { return {}; }
+  // Moves the agent to `device` and builds its optimiser (MakeGcAgent).
+  void PrepareTraining(torch::Device device);
+
+  // GcAgent. UpdateTargets: the Polyak update of the target networks
+  // (none for gcbc, qrl, crl). Act: the mean action clipped to [-1, 1].
+  // Value [B, 2] (two heads, or one repeated): Q ensembles for gciql;
+  // V(s, g) for gcivl and hiql (the action is ignored); -d(s', g) with the
+  // latent dynamics for qrl; the contrastive logit for crl; none for gcbc.
+  // Only gcivl, gciql and hiql are in return units.
+  LossInfo Step(TrainingContext& context, bool collect_info) override;
+  LossInfo ValidationLosses(BatchSource& batches) override;
+  NamedModules CheckpointModules() override { return {{"agent", this}}; }
+  NamedOptimizers Optimizers() override { return {{"agent_opt", optimizer_.get()}}; }
+  NamedModules PolicyModules(bool) override { return {{"agent", this}}; }
+  void ReadPolicy(torch::serialize::InputArchive& archive, bool trainer_checkpoint) override;
 
  protected:
   // Polyak average target <- tau * online + (1 - tau) * target.
@@ -111,21 +118,27 @@ class GcAgentImpl : public torch::nn::Module {
   torch::Tensor DdpgBcLoss(const torch::Tensor& q, const torch::Tensor& log_prob,
                            NamedValues* info);
 
-  MsprOptions options_;
   int64_t obs_dim_, action_dim_;
+
+ private:
+  // OGBench: one Adam (no weight decay) over the trainable parameters.
+  std::unique_ptr<torch::optim::Adam> optimizer_;
 };
+
+// The former name of OgbenchAgent (before Ms.PR implemented GcAgent too).
+using GcAgentImpl = OgbenchAgent;
 
 // Builds the agent named by options.baseline.agent (not "mspr") on the CPU.
 // Throws OptionsError for an unknown name or a pixels configuration.
-std::shared_ptr<GcAgentImpl> MakeAgent(const MsprOptions& options);
+std::shared_ptr<OgbenchAgent> MakeAgent(const MsprOptions& options);
 
 // --- The agents (public for tests) --------------------------------------------
 
 // The agents with one actor pi(a | [s, g]) (all but HIQL): they act with its
 // mean, clipped to [-1, 1].
-class GcActorAgent : public GcAgentImpl {
+class GcActorAgent : public OgbenchAgent {
  public:
-  using GcAgentImpl::GcAgentImpl;
+  using OgbenchAgent::OgbenchAgent;
   torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
 
   GaussianActor actor{nullptr};  // "actor": pi(a | [s, g])
@@ -214,7 +227,7 @@ class CrlAgent : public GcActorAgent {
   OgMlp psi1{nullptr}, psi2{nullptr};  // psi_e(g)
 };
 
-class HiqlAgent : public GcAgentImpl {
+class HiqlAgent : public OgbenchAgent {
  public:
   explicit HiqlAgent(const MsprOptions& o);
   std::vector<std::string> LossNames() const override {

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "msspr_core/baselines.h"
+#include "msspr_core/gc_agent.h"
 #include "msspr_core/networks.h"
 #include "msspr_core/options.h"
 
@@ -31,11 +31,12 @@ void AveragePolicies(const std::vector<std::string>& inputs, const std::string& 
 
 class Policy {
  public:
-  // Shares the given networks (no copy); they must be on `device`.
+  // The policy of an agent (options.baseline.agent names it: Ms.PR or a
+  // baseline); shares it (no copy). It must be on `device`.
+  Policy(const MsprOptions& options, std::shared_ptr<GcAgent> agent, torch::Device device);
+  // A Ms.PR policy sharing the given networks (no copy); they must be on `device`.
   Policy(const MsprOptions& options, Representation repr, Actor actor, Critic critic,
          torch::Device device);
-  // A baseline agent's policy (options.baseline.agent names it); shares it.
-  Policy(const MsprOptions& options, std::shared_ptr<GcAgentImpl> agent, torch::Device device);
 
   // Loads an inference export (Trainer::ExportPolicy) or a full trainer
   // checkpoint onto `device` (of a run with trainer.policy_ema: its moving
@@ -52,15 +53,15 @@ class Policy {
   std::vector<float> Act(const std::vector<float>& obs, const std::vector<float>& goal);
   // Twin Q values: obs, goal as in Act; action [B, action_dim] or
   // [action_dim] -> [B, 2] or [2] float32 (returns in [-1/(1-gamma), 0]).
-  // Baseline agents: GcAgentImpl::Value (see there for the units); throws
-  // std::logic_error when has_value() is false (gcbc).
+  // Baseline agents: GcAgent::Value (see OgbenchAgent for the units);
+  // throws std::logic_error when has_value() is false (gcbc).
   torch::Tensor Q(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal);
 
   const MsprOptions& options() const { return options_; }
   // "mspr" or the baseline agent's name (gcbc, gcivl, gciql, qrl, crl, hiql).
   const std::string& agent_name() const { return options_.baseline.agent; }
   // Whether Q gives a value estimate (false for gcbc).
-  bool has_value() const { return !agent_ || agent_->has_value(); }
+  bool has_value() const { return agent_->has_value(); }
   bool pixels() const { return options_.network.obs_mode == "pixels"; }
   int obs_dim() const { return options_.network.obs_dim; }
   int action_dim() const { return options_.network.action_dim; }
@@ -69,22 +70,20 @@ class Policy {
   // built on live networks.
   int64_t step() const { return step_; }
 
-  // Ms.PR's networks (empty modules for a baseline agent).
-  Representation& repr() { return repr_; }
-  Actor& actor() { return actor_; }
-  Critic& critic() { return critic_; }
-  // The baseline agent, or null for Ms.PR.
-  std::shared_ptr<GcAgentImpl> agent() { return agent_; }
+  // Ms.PR's networks (MsprAgent::policy_networks); std::logic_error for a
+  // baseline agent.
+  Representation& repr();
+  Actor& actor();
+  Critic& critic();
+  // The agent.
+  std::shared_ptr<GcAgent> agent() { return agent_; }
 
  private:
   // Adds the batch dim when missing; returns whether it was added.
   bool Batch(torch::Tensor* obs) const;
 
   MsprOptions options_;
-  Representation repr_;
-  Actor actor_;
-  Critic critic_;
-  std::shared_ptr<GcAgentImpl> agent_;
+  std::shared_ptr<GcAgent> agent_;
   torch::Device device_;
   int64_t step_ = 0;
 };

@@ -1,6 +1,8 @@
-// Ms.PR training (Algorithm 1 of the paper, docs/method.md): representation
-// unroll loss (Eq. 1), n-step TD3 critic (Eq. 2) and TD3+BC actor (Eq. 3),
-// hard target copies every K steps, checkpoints that resume exactly.
+// The trainer of every agent (gc_agent.h): Ms.PR (Algorithm 1 of the paper,
+// docs/method.md; mspr_agent.h) or one of OGBench's baselines (baselines.h).
+// It owns the data, the batch builder and its random streams, the step
+// count, the data-parallel group, the training loop and checkpoints that
+// resume exactly; the agent owns its networks, optimisers and step schedule.
 #pragma once
 
 #include <torch/torch.h>
@@ -21,6 +23,8 @@
 #include "msspr_core/batches.h"
 #include "msspr_core/dataset.h"
 #include "msspr_core/distributed.h"
+#include "msspr_core/gc_agent.h"
+#include "msspr_core/mspr_agent.h"
 #include "msspr_core/mspr_losses.h"
 #include "msspr_core/networks.h"
 #include "msspr_core/options.h"
@@ -57,16 +61,15 @@ struct TrainLoopOptions {
 // Why Train returned.
 enum class TrainEnd { kSteps, kTimeLimit, kStopRequested };
 
-// Trains Ms.PR, or the baseline agent named by options.baseline.agent
-// (baselines.h): then Step() is one Adam step on the agent's summed losses
-// over a batch of BatchSampler::SampleOgbenchTransitions followed by its
-// target update, and the Ms.PR accessors (repr(), critic(), ...) return
-// empty modules; the loop, checkpoints, export and Policy are shared.
+// Trains the agent named by options.baseline.agent: Ms.PR ("mspr") or a
+// baseline (baselines.h). The loop, checkpoints, export and Policy are the
+// same for all; the Ms.PR parts below (losses, single updates, networks)
+// forward to its MsprAgent and throw std::logic_error for a baseline.
 class Trainer {
  public:
   // Fills network.obs_dim / action_dim / image sizes from `data` where 0,
   // validates the options, seeds torch and the sampler with trainer.seed and
-  // builds the networks on trainer.device. Throws OptionsError.
+  // builds the agent on trainer.device. Throws OptionsError.
   Trainer(const MsprOptions& options, std::shared_ptr<const Dataset> data);
   ~Trainer();  // waits for a pipelined update still running
   Trainer(const Trainer&) = delete;
@@ -76,26 +79,28 @@ class Trainer {
   int64_t step() const { return step_; }
   torch::Device device() const { return device_; }
 
-  // One step of Algorithm 1: target copy when step % K == 0, representation
-  // updates (updates_per_step, fractions accumulate), one critic and one
-  // actor update. Returns the losses of this step (all NaN when
-  // collect_info is false: no device-to-host reads, which sync a GPU).
-  // With trainer.pipeline active and collect_info false, the step's
-  // actor-critic update may still run on the worker thread when Step
-  // returns: it overlaps the next step's representation update, and every
-  // other member function (and the destructor) waits for it first. With
-  // agent.critic_grad_to_encoder the critic update is done when Step returns
-  // and the actor update is deferred to the next step's worker (Sync() runs
-  // it when anything else comes first). The results are those of the
-  // sequential schedule.
+  // One training step of the agent (GcAgent::Step): for Ms.PR, target copy
+  // when step % K == 0, representation updates (updates_per_step, fractions
+  // accumulate), one critic and one actor update; for a baseline, one Adam
+  // step on its summed losses over a batch of
+  // BatchSampler::SampleOgbenchTransitions and its target update. Returns
+  // the losses of this step (all NaN when collect_info is false: no
+  // device-to-host reads, which sync a GPU). With Ms.PR's trainer.pipeline
+  // active and collect_info false, the step's actor-critic update may still
+  // run on the worker thread when Step returns: it overlaps the next step's
+  // representation update, and every other member function (and the
+  // destructor) waits for it first. With agent.critic_grad_to_encoder the
+  // critic update is done when Step returns and the actor update is
+  // deferred to the next step's worker (Sync() runs it when anything else
+  // comes first). The results are those of the sequential schedule.
   LossInfo Step(bool collect_info = true);
   // Whether Step runs pipelined (trainer.pipeline, the device, the thread
   // count: see TrainerOptions::pipeline).
-  bool pipelined() const;
+  bool pipelined() const { return agent_->Pipelined(); }
   // Waits for a pipelined actor-critic update still running, and runs a
   // deferred actor update (rethrows their exception). Called by every member
   // function that reads the networks.
-  void Sync();
+  void Sync() { agent_->Sync(); }
 
   // Runs Step() until options().trainer.steps with progress, CSV and the
   // evaluator every trainer.eval_every steps (and at the end), or until the
@@ -105,6 +110,8 @@ class Trainer {
   // Batches drawn with the trainer's sampler RNG.
   TransitionBatch SampleTransitions();
   ChunkBatch SampleChunks();
+  // A batch of OGBench 1-step transitions for the baseline agent.
+  TransitionBatch SampleBaselineBatch();
   // Gathers indexed steps of `data` (the training set when null) into tensors
   // on the trainer's device. augment (pixels): with probability augment_prob
   // (one draw per batch, as OGBench) every sample gets one random shift of up
@@ -118,71 +125,52 @@ class Trainer {
   // with a generator seeded by `seed`. Needs the same observation layout.
   LossInfo ValidationLosses(const Dataset& data, int batch, uint64_t seed);
 
+  // The agent.
+  GcAgent& gc_agent() {
+    Sync();
+    return *agent_;
+  }
+  // The baseline agent (null when training Ms.PR).
+  std::shared_ptr<OgbenchAgent> agent();
+  bool baseline() const { return options_.baseline.agent != "mspr"; }
+  // Target network update (GcAgent::UpdateTargets; for Ms.PR a hard copy
+  // online -> target of encoders, critic and actor).
+  void UpdateTargets();
+
+  // --- Ms.PR's parts (MsprAgent; std::logic_error for a baseline) ------------
   // Losses (scalar tensors with graph); fill `info` when not null.
   torch::Tensor RepresentationLoss(const ChunkBatch& batch, LossInfo* info = nullptr);
   // noise: [B, action_dim] N(0, 1) draws, scaled by target_noise and clipped here.
   torch::Tensor CriticLoss(const TransitionBatch& batch, const torch::Tensor& noise,
                            LossInfo* info = nullptr);
   torch::Tensor ActorLoss(const TransitionBatch& batch, LossInfo* info = nullptr);
-
   // Online-encoder latents of a transition batch (no gradient), shared by
   // the critic and the actor update of a step.
   using TransitionLatents = mspr::TransitionLatents;
   TransitionLatents EncodeTransitions(const TransitionBatch& batch);
-
-  // Single updates (used by Step; public for tests).
+  // Single updates (Step's parts; public for tests).
   void UpdateRepresentation(const ChunkBatch& batch, LossInfo* info = nullptr);
   void UpdateCritic(const TransitionBatch& batch, const torch::Tensor& noise,
                     LossInfo* info = nullptr);
   void UpdateActor(const TransitionBatch& batch, LossInfo* info = nullptr);
-  // Hard copy online -> target for encoders, critic and actor.
-  void UpdateTargets();
   // One step of the policy's moving average (trainer.policy_ema > 0).
   void UpdatePolicyAverage();
+  // Ms.PR's agent.
+  MsprAgent& mspr();
+  // Networks: online, target, and the moving average of the policy's
+  // networks (trainer.policy_ema > 0, else null holders).
+  Representation& repr() { return mspr().online().repr; }
+  Critic& critic() { return mspr().online().critic; }
+  Actor& actor() { return mspr().online().actor; }
+  Representation& target_repr() { return mspr().target().repr; }
+  Critic& target_critic() { return mspr().target().critic; }
+  Actor& target_actor() { return mspr().target().actor; }
+  Representation& ema_repr() { return mspr().average().repr; }
+  Critic& ema_critic() { return mspr().average().critic; }
+  Actor& ema_actor() { return mspr().average().actor; }
 
-  // Networks (online and target).
-  Representation& repr() {
-    Sync();
-    return repr_;
-  }
-  Critic& critic() {
-    Sync();
-    return critic_;
-  }
-  Actor& actor() {
-    Sync();
-    return actor_;
-  }
-  Representation& target_repr() {
-    Sync();
-    return target_repr_;
-  }
-  Critic& target_critic() {
-    Sync();
-    return target_critic_;
-  }
-  Actor& target_actor() {
-    Sync();
-    return target_actor_;
-  }
-
-  // The moving average of the policy's networks (trainer.policy_ema > 0),
-  // else null holders.
-  Representation& ema_repr() {
-    Sync();
-    return ema_repr_;
-  }
-  Critic& ema_critic() {
-    Sync();
-    return ema_critic_;
-  }
-  Actor& ema_actor() {
-    Sync();
-    return ema_actor_;
-  }
-
-  // A Policy sharing the networks the exports write (no copy): the online
-  // ones, or their moving average when trainer.policy_ema > 0.
+  // A Policy sharing the agent's networks the exports write (no copy): for
+  // Ms.PR the online ones, or their moving average when trainer.policy_ema > 0.
   Policy MakePolicy();
 
   // Data-parallel training (distributed.h): this trainer becomes one rank of
@@ -200,78 +188,33 @@ class Trainer {
   // The batch this rank samples per step.
   int local_batch() const;
 
-  // The baseline agent (null when training Ms.PR).
-  std::shared_ptr<GcAgentImpl> agent() {
-    Sync();
-    return agent_;
-  }
-  bool baseline() const { return agent_ != nullptr; }
-  // A batch of OGBench 1-step transitions for the baseline agent.
-  TransitionBatch SampleBaselineBatch();
-
   // Full training state, written atomically (temp file + rename): header
-  // (magic, version, options as YAML, step), networks, targets, optimisers,
-  // torch generator and sampler RNG. Throws CheckpointError naming the file.
+  // (magic, version, options as YAML, step), the agent's networks, targets
+  // and optimisers (GcAgent::CheckpointModules, Optimizers), torch generator
+  // and sampler RNG. Throws CheckpointError naming the file.
   void SaveCheckpoint(const std::string& path);
   // Restores a checkpoint written by SaveCheckpoint of a trainer built with
   // the same network options; the next Step() equals the uninterrupted one.
   // Throws CheckpointError naming the file on a truncated or foreign file.
   void LoadCheckpoint(const std::string& path);
-  // Inference export (encoders, goal head, actor, critic) for Policy::Load.
-  // Throws std::runtime_error, writing nothing, when a weight is NaN or Inf.
-  // With trainer.policy_ema > 0 it writes the moving average, or the raw
-  // online weights when raw is true.
+  // Inference export (GcAgent::PolicyModules) for Policy::Load. Throws
+  // std::runtime_error, writing nothing, when a weight is NaN or Inf. With
+  // trainer.policy_ema > 0 it writes the moving average, or the raw online
+  // weights when raw is true.
   void ExportPolicy(const std::string& path, bool raw = false);
 
  private:
+  class Batches;  // the training batches and noise (TrainingContext)
+  class ValidationBatches;
+
   torch::Tensor GatherObs(const Dataset& data, const std::vector<int64_t>& idx) const;
   // Augmentation draws for a batch: empty (no augmentation this batch) or
   // one (dy, dx) per sample.
   std::vector<std::pair<int, int>> DrawShifts(int64_t batch);
-  bool bf16() const;
-  // Whether the accumulated representation credit (plus `extra_credit`, the
-  // credit the next step adds) calls for a representation update.
-  bool ReprUpdateDue(double extra_credit = 0.0) const;
-  // EncodeTransitions without Sync (the worker thread calls it).
-  TransitionLatents Encode(const TransitionBatch& batch);
-  // The representation loss and its backward (no optimiser step).
-  void RepresentationBackward(const ChunkBatch& batch, LossInfo* info);
-  // Encode under trainer.precision, as the updates use it.
-  TransitionLatents EncodeTransitionsForUpdate(const TransitionBatch& batch);
-  // lat null: the critic's gradient reaches the encoders.
-  torch::Tensor CriticLoss(const TransitionBatch& batch, const TransitionLatents* lat,
-                           const torch::Tensor& noise, LossInfo* info);
-  // The TD target y [B] (target networks only, no gradient), and the critic
-  // loss against a given y.
-  torch::Tensor CriticTarget(const TransitionBatch& batch, const torch::Tensor& noise);
-  torch::Tensor CriticLossFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
-                                     const torch::Tensor& y, LossInfo* info);
-  torch::Tensor ActorLoss(const TransitionBatch& batch, const TransitionLatents& lat,
-                          LossInfo* info);
-  void UpdateCritic(const TransitionBatch& batch, const TransitionLatents* lat,
-                    const torch::Tensor& noise, LossInfo* info);
-  // The critic update against a TD target computed beforehand (its
-  // precision scope: trainer.precision).
-  void UpdateCriticFromTarget(const TransitionBatch& batch, const TransitionLatents* lat,
-                              const torch::Tensor& y, LossInfo* info);
-  // Starts `task` on the worker thread (created on first use) with `threads`
-  // torch threads; waits for the previous task first.
-  void RunOnWorker(int threads, std::function<void()> task);
-  // The pipelined step when the critic's gradient reaches the encoders.
-  LossInfo CriticGradPipelinedStep(bool collect_info, int worker_threads);
-  void UpdateActor(const TransitionBatch& batch, const TransitionLatents& lat, LossInfo* info);
   torch::Tensor ToDevice(const torch::Tensor& cpu) const;
-  // The baseline agent's step (Step when agent_ is set).
-  LossInfo BaselineStep(bool collect_info);
-  // A LossInfo with this trainer's loss names, all NaN.
-  LossInfo EmptyLossInfo() const;
-  // Averages the gradients of `module` over the ranks (no-op without a group).
-  void ReduceGrads(torch::nn::Module& module);
   // This rank's random state as text (sampler RNG, torch generator) and back.
   std::string RandomStateText();
   void RestoreRandomState(const std::string& text, const std::string& path);
-  // The modules a checkpoint holds (name, module), targets included.
-  std::vector<std::pair<std::string, torch::nn::Module*>> CheckpointModules();
 
   MsprOptions options_;
   std::shared_ptr<const Dataset> data_;
@@ -280,29 +223,8 @@ class Trainer {
   std::mt19937_64 rng_;   // batch sampling and augmentation
   torch::Generator gen_;  // target policy noise (CPU)
   int64_t step_ = 0;
-  double repr_credit_ = 0.0;  // accumulated fractional representation updates
-  torch::Tensor bins_;        // [num_bins] float32 on device
-
-  Representation repr_{nullptr}, target_repr_{nullptr};
-  Critic critic_{nullptr}, target_critic_{nullptr};
-  Actor actor_{nullptr}, target_actor_{nullptr};
-  // trainer.policy_ema > 0: the exported moving average (else null).
-  Representation ema_repr_{nullptr};
-  Critic ema_critic_{nullptr};
-  Actor ema_actor_{nullptr};
-  std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
-  std::shared_ptr<GcAgentImpl> agent_;  // baseline agent, or null (Ms.PR)
-  std::unique_ptr<torch::optim::Adam> agent_opt_;
   std::shared_ptr<Distributed> dist_;  // data-parallel group, or null
-  // Pipelined with agent.critic_grad_to_encoder: the actor update of the
-  // last step, deferred so that the worker runs it beside the next step's
-  // representation update; Sync() runs it when anything else comes first.
-  std::optional<TransitionBatch> pending_actor_;
-  int pending_threads_ = 1;      // the worker's torch threads for it
-  torch::Tensor worker_target_;  // the TD target the worker computed
-  // The pipelined actor-critic update's thread (trainer.pipeline); created
-  // on first use. Last member: destroyed (and joined) first.
-  std::unique_ptr<AsyncWorker> worker_;
+  std::shared_ptr<GcAgent> agent_;     // last member: destroyed (and its worker joined) first
 };
 
 // Reads the options stored in a checkpoint's (or policy export's) header.

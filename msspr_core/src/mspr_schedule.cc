@@ -1,4 +1,4 @@
-// The trainer's step schedules: the sequential step, the pipelined step
+// Ms.PR's step schedules: the sequential step, the pipelined step
 // (actor-critic update on a worker thread beside the representation update)
 // and its variant with the critic's gradient into the encoders.
 #include <ATen/Parallel.h>
@@ -7,24 +7,24 @@
 #include <optional>
 
 #include "async_worker.h"
-#include "msspr_core/trainer.h"
+#include "msspr_core/mspr_agent.h"
 #include "trainer_internal.h"
 
 namespace msspr {
 namespace core {
 using namespace trainer_internal;
 
-bool Trainer::ReprUpdateDue(double extra_credit) const {
+bool MsprAgent::ReprUpdateDue(double extra_credit) const {
   return CreditDue(repr_credit_ + extra_credit);
 }
 
-bool Trainer::pipelined() const {
+bool MsprAgent::Pipelined() const {
   const std::string& p = options_.trainer.pipeline;
-  if (p == "off" || !device_.is_cpu() || agent_ || dist_) return false;
+  if (p == "off" || !device_.is_cpu() || distributed()) return false;
   return p == "on" || at::get_num_threads() >= 2;
 }
 
-void Trainer::Sync() {
+void MsprAgent::Sync() {
   if (!worker_) return;
   worker_->Wait();
   if (!pending_actor_) return;
@@ -32,13 +32,12 @@ void Trainer::Sync() {
   // the worker with its thread count, as the next step would have.
   TransitionBatch batch = std::move(*pending_actor_);
   pending_actor_.reset();
-  RunOnWorker(pending_threads_, [this, b = std::move(batch)] {
-    UpdateActor(b, EncodeTransitionsForUpdate(b), nullptr);
-  });
+  RunOnWorker(pending_threads_,
+              [this, b = std::move(batch)] { UpdateActor(b, EncodeForUpdate(b), nullptr); });
   worker_->Wait();
 }
 
-void Trainer::RunOnWorker(int threads, std::function<void()> task) {
+void MsprAgent::RunOnWorker(int threads, std::function<void()> task) {
   if (!worker_) worker_ = std::make_unique<AsyncWorker>();
   worker_->Run([threads, task = std::move(task)] {
     // Torch's per-thread setup first (it sets the thread's count to the
@@ -49,7 +48,7 @@ void Trainer::RunOnWorker(int threads, std::function<void()> task) {
   });
 }
 
-Trainer::~Trainer() {
+MsprAgent::~MsprAgent() {
   if (!worker_) return;
   try {
     worker_->Wait();
@@ -58,20 +57,18 @@ Trainer::~Trainer() {
   }
 }
 
-LossInfo Trainer::Step(bool collect_info) {
-  if (agent_) return BaselineStep(collect_info);
+LossInfo MsprAgent::Step(TrainingContext& context, bool collect_info) {
   LossInfo info;
   LossInfo* out = collect_info ? &info : nullptr;
   // Pipelined: this thread keeps ceil(n / 2) of torch's n threads for the
   // representation update, the worker gets the rest for the actor-critic one.
-  const bool pipe = pipelined();
+  const bool pipe = Pipelined();
   const int threads = at::get_num_threads();
   const int worker_threads = std::max(1, threads / 2);
   const ThreadCountScope main_threads(pipe ? std::max(1, threads - threads / 2) : 0);
   if (pipe && options_.agent.critic_grad_to_encoder)
-    return CriticGradPipelinedStep(collect_info, worker_threads);
-  ++step_;
-  if (step_ % options_.agent.target_update_every == 0) {
+    return CriticGradPipelinedStep(context, collect_info, worker_threads);
+  if (context.step() % options_.agent.target_update_every == 0) {
     Sync();
     UpdateTargets();
   }
@@ -79,19 +76,17 @@ LossInfo Trainer::Step(bool collect_info) {
   while (ReprUpdateDue()) {
     // The previous step's actor-critic update reads the encoders while this
     // forward and backward run; the optimiser step waits for it.
-    RepresentationBackward(SampleChunks(), out);
+    RepresentationBackward(context.SampleChunks(), out);
     Sync();
-    ReduceGrads(*repr_);
-    repr_opt_->step();
+    StepRepresentation();
     repr_credit_ -= 1.0;
   }
-  TransitionBatch batch = SampleTransitions();
-  torch::Tensor noise =
-      torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+  TransitionBatch batch = context.SampleTransitions();
+  torch::Tensor noise = context.Noise(batch.action.size(0), batch.action.size(1));
   Sync();
   // Every update so far is done (this step's representation update, the
   // previous step's actor and critic): the average takes them in.
-  UpdatePolicyAverage();
+  UpdatePolicyAverage(context.step());
   if (options_.agent.critic_grad_to_encoder) {
     // The critic update changes the encoders: the actor re-encodes.
     UpdateCritic(batch, noise, out);
@@ -101,7 +96,7 @@ LossInfo Trainer::Step(bool collect_info) {
   // The encoders are not changed by the critic update, so the critic and the
   // actor share one encoding of the batch.
   auto actor_critic = [this](const TransitionBatch& b, const torch::Tensor& n, LossInfo* o) {
-    const TransitionLatents lat = EncodeTransitionsForUpdate(b);
+    const mspr::TransitionLatents lat = EncodeForUpdate(b);
     UpdateCritic(b, &lat, n, o);
     UpdateActor(b, lat, o);
   };
@@ -123,42 +118,40 @@ LossInfo Trainer::Step(bool collect_info) {
 // representation update; the representation optimiser waits for them. The
 // random draws come in the sequential order (chunks, transitions, noise), so
 // the weights are the sequential schedule's bit for bit.
-LossInfo Trainer::CriticGradPipelinedStep(bool collect_info, int worker_threads) {
+LossInfo MsprAgent::CriticGradPipelinedStep(TrainingContext& context, bool collect_info,
+                                            int worker_threads) {
   LossInfo info;
   LossInfo* out = collect_info ? &info : nullptr;
-  ++step_;
-  if (step_ % options_.agent.target_update_every == 0) {
+  if (context.step() % options_.agent.target_update_every == 0) {
     Sync();  // runs a deferred actor update first
     UpdateTargets();
   }
   repr_credit_ += options_.representation.updates_per_step;
   std::vector<ChunkBatch> chunks;
   for (double credit = repr_credit_; CreditDue(credit); credit -= 1.0)
-    chunks.push_back(SampleChunks());
-  TransitionBatch batch = SampleTransitions();
-  torch::Tensor noise =
-      torch::randn({batch.action.size(0), batch.action.size(1)}, gen_, torch::kFloat32);
+    chunks.push_back(context.SampleChunks());
+  TransitionBatch batch = context.SampleTransitions();
+  torch::Tensor noise = context.Noise(batch.action.size(0), batch.action.size(1));
   std::optional<TransitionBatch> actor_batch = std::move(pending_actor_);
   pending_actor_.reset();
   RunOnWorker(worker_threads, [this, actor_batch = std::move(actor_batch), batch, noise] {
-    if (actor_batch) UpdateActor(*actor_batch, EncodeTransitionsForUpdate(*actor_batch), nullptr);
+    if (actor_batch) UpdateActor(*actor_batch, EncodeForUpdate(*actor_batch), nullptr);
     PrecisionScope precision(bf16(), device_);
-    worker_target_ = CriticTarget(batch, noise);
+    worker_target_ = mspr::CriticTarget(options_.agent, target_, batch, noise);
   });
   for (const ChunkBatch& c : chunks) {
     RepresentationBackward(c, out);
     worker_->Wait();  // the actor update read the encoders
-    ReduceGrads(*repr_);
-    repr_opt_->step();
+    StepRepresentation();
     repr_credit_ -= 1.0;
   }
   worker_->Wait();
   const torch::Tensor y = std::move(worker_target_);
   worker_target_ = torch::Tensor();
-  UpdatePolicyAverage();
+  UpdatePolicyAverage(context.step());
   UpdateCriticFromTarget(batch, nullptr, y, out);
   if (collect_info) {
-    UpdateActor(batch, EncodeTransitionsForUpdate(batch), out);
+    UpdateActor(batch, EncodeForUpdate(batch), out);
   } else {
     pending_actor_ = std::move(batch);
     pending_threads_ = worker_threads;
