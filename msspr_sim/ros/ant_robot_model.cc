@@ -11,15 +11,11 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "robot_model.h"
+
 namespace msspr::ros_bridge {
 
 namespace {
-
-std::string Vec(const Eigen::Vector3d& v) {
-  std::ostringstream s;
-  s << "(" << v.x() << " " << v.y() << " " << v.z() << ")";
-  return s.str();
-}
 
 Eigen::Vector3d ToEigen(const urdf::Vector3& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
 
@@ -81,15 +77,16 @@ AntRobotModel CheckAntUrdf(const std::string& urdf_xml, const std::string& sourc
         j.hinge = it->second;
         j.axis = ToEigen(uj.axis);
         if (std::abs(j.axis.norm() - 1.0) > 1e-6)
-          fail("joint '" + j.name + "': its axis " + Vec(j.axis) + " is not a unit vector");
+          fail("joint '" + j.name + "': its axis " + FormatVector(j.axis) +
+               " is not a unit vector");
         const int id = mj_name2id(m, mjOBJ_JOINT, j.name.c_str());
         if (id < 0 || m->jnt_type[id] != mjJNT_HINGE)
           fail("the simulation has no hinge '" + j.name + "'");
         const Eigen::Vector3d mj_axis(m->jnt_axis[3 * id], m->jnt_axis[3 * id + 1],
                                       m->jnt_axis[3 * id + 2]);
         if ((mj_axis - j.axis).norm() > 1e-6)
-          fail("joint '" + j.name + "': axis " + Vec(j.axis) + ", the simulation's is " +
-               Vec(mj_axis));
+          fail("joint '" + j.name + "': axis " + FormatVector(j.axis) + ", the simulation's is " +
+               FormatVector(mj_axis));
         const double lo = m->jnt_range[2 * id], hi = m->jnt_range[2 * id + 1];
         if (!uj.limits || std::abs(uj.limits->lower - lo) > 1e-6 ||
             std::abs(uj.limits->upper - hi) > 1e-6) {
@@ -135,8 +132,8 @@ AntRobotModel CheckAntUrdf(const std::string& urdf_xml, const std::string& sourc
                                d->xpos[3 * body + 1] - torso_pos.y(),
                                d->xpos[3 * body + 2] - torso_pos.z());
       if ((pose[j.child].translation() - mj).norm() > 1e-6)
-        fail("link '" + j.child + "' lies at " + Vec(pose[j.child].translation()) +
-             " from the torso, the simulation's body at " + Vec(mj));
+        fail("link '" + j.child + "' lies at " + FormatVector(pose[j.child].translation()) +
+             " from the torso, the simulation's body at " + FormatVector(mj));
     }
   }
   return model;

@@ -17,23 +17,6 @@ namespace msspr::ros_bridge {
 
 namespace {
 
-geometry_msgs::TransformStamped ToTf(const Eigen::Isometry3d& pose, const ros::Time& stamp,
-                                     const std::string& parent, const std::string& child) {
-  geometry_msgs::TransformStamped tf;
-  tf.header.stamp = stamp;
-  tf.header.frame_id = parent;
-  tf.child_frame_id = child;
-  tf.transform.translation.x = pose.translation().x();
-  tf.transform.translation.y = pose.translation().y();
-  tf.transform.translation.z = pose.translation().z();
-  const Eigen::Quaterniond q(pose.rotation());
-  tf.transform.rotation.w = q.w();
-  tf.transform.rotation.x = q.x();
-  tf.transform.rotation.y = q.y();
-  tf.transform.rotation.z = q.z();
-  return tf;
-}
-
 std::vector<float> ToFloats(const Eigen::VectorXd& v) {
   return std::vector<float>(v.data(), v.data() + v.size());
 }
@@ -107,7 +90,12 @@ AntSimNode::AntSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const AntSimNode
                                          << " joints below the torso: agrees with the simulation");
   joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
   if (options_.publish_markers)
-    marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
+    markers_.Advertise(nh_, options_.marker_rate, options_.path_length,
+                       [this](const std::deque<Eigen::Vector2d>& path, const ros::Time& stamp) {
+                         return MazeMarkers(env_->map(), env_->goal_xy(),
+                                            env_->options().success_radius, path,
+                                            options_.world_frame, stamp);
+                       });
   // The fixed joints (the thighs) once on /tf_static, as robot_state_publisher does.
   std::vector<geometry_msgs::TransformStamped> fixed;
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(8);
@@ -128,8 +116,7 @@ void AntSimNode::StartEpisode(int task_id, uint64_t seed, const Eigen::Vector2d*
     env_->ResetRandom(seed);
   else
     env_->ResetToTask(task_id, seed);
-  path_.clear();
-  markers_due_ = true;
+  markers_.NewEpisode();
   AnnounceEpisode(task_id, seed, "", ToFloats(env_->state()), ToFloats(env_->goal()), nullptr);
 }
 
@@ -170,28 +157,11 @@ void AntSimNode::PublishRobot(const ros::Time& stamp) {
   joint_state_pub_.publish(js);
 }
 
-void AntSimNode::MaybePublishMarkers(bool now_anyway) {
-  if (!options_.publish_markers || !markers_dirty_) return;
-  const ros::WallTime now = ros::WallTime::now();
-  if (!now_anyway && (now - last_marker_time_).toSec() < 1.0 / options_.marker_rate) return;
-  marker_pub_.publish(MazeMarkers(env_->map(), env_->goal_xy(), env_->options().success_radius,
-                                  path_, options_.world_frame, markers_stamp_));
-  markers_dirty_ = false;
-  last_marker_time_ = now;
-}
-
 void AntSimNode::Publish() {
   const msspr::Observation o = MakeObservation();
   PublishClock(o.header.stamp);
   PublishRobot(o.header.stamp);
-  if (options_.publish_markers) {
-    path_.emplace_back(o.state[0], o.state[1]);
-    while (static_cast<int>(path_.size()) > options_.path_length) path_.pop_front();
-    markers_stamp_ = o.header.stamp;
-    markers_dirty_ = true;
-    MaybePublishMarkers(markers_due_);
-    markers_due_ = false;
-  }
+  markers_.Update(Eigen::Vector2d(o.state[0], o.state[1]), o.header.stamp);
   obs_pub_.publish(o);
   MarkPublished(o.last);
 }
@@ -263,8 +233,7 @@ bool AntSimNode::SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response&
   Eigen::VectorXd g(sim::AntMaze::kObsDim);
   for (int i = 0; i < sim::AntMaze::kObsDim; ++i) g[i] = req.goal[static_cast<size_t>(i)];
   env_->SetGoal(g);
-  markers_due_ = true;
-  markers_dirty_ = true;
+  markers_.GoalMoved();
   res.ok = true;
   res.message = "goal set";
   return true;

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "ant_robot_model.h"
+#include "maze_markers.h"
 #include "msspr/Observation.h"
 #include "msspr_sim/ant_maze.h"
 #include "msspr_sim/env_id.h"
@@ -61,24 +62,20 @@ class AntSimNode : public SimNodeBase {
   bool SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) override;
   void StartCollectionEpisode(uint64_t seed, const std::string& split) override;
   void StartInitialEpisode() override;
-  void OnWatchdogTick() override { MaybePublishMarkers(false); }
+  void OnWatchdogTick() override { markers_.MaybePublish(false); }
 
   void StartEpisode(int task_id, uint64_t seed, const Eigen::Vector2d* start,
                     const Eigen::Vector2d& goal);
   msspr::Observation MakeObservation() const;
   void PublishRobot(const ros::Time& stamp);
-  void MaybePublishMarkers(bool now_anyway);
 
   AntSimNodeOptions options_;
   std::unique_ptr<sim::AntMaze> env_;
   AntRobotModel robot_;
-  ros::Publisher joint_state_pub_, marker_pub_;
+  ros::Publisher joint_state_pub_;
   tf2_ros::TransformBroadcaster tf_;
   tf2_ros::StaticTransformBroadcaster static_tf_;
-  std::deque<Eigen::Vector2d> path_;
-  bool markers_due_ = true, markers_dirty_ = false;
-  ros::Time markers_stamp_;
-  ros::WallTime last_marker_time_;
+  MazeMarkerPublisher markers_;  // walls, goal, path (publish_markers)
 };
 
 }  // namespace msspr::ros_bridge

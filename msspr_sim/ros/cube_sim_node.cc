@@ -25,23 +25,6 @@ namespace {
 constexpr int kObs = sim::CubeEnv::kObservationSize;
 constexpr int kAct = sim::CubeEnv::kActionSize;
 
-geometry_msgs::TransformStamped ToTf(const Eigen::Isometry3d& pose, const ros::Time& stamp,
-                                     const std::string& parent, const std::string& child) {
-  geometry_msgs::TransformStamped tf;
-  tf.header.stamp = stamp;
-  tf.header.frame_id = parent;
-  tf.child_frame_id = child;
-  tf.transform.translation.x = pose.translation().x();
-  tf.transform.translation.y = pose.translation().y();
-  tf.transform.translation.z = pose.translation().z();
-  const Eigen::Quaterniond q(pose.rotation());
-  tf.transform.rotation.w = q.w();
-  tf.transform.rotation.x = q.x();
-  tf.transform.rotation.y = q.y();
-  tf.transform.rotation.z = q.z();
-  return tf;
-}
-
 // Joint values q [num_dofs] of the ArmModel from MuJoCo's qpos (arm 0-5, left finger 6).
 Eigen::VectorXd ArmQ(const sim::CubeEnv& env) {
   const std::vector<double> qpos = env.Qpos();

@@ -65,4 +65,31 @@ visualization_msgs::MarkerArray MazeMarkers(const sim::MazeMap& map, const Eigen
   return arr;
 }
 
+void MazeMarkerPublisher::Advertise(ros::NodeHandle& nh, double marker_rate, int path_length,
+                                    Make make) {
+  pub_ = nh.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
+  rate_ = marker_rate;
+  path_length_ = path_length;
+  make_ = std::move(make);
+}
+
+void MazeMarkerPublisher::Update(const Eigen::Vector2d& xy, const ros::Time& stamp) {
+  if (!pub_) return;
+  path_.push_back(xy);
+  while (static_cast<int>(path_.size()) > path_length_) path_.pop_front();
+  stamp_ = stamp;
+  dirty_ = true;
+  MaybePublish(due_);
+  due_ = false;
+}
+
+void MazeMarkerPublisher::MaybePublish(bool now_anyway) {
+  if (!pub_ || !dirty_) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if (!now_anyway && (now - last_).toSec() < 1.0 / rate_) return;
+  pub_.publish(make_(path_, stamp_));
+  dirty_ = false;
+  last_ = now;
+}
+
 }  // namespace msspr::ros_bridge

@@ -19,6 +19,23 @@ Eigen::VectorXd ToEigen(const std::vector<float>& v) {
   return out;
 }
 
+geometry_msgs::TransformStamped ToTf(const Eigen::Isometry3d& pose, const ros::Time& stamp,
+                                     const std::string& parent, const std::string& child) {
+  geometry_msgs::TransformStamped tf;
+  tf.header.stamp = stamp;
+  tf.header.frame_id = parent;
+  tf.child_frame_id = child;
+  tf.transform.translation.x = pose.translation().x();
+  tf.transform.translation.y = pose.translation().y();
+  tf.transform.translation.z = pose.translation().z();
+  const Eigen::Quaterniond q(pose.rotation());
+  tf.transform.rotation.w = q.w();
+  tf.transform.rotation.x = q.x();
+  tf.transform.rotation.y = q.y();
+  tf.transform.rotation.z = q.z();
+  return tf;
+}
+
 bool AllFinite(const std::vector<float>& v) {
   for (float x : v)
     if (!std::isfinite(x)) return false;

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <geometry_msgs/TransformStamped.h>
 #include <ros/time.h>
 #include <sensor_msgs/Image.h>
 
@@ -19,6 +21,10 @@ namespace msspr::ros_bridge {
 std::vector<float> ToFloatVector(const Eigen::VectorXd& v);
 // Returns the vector held by a float32[] message field.
 Eigen::VectorXd ToEigen(const std::vector<float>& v);
+
+// A tf2 transform parent -> child holding `pose` (the child's pose in the parent's frame).
+geometry_msgs::TransformStamped ToTf(const Eigen::Isometry3d& pose, const ros::Time& stamp,
+                                     const std::string& parent, const std::string& child);
 
 // True when every value is finite (no NaN, no Inf).
 bool AllFinite(const std::vector<float>& v);

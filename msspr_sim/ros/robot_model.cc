@@ -12,12 +12,6 @@ namespace msspr::ros_bridge {
 
 namespace {
 
-std::string Vec(const Eigen::Vector3d& v) {
-  std::ostringstream s;
-  s << "(" << v.x() << " " << v.y() << " " << v.z() << ")";
-  return s.str();
-}
-
 Eigen::Vector3d ToEigen(const urdf::Vector3& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
 
 // The sphere radii of a link's visual and collision shapes; throws when a shape is not a sphere.
@@ -38,6 +32,12 @@ std::vector<double> SphereRadii(const urdf::Link& link, const std::string& where
 }
 
 }  // namespace
+
+std::string FormatVector(const Eigen::Vector3d& v) {
+  std::ostringstream s;
+  s << "(" << v.x() << " " << v.y() << " " << v.z() << ")";
+  return s.str();
+}
 
 std::string ReadTextFile(const std::string& path) {
   std::ifstream f(path);
@@ -100,7 +100,7 @@ PointRobotModel CheckPointRobotUrdf(const std::string& urdf_xml, const std::stri
       throw std::runtime_error(where + ": must be prismatic (the simulation's joint is a " + s.type + " joint)");
     const Eigen::Vector3d axis = ToEigen(j.axis);
     if (axis.norm() < 1e-12 || (axis.normalized() - s.axis.normalized()).norm() > 1e-9)
-      throw std::runtime_error(where + ": axis " + Vec(axis) + " differs from the simulation's " + Vec(s.axis));
+      throw std::runtime_error(where + ": axis " + FormatVector(axis) + " differs from the simulation's " + FormatVector(s.axis));
     double roll = 0, pitch = 0, yaw = 0;
     j.parent_to_joint_origin_transform.rotation.getRPY(roll, pitch, yaw);
     if (std::abs(roll) + std::abs(pitch) + std::abs(yaw) > 1e-9)

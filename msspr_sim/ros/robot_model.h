@@ -37,6 +37,9 @@ PointRobotModel CheckPointRobotUrdf(const std::string& urdf_xml, const std::stri
                                     const sim::PointMaze& env, const std::string& world_frame,
                                     const std::string& agent_frame);
 
+// "(x y z)", for messages.
+std::string FormatVector(const Eigen::Vector3d& v);
+
 // Reads a whole file; throws std::runtime_error naming it.
 std::string ReadTextFile(const std::string& path);
 

@@ -86,7 +86,11 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const SimNodeOptions& 
                                            << options_.agent_frame << " only");
   }
   if (options_.publish_markers)
-    marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
+    markers_.Advertise(nh_, options_.marker_rate, options_.path_length,
+                       [this](const std::deque<Eigen::Vector2d>& path, const ros::Time& stamp) {
+                         return MazeMarkers(env_->map(), env_->goal(), env_->options().success_radius, path,
+                                            options_.world_frame, stamp);
+                       });
   if (options_.standard_topics) {
     odom_pub_ = nh_.advertise<nav_msgs::Odometry>("odom", 10);
     goal_pose_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("goal_pose", 1, /*latch=*/true);
@@ -103,8 +107,7 @@ void SimNode::StartEpisode(int task_id, uint64_t seed, const std::string& split,
     env_->ResetRandom(seed);
   else
     env_->ResetToTask(task_id, seed);
-  path_.clear();
-  markers_due_ = true;
+  markers_.NewEpisode();
   goal_dirty_ = true;
   last_position_step_ = -1;
   AnnounceEpisode(task_id, seed, split, ToFloatVector(env_->state()), ToFloatVector(env_->goal()),
@@ -207,34 +210,13 @@ void SimNode::Publish() {
     tf.transform.rotation.w = 1.0;
     tf_.sendTransform(tf);
   }
-  if (options_.publish_markers) {
-    path_.emplace_back(o.state[0], o.state[1]);
-    while (static_cast<int>(path_.size()) > options_.path_length) path_.pop_front();
-    markers_stamp_ = o.header.stamp;
-    markers_dirty_ = true;
-    MaybePublishMarkers(markers_due_);
-    markers_due_ = false;
-  }
+  markers_.Update(Eigen::Vector2d(o.state[0], o.state[1]), o.header.stamp);
   if (pixels()) {
     const auto img = env_->Render();
     image_pub_.publish(ToImageMsg(img.data(), options_.image_size, o.header.stamp, kCameraFrame));
   }
   obs_pub_.publish(o);
   MarkPublished(o.last);
-}
-
-void SimNode::MaybePublishMarkers(bool now_anyway) {
-  if (!options_.publish_markers || !markers_dirty_) return;
-  const ros::WallTime now = ros::WallTime::now();
-  if (!now_anyway && (now - last_marker_time_).toSec() < 1.0 / options_.marker_rate) return;
-  PublishMarkers(markers_stamp_);
-  markers_dirty_ = false;
-  last_marker_time_ = now;
-}
-
-void SimNode::PublishMarkers(const ros::Time& stamp) {
-  marker_pub_.publish(MazeMarkers(env_->map(), env_->goal(), env_->options().success_radius, path_,
-                                  options_.world_frame, stamp));
 }
 
 void SimNode::DoStep(const std::vector<double>& action) {

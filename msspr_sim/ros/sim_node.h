@@ -22,6 +22,7 @@
 #include "msspr/SetGoal.h"
 #include "msspr_sim/point_maze.h"
 #include "robot_model.h"
+#include "maze_markers.h"
 #include "sim_node_base.h"
 
 namespace msspr::ros_bridge {
@@ -68,7 +69,7 @@ class SimNode : public SimNodeBase {
     StartEpisode(0, seed, split);
   }
   void StartInitialEpisode() override;
-  void OnWatchdogTick() override { MaybePublishMarkers(false); }
+  void OnWatchdogTick() override { markers_.MaybePublish(false); }
   uint32_t StandardObservationSubscribers() const override { return odom_pub_.getNumSubscribers(); }
   uint32_t StandardCommandPublishers() const override { return cmd_vel_sub_.getNumPublishers(); }
   void OnCmdVel(const geometry_msgs::Twist::ConstPtr& msg);
@@ -81,19 +82,12 @@ class SimNode : public SimNodeBase {
                     const Eigen::Vector2d* start = nullptr,
                     const Eigen::Vector2d& goal = Eigen::Vector2d::Zero());
   msspr::Observation MakeObservation() const;
-  void PublishMarkers(const ros::Time& stamp);
-  // Publishes the markers when they changed and 1 / marker_rate s of wall time
-  // have passed since the last time (or now_anyway).
-  void MaybePublishMarkers(bool now_anyway);
 
   SimNodeOptions options_;
   std::unique_ptr<sim::PointMaze> env_;
-  ros::Publisher joint_state_pub_, marker_pub_;
+  ros::Publisher joint_state_pub_;
   std::optional<PointRobotModel> robot_;  // from robot_description, checked
-  std::deque<Eigen::Vector2d> path_;      // recent positions, for the path marker
-  bool markers_due_ = true, markers_dirty_ = false;
-  ros::Time markers_stamp_;
-  ros::WallTime last_marker_time_;
+  MazeMarkerPublisher markers_;  // walls, goal, path (publish_markers)
   tf2_ros::TransformBroadcaster tf_;
   ros::Publisher odom_pub_, goal_pose_pub_;
   ros::Subscriber cmd_vel_sub_;
