@@ -71,18 +71,8 @@ AntSimNode::AntSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const AntSimNode
   env_ = std::make_unique<sim::AntMaze>(env_opt);
   // The URDF: robot_description when set, else ~urdf (then served as
   // robot_description); checked against the simulation (a mismatch is fatal).
-  std::string key, xml, source;
-  if (!options_.robot_description.empty() && nh_.searchParam(options_.robot_description, key) &&
-      nh_.getParam(key, xml)) {
-    source = "parameter " + key;
-  } else {
-    xml = ReadTextFile(options_.urdf);
-    source = options_.urdf;
-    if (!options_.robot_description.empty()) {
-      key = nh_.resolveName(options_.robot_description);
-      nh_.setParam(key, xml);
-    }
-  }
+  const RobotDescription desc = LoadRobotDescription(nh_, options_.robot_description, options_.urdf);
+  const std::string &key = desc.key, &xml = desc.xml, &source = desc.source;
   robot_ = CheckAntUrdf(xml, source, *env_, options_.base_frame);
   ROS_INFO_STREAM_NAMED("msspr_sim", "robot_description "
                                          << key << " (from " << source << "): robot '"

@@ -142,18 +142,8 @@ CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimN
       options_(options) {
   // The URDF: robot_description when set (written to a temporary file for
   // CubeEnv, which parses a path), else ~urdf, then served as robot_description.
-  std::string key, xml, source;
-  if (!options_.robot_description.empty() && nh_.searchParam(options_.robot_description, key) &&
-      nh_.getParam(key, xml)) {
-    source = "parameter " + key;
-  } else {
-    xml = ReadTextFile(options_.urdf);
-    source = options_.urdf;
-    if (!options_.robot_description.empty()) {
-      key = nh_.resolveName(options_.robot_description);
-      nh_.setParam(key, xml);
-    }
-  }
+  const RobotDescription desc = LoadRobotDescription(nh_, options_.robot_description, options_.urdf);
+  const std::string &key = desc.key, &xml = desc.xml, &source = desc.source;
   sim::CubeEnvOptions env_opt;
   env_opt.enable_rendering = pixels();
   env_opt.image_size = options_.image_size;

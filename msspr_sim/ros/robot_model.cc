@@ -39,6 +39,22 @@ std::string FormatVector(const Eigen::Vector3d& v) {
   return s.str();
 }
 
+RobotDescription LoadRobotDescription(ros::NodeHandle& nh, const std::string& param, const std::string& urdf) {
+  RobotDescription d;
+  if (!param.empty() && nh.searchParam(param, d.key) && nh.getParam(d.key, d.xml)) {
+    d.source = "parameter " + d.key;
+    return d;
+  }
+  d.xml = ReadTextFile(urdf);
+  d.source = urdf;
+  d.key.clear();
+  if (!param.empty()) {
+    d.key = nh.resolveName(param);
+    nh.setParam(d.key, d.xml);
+  }
+  return d;
+}
+
 std::string ReadTextFile(const std::string& path) {
   std::ifstream f(path);
   if (!f) throw std::runtime_error(path + ": cannot open the file");

@@ -4,6 +4,8 @@
 // agent and nothing else.
 #pragma once
 
+#include <ros/node_handle.h>
+
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -39,6 +41,17 @@ PointRobotModel CheckPointRobotUrdf(const std::string& urdf_xml, const std::stri
 
 // "(x y z)", for messages.
 std::string FormatVector(const Eigen::Vector3d& v);
+
+// A node's robot description: the parameter `param` (searched up the
+// namespaces) when it is set, else the file `urdf`, which is then loaded into
+// `param` (in the node's namespace) so that rviz sees what the node uses.
+// Empty `param`: the file, and no parameter. Throws when the file is unreadable.
+struct RobotDescription {
+  std::string key;     // the parameter's resolved name ("" without one)
+  std::string xml;     // the URDF text
+  std::string source;  // "parameter KEY" or the file's path, for messages
+};
+RobotDescription LoadRobotDescription(ros::NodeHandle& nh, const std::string& param, const std::string& urdf);
 
 // Reads a whole file; throws std::runtime_error naming it.
 std::string ReadTextFile(const std::string& path);

@@ -154,8 +154,16 @@ TEST_F(AntCollect, StitchGoalsAreFourBfsMovesFromTheStart) {
 
 TEST_F(AntCollect, UsageErrors) {
   std::string out;
-  EXPECT_EQ(RunCollect("--env antmaze-medium --out /tmp/x.bag", &out), 2);
-  EXPECT_NE(out.find("--expert"), std::string::npos) << out;
+  // Without --expert, the shipped expert (msspr_sim/experts/ant_xy_expert.pt) drives.
+  const std::string shipped = "/tmp/msspr_ant_default_expert_" + std::to_string(getpid()) + ".bag";
+  EXPECT_EQ(
+      RunCollect(
+          "--env antmaze-medium --episodes 1 --val-episodes 0 --length 5 --quiet --out " + shipped,
+          &out),
+      0)
+      << out;
+  EXPECT_TRUE(std::filesystem::exists(shipped));
+  std::filesystem::remove(shipped);
   EXPECT_EQ(
       RunCollect("--env antmaze-medium --expert " + expert_ + " --maze large --out /tmp/x.bag",
                  &out),

@@ -89,13 +89,13 @@ class GcAgent : public torch::nn::Module {
   // Whether the loop must collect the next step's losses although it does
   // not log it; `last`: the losses it keeps (Ms.PR: until it has
   // representation losses to carry over).
-  virtual bool NeedsLosses(const LossInfo& last) const { return false; }
+  virtual bool NeedsLosses(const LossInfo& /*last*/) const { return false; }
   // The LossNames() that the next Step leaves NaN although it collects
   // (Ms.PR: its representation terms when no representation update is due);
   // the loop's check for non-finite losses skips them.
   virtual std::vector<std::string> LossesSkippedByNextStep() const { return {}; }
   // A step's losses `info` with those it skipped taken from `last`.
-  virtual LossInfo CarryOverLosses(const LossInfo& info, const LossInfo& last) const {
+  virtual LossInfo CarryOverLosses(const LossInfo& info, const LossInfo& /*last*/) const {
     return info;
   }
   // What the progress bar shows (default: the first four losses).
