@@ -15,14 +15,6 @@
 
 namespace msspr::ros_bridge {
 
-namespace {
-
-std::vector<float> ToFloats(const Eigen::VectorXd& v) {
-  return std::vector<float>(v.data(), v.data() + v.size());
-}
-
-}  // namespace
-
 AntSimNodeOptions LoadAntSimNodeOptions(const ros::NodeHandle& pnh, sim::EnvId env) {
   AntSimNodeOptions o;
   o.env = env;
@@ -71,7 +63,8 @@ AntSimNode::AntSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const AntSimNode
   env_ = std::make_unique<sim::AntMaze>(env_opt);
   // The URDF: robot_description when set, else ~urdf (then served as
   // robot_description); checked against the simulation (a mismatch is fatal).
-  const RobotDescription desc = LoadRobotDescription(nh_, options_.robot_description, options_.urdf);
+  const RobotDescription desc =
+      LoadRobotDescription(nh_, options_.robot_description, options_.urdf);
   const std::string &key = desc.key, &xml = desc.xml, &source = desc.source;
   robot_ = CheckAntUrdf(xml, source, *env_, options_.base_frame);
   ROS_INFO_STREAM_NAMED("msspr_sim", "robot_description "
@@ -107,7 +100,8 @@ void AntSimNode::StartEpisode(int task_id, uint64_t seed, const Eigen::Vector2d*
   else
     env_->ResetToTask(task_id, seed);
   markers_.NewEpisode();
-  AnnounceEpisode(task_id, seed, "", ToFloats(env_->state()), ToFloats(env_->goal()), nullptr);
+  AnnounceEpisode(task_id, seed, "", ToFloatVector(env_->state()), ToFloatVector(env_->goal()),
+                  nullptr);
 }
 
 msspr::Observation AntSimNode::MakeObservation() const {
@@ -116,8 +110,8 @@ msspr::Observation AntSimNode::MakeObservation() const {
   o.header.frame_id = options_.world_frame;
   o.episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
   o.step = static_cast<uint32_t>(env_->steps());
-  o.state = ToFloats(env_->state());
-  o.goal = ToFloats(env_->goal());
+  o.state = ToFloatVector(env_->state());
+  o.goal = ToFloatVector(env_->goal());
   o.success = env_->success();
   o.last = IsLastStep(env_->steps(), options_.max_episode_steps);
   return o;
@@ -177,6 +171,7 @@ void AntSimNode::StartCollectionEpisode(uint64_t, const std::string&) {
 
 bool AntSimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) {
   const bool explicit_start = !req.start.empty() || !req.goal.empty();
+  Eigen::Vector2d start = Eigen::Vector2d::Zero();
   res.ok = false;
   if (explicit_start) {
     if (req.start.size() != 2 || req.goal.size() != 2 || !AllFinite(req.start) ||
@@ -184,7 +179,8 @@ bool AntSimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) 
       res.message = "start and goal must both be 2 finite numbers (the torso's x, y)";
       return true;
     }
-    const Eigen::Vector2d s(req.start[0], req.start[1]);
+    start = Eigen::Vector2d(req.start[0], req.start[1]);
+    const Eigen::Vector2d& s = start;
     if (env_->map().IsWall(env_->map().XYToCell(s))) {
       res.message =
           "start (" + std::to_string(s.x()) + ", " + std::to_string(s.y()) + ") is inside a wall";
@@ -196,12 +192,10 @@ bool AntSimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) 
   }
   try {
     started_ = true;
-    if (explicit_start) {
-      const Eigen::Vector2d s(req.start[0], req.start[1]);
-      StartEpisode(req.task_id, req.seed, &s, Eigen::Vector2d(req.goal[0], req.goal[1]));
-    } else {
+    if (explicit_start)
+      StartEpisode(req.task_id, req.seed, &start, Eigen::Vector2d(req.goal[0], req.goal[1]));
+    else
       StartEpisode(req.task_id, req.seed, nullptr, Eigen::Vector2d::Zero());
-    }
   } catch (const std::exception& e) {
     res.message = e.what();
     return true;
@@ -209,7 +203,7 @@ bool AntSimNode::Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) 
   res.ok = true;
   res.message = "episode " + std::to_string(episode_id_);
   res.observation = MakeObservation();
-  res.goal = ToFloats(env_->goal());
+  res.goal = ToFloatVector(env_->goal());
   return true;
 }
 
