@@ -178,7 +178,7 @@ LossInfo OgbenchAgent::Step(TrainingContext& context, bool collect_info) {
   const torch::Tensor loss = Loss(batch, collect_info ? &named : nullptr);
   optimizer_->zero_grad();
   loss.backward();
-  AverageGradients(optimizer_->parameters());
+  AverageGradients(optimizer_->param_groups().front().params());
   optimizer_->step();
   UpdateTargets();
   if (collect_info) info.agent = std::move(named);

@@ -14,6 +14,7 @@
 #include "bag_dataset.h"
 #include "msspr_core/checkpoint.h"
 #include "robot_spec.h"
+#include "msspr_eval/ant_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
 #include "msspr_sim/env_id.h"
@@ -130,7 +131,7 @@ int main(int argc, char** argv) {
                        "eval-tasks-file"};
   ext.extra_usage =
       "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
-      "maze, or cube-single's 5 tasks for cube-single bags (state policies)\n"
+      "maze, or the 5 tasks of cube-single or an ant maze for those envs' bags (state policies)\n"
       "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
       "  --eval-episodes N  episodes per task (default 50)\n"
       "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
@@ -196,8 +197,10 @@ int main(int argc, char** argv) {
         throw msspr::cli::CliError("--eval-maze: " + std::string(e.what()));
       }
     }
-    if (cube && extra.count("eval-tasks-file"))
-      throw msspr::cli::CliError("--eval-tasks-file: custom tasks are point-maze tasks (these bags are cube-single)");
+    const bool ant = get("eval-maze", "").empty() && bags && msspr::sim::IsAntMaze(bags->id);
+    if ((cube || ant) && extra.count("eval-tasks-file"))
+      throw msspr::cli::CliError("--eval-tasks-file: custom tasks are point-maze tasks (these bags are " +
+                                 msspr::sim::EnvIdName(bags->id) + ")");
     if (trainer.options().trainer.eval_every <= 0) return nullptr;
     const auto start = std::chrono::steady_clock::now();
     if (cube) {
@@ -215,6 +218,25 @@ int main(int argc, char** argv) {
         if (!out_dir.empty())
           msspr::agent::WriteCubeResultsJson(result, co, "msspr step " + std::to_string(step),
                                              StepJsonPath(out_dir, step, ""));
+        return r;
+      };
+    }
+    if (ant) {
+      msspr::agent::AntEvalOptions ao;
+      ao.maze = msspr::sim::AntMazeName(bags->id);
+      ao.tasks = eo.tasks;
+      ao.episodes = eo.episodes;
+      ao.max_steps = eo.max_steps;
+      ao.seed = eo.seed;
+      return [ao, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
+        const auto result = msspr::agent::EvaluateOnAntMaze(policy, ao);
+        msspr::core::EvalResult r;
+        AddSuccessRows(result, "task", "", &r);
+        r.emplace_back("eval_s", result.seconds);
+        r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        if (!out_dir.empty())
+          msspr::agent::WriteAntResultsJson(result, ao, "msspr step " + std::to_string(step),
+                                            StepJsonPath(out_dir, step, ""));
         return r;
       };
     }

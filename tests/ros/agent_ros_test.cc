@@ -28,6 +28,7 @@
 
 #include "bag_dataset.h"
 #include "dataset_bag.h"
+#include "msspr_eval/ant_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
 #include "msspr/Action.h"
@@ -214,6 +215,44 @@ TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
   auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D: not a cube policy
   opt.tasks = {1};
   EXPECT_THROW(EvaluateOnCube(maze_policy, opt), std::invalid_argument);
+}
+
+// An untrained ant policy (29-D states, 8-D actions) on antmaze-medium: the
+// evaluator's bookkeeping, determinism, report and errors.
+TEST(AntEvaluator, DeterministicAndChecksThePolicy) {
+  torch::manual_seed(0);
+  core::DatasetBuilder b(29, 8);
+  std::vector<float> obs(10 * 29, 0.1f), act(10 * 8, 0.2f);
+  b.AddEpisode(obs, act);
+  b.AddEpisode(obs, act);
+  core::Trainer trainer(core::testing_util::TinyOptions(), std::make_shared<const core::Dataset>(b.Build()));
+  trainer.Step();
+  core::Policy policy = trainer.MakePolicy();
+  AntEvalOptions opt;
+  opt.tasks = {1, 4};
+  opt.episodes = 2;
+  opt.max_steps = 12;
+  const auto a = EvaluateOnAntMaze(policy, opt);
+  const auto c = EvaluateOnAntMaze(policy, opt);
+  ASSERT_EQ(a.tasks, opt.tasks);
+  ASSERT_EQ(a.success.size(), 2u);
+  EXPECT_EQ(a.success, c.success);
+  EXPECT_EQ(a.mean_steps_success, c.mean_steps_success);
+  // The tasks' goals are at least 8 m from their starts: 12 steps (1.2 s) reach none.
+  EXPECT_EQ(a.mean_success, 0.0);
+  const auto report = MakeAntEvalReport(a, opt, "untrained");
+  EXPECT_EQ(report.env, "antmaze-medium");
+  ASSERT_EQ(report.tasks.size(), 2u);
+  EXPECT_EQ(report.tasks[1].task_id, 4);
+  EXPECT_EQ(report.max_steps, 12);
+  opt.tasks = {6};
+  EXPECT_THROW(EvaluateOnAntMaze(policy, opt), std::invalid_argument);
+  opt.tasks = {1};
+  opt.maze = "giant";  // no ant env for the giant maze
+  EXPECT_THROW(EvaluateOnAntMaze(policy, opt), std::invalid_argument);
+  opt.maze = "medium";
+  auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D: not an ant policy
+  EXPECT_THROW(EvaluateOnAntMaze(maze_policy, opt), std::invalid_argument);
 }
 
 TEST(MazeEvaluator, CustomTasksStartExactlyWhereTheySay) {

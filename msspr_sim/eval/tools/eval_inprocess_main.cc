@@ -11,6 +11,7 @@
 #include "msspr_core/cli_args.h"
 #include "msspr_core/policy.h"
 #include "msspr_core/process_env.h"
+#include "msspr_eval/ant_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
 #include "msspr_sim/env_id.h"
@@ -24,7 +25,7 @@ namespace {
 constexpr const char* kUsage = R"(usage: msspr_eval_inprocess --policy POLICY.pt [options]
 Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_eval --seed S).
   --policy FILE       a policy export (policy.pt) or a training checkpoint (required)
-  --env ENV           pointmaze | cube-single (default pointmaze)
+  --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large (default pointmaze)
   --maze NAME         arena, medium, large or giant (default medium; pointmaze only)
   --tasks LIST        task ids (default 1,2,3,4,5)
   --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format; pointmaze only)
@@ -37,7 +38,8 @@ Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_e
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories on the maze (default: none; pointmaze only)
   --urdf FILE         cube-single: the arm (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
-Prints the per-task table. cube-single: state policies (pixels: msspr_eval over ROS).
+Prints the per-task table. cube-single and the ant mazes: state policies (pixels: msspr_eval
+over ROS).
 )";
 
 }  // namespace
@@ -47,7 +49,8 @@ int main(int argc, char** argv) {
   namespace sim = msspr::sim;
   msspr::agent::MazeEvalOptions eo;
   msspr::agent::CubeEvalOptions co;
-  bool cube = false;
+  msspr::agent::AntEvalOptions ao;
+  bool cube = false, ant = false;
   std::string policy_path, out, plot, agent, device;
   try {
     msspr::cli::CliArgs args(
@@ -63,10 +66,23 @@ int main(int argc, char** argv) {
     policy_path = args.Get("policy", "");
     if (policy_path.empty()) throw msspr::cli::CliError("--policy is required");
     using sim::EnvId;
-    cube = sim::ParseEnvId(args.GetChoice(
-               "env", sim::EnvIdName(EnvId::kPointMaze),
-               sim::EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle}))) == EnvId::kCubeSingle;
-    if (cube) {
+    const EnvId env = sim::ParseEnvId(
+        args.GetChoice("env", sim::EnvIdName(EnvId::kPointMaze), sim::EnvIdNames()));
+    cube = env == EnvId::kCubeSingle;
+    ant = sim::IsAntMaze(env);
+    if (ant) {
+      for (const char* f : {"maze", "tasks-file", "plot", "urdf"})
+        if (args.Has(f))
+          throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env " +
+                                     sim::EnvIdName(env));
+      ao.maze = sim::AntMazeName(env);
+      ao.tasks.clear();
+      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, 5))
+        ao.tasks.push_back(static_cast<int>(t));
+      ao.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
+      ao.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
+      ao.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+    } else if (cube) {
       for (const char* f : {"maze", "tasks-file", "plot"})
         if (args.Has(f))
           throw msspr::cli::CliError(std::string("--") + f +
@@ -119,6 +135,18 @@ int main(int argc, char** argv) {
   }
   try {
     auto policy = msspr::core::Policy::Load(policy_path, torch::Device(device));
+    if (ant) {
+      std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << ao.tasks.size() << " tasks x "
+                << ao.episodes << " episodes on " << sim::EnvLabel(sim::AntMazeEnvId(ao.maze))
+                << " ...\n";
+      const auto result = msspr::agent::EvaluateOnAntMaze(policy, ao);
+      const sim::EvalReport report = msspr::agent::MakeAntEvalReport(result, ao, agent);
+      std::cout << sim::EvalReportTable(sim::MazeMap::FromName(ao.maze), report);
+      if (!out.empty()) msspr::agent::WriteAntResultsJson(result, ao, agent, out);
+      std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in "
+                << result.seconds << " s\n";
+      return 0;
+    }
     if (cube) {
       if (co.urdf_path.empty()) co.urdf_path = sim::DefaultArmUrdf();
       std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x "

@@ -1,0 +1,121 @@
+#include "msspr_eval/ant_evaluator.h"
+
+#include <torch/torch.h>
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+
+#include "msspr_core/policy.h"
+#include "msspr_sim/ant_maze.h"
+#include "msspr_sim/env_id.h"
+#include "msspr_sim/eval_protocol.h"
+
+namespace msspr::agent {
+
+AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  constexpr int kObs = sim::AntMaze::kObsDim, kAct = sim::AntMaze::kActionDim;
+  const std::string env_name = sim::EnvLabel(sim::AntMazeEnvId(options.maze));  // throws on a bad maze
+  if (policy.pixels())
+    throw std::invalid_argument("EvaluateOnAntMaze: a pixels policy; " + env_name +
+                                " is evaluated from states only");
+  if (policy.obs_dim() != kObs)
+    throw std::invalid_argument("EvaluateOnAntMaze: the policy expects " +
+                                std::to_string(policy.obs_dim()) + "-dimensional observations, " +
+                                env_name + " gives " + std::to_string(kObs));
+  if (policy.action_dim() != kAct)
+    throw std::invalid_argument("EvaluateOnAntMaze: the policy has " +
+                                std::to_string(policy.action_dim()) + " action dimensions, " +
+                                env_name + " takes " + std::to_string(kAct));
+  if (options.episodes < 1 || options.max_steps < 1)
+    throw std::invalid_argument("EvaluateOnAntMaze: episodes and max_steps must be at least 1");
+
+  sim::AntMazeOptions eo;
+  eo.maze = options.maze;
+  eo.max_episode_steps = options.max_steps;
+  struct Slot {
+    std::unique_ptr<sim::AntMaze> env;
+    Eigen::VectorXd obs;
+    bool done = false, success = false;
+  };
+  std::vector<Slot> slots;
+  const size_t nt = options.tasks.size();
+  slots.reserve(nt * static_cast<size_t>(options.episodes));
+  for (int t : options.tasks)
+    for (int e = 0; e < options.episodes; ++e) {
+      Slot s;
+      s.env = std::make_unique<sim::AntMaze>(eo);
+      if (t < 1 || t > static_cast<int>(s.env->map().Tasks().size()))
+        throw std::invalid_argument("EvaluateOnAntMaze: task " + std::to_string(t) + " is not a task of " +
+                                    env_name + " (1 to " +
+                                    std::to_string(s.env->map().Tasks().size()) + ")");
+      s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
+      s.success = s.done = s.env->success();
+      slots.push_back(std::move(s));
+    }
+
+  torch::InferenceMode guard;
+  for (int step = 0; step < options.max_steps; ++step) {
+    std::vector<Slot*> active;
+    for (auto& s : slots)
+      if (!s.done) active.push_back(&s);
+    if (active.empty()) break;
+    const int64_t B = static_cast<int64_t>(active.size());
+    torch::Tensor obs = torch::empty({B, kObs}, torch::kFloat32),
+                  goal = torch::empty({B, kObs}, torch::kFloat32);
+    auto o = obs.accessor<float, 2>(), g = goal.accessor<float, 2>();
+    for (int64_t b = 0; b < B; ++b) {
+      const Eigen::VectorXd& gs = active[b]->env->goal();
+      for (int k = 0; k < kObs; ++k) {
+        o[b][k] = static_cast<float>(active[b]->obs[k]);
+        g[b][k] = static_cast<float>(gs[k]);
+      }
+    }
+    const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
+    auto a = act.accessor<float, 2>();
+    Eigen::VectorXd u(kAct);
+    for (int64_t b = 0; b < B; ++b) {
+      Slot& s = *active[b];
+      for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[b][k], -1.0, 1.0);
+      s.obs = s.env->Step(u);
+      s.success = s.env->success();
+      s.done = s.success || s.env->truncated();
+    }
+  }
+
+  AntEvalResult r;
+  r.tasks = options.tasks;
+  r.success.assign(nt, 0.0);
+  r.mean_steps_success.assign(nt, 0.0);
+  for (size_t ti = 0; ti < nt; ++ti) {
+    int ok = 0;
+    for (int e = 0; e < options.episodes; ++e) {
+      const Slot& s = slots[ti * static_cast<size_t>(options.episodes) + static_cast<size_t>(e)];
+      if (s.success) {
+        ++ok;
+        r.mean_steps_success[ti] += s.env->steps();
+      }
+    }
+    r.success[ti] = static_cast<double>(ok) / options.episodes;
+    if (ok) r.mean_steps_success[ti] /= ok;
+    r.mean_success += r.success[ti] / static_cast<double>(nt);
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+sim::EvalReport MakeAntEvalReport(const AntEvalResult& result, const AntEvalOptions& options,
+                                  const std::string& agent) {
+  return MakeTaskReport(result, sim::EnvLabel(sim::AntMazeEnvId(options.maze)), agent,
+                        options.episodes, options.max_steps, options.seed);
+}
+
+void WriteAntResultsJson(const AntEvalResult& result, const AntEvalOptions& options,
+                         const std::string& agent, const std::string& path) {
+  sim::WriteTextFile(path, sim::EvalReportJson(sim::MazeMap::FromName(options.maze),
+                                               MakeAntEvalReport(result, options, agent)));
+}
+
+}  // namespace msspr::agent
