@@ -7,6 +7,7 @@
 #   DEMO_TASKS_FILE=config/eval_tasks_medium_easy.yaml make demo   custom tasks
 #   MSSPR_DEMO_ENV=cube-single make demo   the URDF arm's cube-single (states; writes
 #                                          results.json and success.png)
+#   MSSPR_DEMO_ENV=antmaze-medium make demo  the ant on antmaze-medium (states; 1000 steps)
 #   MSSPR_DEMO_ROBOT=pointmaze_base make demo   (or ur5e_cube with MSSPR_DEMO_ENV=cube-single)
 #                                          over standard ROS messages through the robot
 #                                          spec config/robots/NAME.yaml (docs/bring_your_own_robot.md)
@@ -46,8 +47,21 @@ case "$ENV" in
     echo "[demo] cube-single (URDF arm): msspr_policy_node serving $CKPT (states), lockstep over ROS"
     LAUNCH=(demo.launch env:=cube-single cube_checkpoint:="$(readlink -f "$CKPT")")
     ;;
+  antmaze-medium|antmaze-large)
+    if [ "$PIXELS" = true ] || [ -n "${DEMO_TASKS_FILE:-}" ] || [ -n "${MSSPR_DEMO_ROBOT:-}" ]; then
+      echo "[demo] MSSPR_DEMO_ENV=$ENV serves the state checkpoint on msspr's own topics: no MSSPR_DEMO_PIXELS, DEMO_TASKS_FILE or MSSPR_DEMO_ROBOT" >&2
+      exit 2
+    fi
+    CKPT=msspr_policy_node/checkpoints/$ENV-state.pt
+    if [ ! -f "$CKPT" ]; then
+      echo "[demo] no $CKPT" >&2
+      exit 1
+    fi
+    echo "[demo] $ENV (the ant): msspr_policy_node serving $CKPT (states), lockstep over ROS"
+    LAUNCH=(demo.launch env:="$ENV" ant_checkpoint:="$(readlink -f "$CKPT")")
+    ;;
   *)
-    echo "[demo] MSSPR_DEMO_ENV must be pointmaze or cube-single, not '$ENV'" >&2
+    echo "[demo] MSSPR_DEMO_ENV must be pointmaze, cube-single, antmaze-medium or antmaze-large, not '$ENV'" >&2
     exit 2
     ;;
 esac

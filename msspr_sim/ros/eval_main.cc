@@ -40,8 +40,9 @@ namespace {
 
 constexpr char kUsage[] = R"(usage: rosrun msspr msspr_eval [options]
 Evaluates the agent that answers the sim's observations (lockstep), by OGBench's protocol.
-  --env ENV           pointmaze | cube-single: the running sim's env (default pointmaze)
-  --maze NAME         maze of the running sim (default medium)
+  --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large: the running
+                      sim's env (default pointmaze)
+  --maze NAME         maze of the running point-maze sim (default medium)
   --tasks LIST        comma-separated task ids (default 1,2,3,4,5)
   --episodes N        episodes per task (default 50)
   --max-steps N       step limit per episode (default 1000; cube-single 200)
@@ -57,6 +58,8 @@ Evaluates the agent that answers the sim's observations (lockstep), by OGBench's
                           - {id: 1, start: [0.0, 0.0], goal: [8.0, 0.0]}
                       (start/goal in metres; sent through reset + set_goal; msspr_make_tasks
                       draws random ones)
+antmaze-medium, antmaze-large: the maze's 5 tasks with the ant (29-D goal states from the sim's
+reset; success: the torso within 0.5 m of the goal); --maze and --tasks-file do not apply.
 cube-single: the 5 tasks of OGBench's cube-single (success: the cube within 4 cm of the goal,
 at the step that ends the episode); --maze, --plot and --tasks-file do not apply.
   --step-timeout S    seconds without a new observation before an episode counts as stalled (default 10)
@@ -215,14 +218,13 @@ int main(int argc, char** argv) {
     }
     if (!args->positional().empty()) throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
     env = msspr::sim::ParseEnvId(
-        args->GetChoice("env", msspr::sim::EnvIdName(env),
-                        msspr::sim::EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle})));
-    if (env == EnvId::kCubeSingle)
-      for (const char* f : {"maze", "plot", "tasks-file"})
-        if (args->Has(f))
-          throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
-                                      msspr::sim::EnvIdName(env));
-    maze = args->Get("maze", "medium");
+        args->GetChoice("env", msspr::sim::EnvIdName(env), msspr::sim::EnvIdNames()));
+    const bool ant = msspr::sim::IsAntMaze(env);
+    for (const char* f : {"maze", "plot", "tasks-file"})
+      if ((env == EnvId::kCubeSingle || (ant && std::string(f) != "plot")) && args->Has(f))
+        throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
+                                    msspr::sim::EnvIdName(env));
+    maze = ant ? msspr::sim::AntMazeName(env) : args->Get("maze", "medium");
     map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (args->Has("tasks-file")) {
       for (const auto& t : msspr::sim::LoadCustomTasks(args->Get("tasks-file", ""), map_ptr.get())) {
