@@ -127,11 +127,14 @@ int main(int argc, char** argv) {
   }
   ext.data_help =
       "msspr dataset bags (a.bag[,b.bag...] or a.bag b.bag; the \"train\" split) or an OGBench .npz";
-  ext.extra_options = {"robot", "eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps",
+  ext.extra_options = {"robot", "eval-env", "eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps",
                        "eval-tasks-file"};
   ext.extra_usage =
       "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
       "maze, or the 5 tasks of cube-single or an ant maze for those envs' bags (state policies)\n"
+      "  --eval-env ENV     env to evaluate in: pointmaze-NAME, cube-single, antmaze-medium,\n"
+      "                     antmaze-large (default: the bags' env; give it for .npz data, e.g.\n"
+      "                     OGBench's antmaze-medium-navigate-v0.npz with --eval-env antmaze-medium)\n"
       "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
       "  --eval-episodes N  episodes per task (default 50)\n"
       "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
@@ -178,8 +181,17 @@ int main(int argc, char** argv) {
     using msspr::cli::ParseInt;
     eo.episodes = static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
     eo.seed = static_cast<uint64_t>(ParseInt("eval-seed", get("eval-seed", "0"), 0));
-    // The bags' env label ("pointmaze-medium", "cube-single"); none for a robot's own bags.
-    const std::optional<msspr::sim::EnvLabelParts> bags = msspr::sim::ParseEnvLabel(g_env);
+    // The env to evaluate in: --eval-env, else the bags' env label ("pointmaze-medium",
+    // "cube-single", "antmaze-medium"); none for a robot's own bags or .npz data without --eval-env.
+    std::optional<msspr::sim::EnvLabelParts> bags = msspr::sim::ParseEnvLabel(g_env);
+    if (extra.count("eval-env")) {
+      if (extra.count("eval-maze")) throw msspr::cli::CliError("give --eval-env or --eval-maze, not both");
+      bags = msspr::sim::ParseEnvLabel(get("eval-env", ""));
+      if (!bags)
+        throw msspr::cli::CliError("--eval-env: '" + get("eval-env", "") +
+                                   "' is not an env (pointmaze-arena|medium|large|giant, cube-single, "
+                                   "antmaze-medium, antmaze-large)");
+    }
     const bool cube =
         get("eval-maze", "").empty() && bags && bags->id == msspr::sim::EnvId::kCubeSingle;
     eo.max_steps =
@@ -241,7 +253,7 @@ int main(int argc, char** argv) {
       };
     }
     if (maze.empty()) {
-      std::cerr << "msspr_train: no --eval-maze and no point-maze bags: no success evaluation\n";
+      std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no success evaluation\n";
       return nullptr;
     }
     eo.maze = maze;

@@ -392,13 +392,15 @@ std::vector<std::string> LossRows(const std::string& path) {
 // A tiny run: 12 short trajectories and a tiny network, a few seconds in all.
 struct TinyRun {
   std::string dir, data, config;
-  explicit TinyRun(const std::string& name) : dir(Tmp(name)), data(dir + "/data.npz"), config(dir + "/tiny.yaml") {
+  // 12 episodes of 30 random steps, 2-D states and actions (the point maze's) unless given.
+  explicit TinyRun(const std::string& name, int obs_dim = 2, int action_dim = 2)
+      : dir(Tmp(name)), data(dir + "/data.npz"), config(dir + "/tiny.yaml") {
     mkdir(dir.c_str(), 0755);
     std::mt19937_64 rng(1);
     std::normal_distribution<float> normal;
-    core::DatasetBuilder b(2, 2);
+    core::DatasetBuilder b(obs_dim, action_dim);
     for (int e = 0; e < 12; ++e) {
-      std::vector<float> obs(30 * 2), act(30 * 2);
+      std::vector<float> obs(30 * obs_dim), act(30 * action_dim);
       for (auto& v : obs) v = normal(rng);
       for (auto& v : act) v = std::tanh(normal(rng));
       b.AddEpisode(obs, act);
@@ -540,6 +542,28 @@ TEST(TrainCli, EvaluatesCustomTasksBesideTheOfficialOnes) {
   const int st = Wait(StartTrain(args, out + ".bad"));
   EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << ReadAll(out + ".bad");
   EXPECT_NE(ReadAll(out + ".bad").find(bad + ": task 1: goal"), std::string::npos) << ReadAll(out + ".bad");
+}
+
+// .npz data carries no env: --eval-env names the sim to evaluate in (here an
+// OGBench-shaped antmaze file: 29-D states, 8-D actions); a bad name is a usage error.
+TEST(TrainCli, EvalEnvEvaluatesNpzDataInTheAntMaze) {
+  TinyRun tiny("eval_env", 29, 8);
+  const std::string out = tiny.dir + "/run";
+  std::vector<std::string> args = tiny.Args(out, {{"--steps", "5"}});
+  for (const char* a : {"--eval-env", "antmaze-medium", "--eval-episodes", "1", "--eval-max-steps", "10",
+                        "--eval-tasks", "3"})
+    args.push_back(a);
+  ASSERT_EQ(Wait(StartTrain(args, out + ".log")), 0) << ReadAll(out + ".log");
+  const std::string eval = ReadAll(out + "/eval.csv");
+  EXPECT_NE(eval.find("5,success_task3,0.000000"), std::string::npos) << eval;
+  const std::string js = ReadAll(out + "/eval/step_00000005.json");
+  EXPECT_NE(js.find("\"env\": \"antmaze-medium\""), std::string::npos) << js;
+  EXPECT_NE(js.find("\"max_steps\": 10"), std::string::npos) << js;
+  args[std::find(args.begin(), args.end(), "--eval-env") - args.begin() + 1] = "antmaze-huge";
+  args[std::find(args.begin(), args.end(), "--out") - args.begin() + 1] = tiny.dir + "/run2";
+  const int st = Wait(StartTrain(args, out + ".bad"));
+  EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << ReadAll(out + ".bad");
+  EXPECT_NE(ReadAll(out + ".bad").find("--eval-env: 'antmaze-huge'"), std::string::npos) << ReadAll(out + ".bad");
 }
 
 TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
