@@ -209,6 +209,30 @@ torch::Tensor ActorLoss(const AgentOptions& a, MsprNetworks& online, const Trans
     grep = repr.goal_head->forward(lat.zs, lat.z_actor_goal);
   }
   const torch::Tensor pi = F32(online.actor->forward(lat.zs, grep, batch.obs, batch.actor_goal));
+  if (a.actor_loss == "awr") {
+    // The weights: the critic's advantage of the dataset action over the actor's own.
+    torch::Tensor weight;
+    {
+      torch::NoGradGuard no_grad;
+      const torch::Tensor pi_now = pi.detach();
+      auto q_of = [&](const torch::Tensor& act) {
+        return std::get<0>(F32(online.critic->forward(repr.Zsa(lat.zs, act), grep, batch.obs, act,
+                                                      batch.actor_goal))
+                               .min(-1));  // [B]
+      };
+      const torch::Tensor adv = q_of(batch.action) - q_of(pi_now);
+      weight = (a.awr_temperature * adv).exp().clamp_max(100.0);
+    }
+    const torch::Tensor sq = (pi - batch.action).pow(2).sum(-1);  // [B]
+    const torch::Tensor loss = (weight * sq).mean();
+    if (info) {
+      const torch::Tensor host =
+          torch::stack({loss.detach(), sq.detach().mean()}).to(torch::kCPU, torch::kFloat64);
+      info->actor = host[0].item<double>();
+      info->bc = host[1].item<double>();
+    }
+    return loss;
+  }
   const torch::Tensor q = std::get<0>(
       F32(online.critic->forward(repr.Zsa(lat.zs, pi), grep, batch.obs, pi, batch.actor_goal))
           .min(-1));  // [B]

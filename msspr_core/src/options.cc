@@ -294,6 +294,9 @@ void ValidateOptions(const MsprOptions& o) {
   Require(a.gamma > 0 && a.gamma < 1, "agent.gamma must be in (0, 1)");
   Require(a.n_step >= 1, "agent.n_step must be >= 1");
   Require(a.target_update_every >= 1, "agent.target_update_every must be >= 1");
+  Require(a.actor_loss == "ddpg_bc" || a.actor_loss == "awr",
+          "agent.actor_loss must be 'ddpg_bc' or 'awr', got '" + a.actor_loss + "'");
+  Require(a.awr_temperature >= 0, "agent.awr_temperature must be >= 0");
   const RelabelOptions& l = o.relabel;
   Require(std::abs(l.value_p_curgoal + l.value_p_trajgoal + l.value_p_randomgoal - 1.0) < 1e-6,
           "relabel.value_p_* must sum to 1");

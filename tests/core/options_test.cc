@@ -247,6 +247,14 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
   bad.agent.gamma = 1.0;
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
   bad = o;
+  bad.agent.actor_loss = "awr";
+  EXPECT_NO_THROW(ValidateOptions(bad));
+  bad.agent.actor_loss = "sac";
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad.agent.actor_loss = "awr";
+  bad.agent.awr_temperature = -1.0;
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad = o;
   bad.trainer.policy_ema = 1.0;
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
   bad.trainer.policy_ema = -0.1;

@@ -145,6 +145,12 @@ struct AgentOptions {
   double weight_decay = 1e-4;      // AdamW weight decay
   bool critic_grad_to_encoder = false;  // let the critic loss train the encoders too
   int target_update_every = 250;        // K: hard copy of all target networks
+  // The actor's objective: "ddpg_bc" (the paper's Eq. 3: -Q(s, pi) / mean|Q| + bc_weight *
+  // ||pi - a||^2) or "awr" (advantage-weighted regression on the critic:
+  // mean(min(exp(awr_temperature * (Q(s, a) - Q(s, pi))), 100) * ||pi - a||^2), as OGBench's
+  // GCIVL/HIQL weight their actors; bc_weight unused).
+  std::string actor_loss = "ddpg_bc";
+  double awr_temperature = 10.0;
 
   template <class V>
   void Visit(V& v) {
@@ -159,6 +165,8 @@ struct AgentOptions {
     v("weight_decay", weight_decay);
     v("critic_grad_to_encoder", critic_grad_to_encoder);
     v("target_update_every", target_update_every);
+    v("actor_loss", actor_loss);
+    v("awr_temperature", awr_temperature);
   }
 };
 
