@@ -215,42 +215,31 @@ int main(int argc, char** argv) {
                                  msspr::sim::EnvIdName(bags->id) + ")");
     if (trainer.options().trainer.eval_every <= 0) return nullptr;
     const auto start = std::chrono::steady_clock::now();
-    if (cube) {
-      msspr::agent::CubeEvalOptions co;
-      co.tasks = eo.tasks;
-      co.episodes = eo.episodes;
-      co.max_steps = eo.max_steps;
-      co.seed = eo.seed;
-      return [co, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
-        const auto result = msspr::agent::EvaluateOnCube(policy, co);
+    // cube-single and the ant mazes: the env's 5 tasks (no custom tasks).
+    auto task_evaluator = [&](auto options, auto evaluate, auto write) -> msspr::core::Evaluator {
+      options.tasks = eo.tasks;
+      options.episodes = eo.episodes;
+      options.max_steps = eo.max_steps;
+      options.seed = eo.seed;
+      return [options, evaluate, write, out_dir, start](msspr::core::Policy& policy,
+                                                        int64_t step) -> msspr::core::EvalResult {
+        const auto result = evaluate(policy, options);
         msspr::core::EvalResult r;
         AddSuccessRows(result, "task", "", &r);
         r.emplace_back("eval_s", result.seconds);
         r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         if (!out_dir.empty())
-          msspr::agent::WriteCubeResultsJson(result, co, "msspr step " + std::to_string(step),
-                                             StepJsonPath(out_dir, step, ""));
+          write(result, options, "msspr step " + std::to_string(step), StepJsonPath(out_dir, step, ""));
         return r;
       };
-    }
+    };
+    if (cube)
+      return task_evaluator(msspr::agent::CubeEvalOptions(), msspr::agent::EvaluateOnCube,
+                            msspr::agent::WriteCubeResultsJson);
     if (ant) {
       msspr::agent::AntEvalOptions ao;
       ao.maze = msspr::sim::AntMazeName(bags->id);
-      ao.tasks = eo.tasks;
-      ao.episodes = eo.episodes;
-      ao.max_steps = eo.max_steps;
-      ao.seed = eo.seed;
-      return [ao, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
-        const auto result = msspr::agent::EvaluateOnAntMaze(policy, ao);
-        msspr::core::EvalResult r;
-        AddSuccessRows(result, "task", "", &r);
-        r.emplace_back("eval_s", result.seconds);
-        r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-        if (!out_dir.empty())
-          msspr::agent::WriteAntResultsJson(result, ao, "msspr step " + std::to_string(step),
-                                            StepJsonPath(out_dir, step, ""));
-        return r;
-      };
+      return task_evaluator(ao, msspr::agent::EvaluateOnAntMaze, msspr::agent::WriteAntResultsJson);
     }
     if (maze.empty()) {
       std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no success evaluation\n";

@@ -85,23 +85,13 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
     }
   }
 
-  AntEvalResult r;
-  r.tasks = options.tasks;
-  r.success.assign(nt, 0.0);
-  r.mean_steps_success.assign(nt, 0.0);
-  for (size_t ti = 0; ti < nt; ++ti) {
-    int ok = 0;
-    for (int e = 0; e < options.episodes; ++e) {
-      const Slot& s = slots[ti * static_cast<size_t>(options.episodes) + static_cast<size_t>(e)];
-      if (s.success) {
-        ++ok;
-        r.mean_steps_success[ti] += s.env->steps();
-      }
-    }
-    r.success[ti] = static_cast<double>(ok) / options.episodes;
-    if (ok) r.mean_steps_success[ti] /= ok;
-    r.mean_success += r.success[ti] / static_cast<double>(nt);
+  std::vector<bool> success;
+  std::vector<int> steps;
+  for (const Slot& s : slots) {
+    success.push_back(s.success);
+    steps.push_back(s.env->steps());
   }
+  AntEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, success, steps);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

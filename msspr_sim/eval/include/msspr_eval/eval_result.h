@@ -18,6 +18,33 @@ struct TaskSuccessResult {
   double seconds = 0.0;
 };
 
+// The result of tasks.size() x episodes episodes laid out task by task (episode e of
+// task i at i * episodes + e): success per task, the mean steps of its successful
+// episodes, mean_success over the tasks; seconds left 0.
+inline TaskSuccessResult SummarizeTaskEpisodes(const std::vector<int>& tasks, int episodes,
+                                               const std::vector<bool>& success,
+                                               const std::vector<int>& steps) {
+  TaskSuccessResult r;
+  r.tasks = tasks;
+  const size_t nt = tasks.size();
+  r.success.assign(nt, 0.0);
+  r.mean_steps_success.assign(nt, 0.0);
+  for (size_t ti = 0; ti < nt; ++ti) {
+    int ok = 0;
+    for (int e = 0; e < episodes; ++e) {
+      const size_t k = ti * static_cast<size_t>(episodes) + static_cast<size_t>(e);
+      if (success[k]) {
+        ++ok;
+        r.mean_steps_success[ti] += steps[k];
+      }
+    }
+    r.success[ti] = episodes > 0 ? static_cast<double>(ok) / episodes : 0.0;
+    if (ok) r.mean_steps_success[ti] /= ok;
+    r.mean_success += r.success[ti] / static_cast<double>(nt);
+  }
+  return r;
+}
+
 // The report (starts and goals left empty), mean_success filled.
 inline sim::EvalReport MakeTaskReport(const TaskSuccessResult& r, const std::string& env,
                                       const std::string& agent, int episodes, int max_steps,
