@@ -57,7 +57,9 @@ for f in setup.bash _setup_util.py \
   share/msspr/msspr_sim/urdf/ant.urdf share/msspr/msspr_sim/experts/ant_xy_expert.pt \
   share/msspr/msspr_policy_node/checkpoints/pointmaze-medium-state.pt \
   share/msspr/msspr_policy_node/checkpoints/pointmaze-medium-pixels.pt \
-  share/msspr/msspr_policy_node/checkpoints/cube-single-state.pt; do
+  share/msspr/msspr_policy_node/checkpoints/cube-single-state.pt \
+  share/msspr/msspr_policy_node/checkpoints/antmaze-medium-state.pt \
+  share/msspr/config/locomotion_cpu.yaml; do
   [ -e "$PREFIX/$f" ] || fail "not installed: $f"
 done
 for f in "$SHARE"/launch/*.launch; do
