@@ -14,7 +14,8 @@ namespace {
 // Task 1, (1,1) -> (6,6): 60% over 50 episodes when it was shipped; here 10.
 TEST(ShippedAntCheckpoint, ReachesAntmazeMediumTask1Goals) {
   torch::set_num_threads(1);
-  auto policy = core::Policy::Load(sim::PackageFile("msspr_policy_node/checkpoints/antmaze-medium-state.pt"));
+  auto policy =
+      core::Policy::Load(sim::PackageFile("msspr_policy_node/checkpoints/antmaze-medium-state.pt"));
   EXPECT_EQ(policy.obs_dim(), 29);
   EXPECT_EQ(policy.action_dim(), 8);
   AntEvalOptions o;

@@ -17,7 +17,8 @@ namespace msspr::agent {
 AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   constexpr int kObs = sim::AntMaze::kObsDim, kAct = sim::AntMaze::kActionDim;
-  const std::string env_name = sim::EnvLabel(sim::AntMazeEnvId(options.maze));  // throws on a bad maze
+  const std::string env_name =
+      sim::EnvLabel(sim::AntMazeEnvId(options.maze));  // throws on a bad maze
   if (policy.pixels())
     throw std::invalid_argument("EvaluateOnAntMaze: a pixels policy; " + env_name +
                                 " is evaluated from states only");
@@ -48,8 +49,8 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
       Slot s;
       s.env = std::make_unique<sim::AntMaze>(eo);
       if (t < 1 || t > static_cast<int>(s.env->map().Tasks().size()))
-        throw std::invalid_argument("EvaluateOnAntMaze: task " + std::to_string(t) + " is not a task of " +
-                                    env_name + " (1 to " +
+        throw std::invalid_argument("EvaluateOnAntMaze: task " + std::to_string(t) +
+                                    " is not a task of " + env_name + " (1 to " +
                                     std::to_string(s.env->map().Tasks().size()) + ")");
       s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
       s.success = s.done = s.env->success();
