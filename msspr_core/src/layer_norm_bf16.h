@@ -21,6 +21,17 @@ namespace internal {
 torch::Tensor LayerNormBf16(const torch::Tensor& x, const torch::Tensor& weight,
                             const torch::Tensor& bias, double eps);
 
+// LayerNormBf16(bf16(GELU(x)), weight, bias, eps) in one op each way: the
+// exact GELU (erf), its output rounded to bfloat16 as a bfloat16 GELU op
+// would hand it on, and the backward of both. Same arguments as LayerNormBf16.
+torch::Tensor GeluLayerNormBf16(const torch::Tensor& x, const torch::Tensor& weight,
+                                const torch::Tensor& bias, double eps);
+
+// The exact GELU of a bfloat16 CPU tensor, computed in fp32 and rounded once
+// (LibTorch 1.13's bfloat16 GELU rounds after each of its five steps, and is
+// several times slower). Differentiable; returns bfloat16.
+torch::Tensor GeluBf16(const torch::Tensor& x);
+
 // Whether LayerNormBf16 applies to x: a bfloat16 tensor on the CPU.
 inline bool UseLayerNormBf16(const torch::Tensor& x) {
   return x.scalar_type() == torch::kBFloat16 && x.device().is_cpu();

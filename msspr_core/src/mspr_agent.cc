@@ -64,6 +64,7 @@ MsprAgent::MsprAgent(const MsprOptions& options, torch::Device device, bool trai
   actor_opt_ = std::make_unique<ForeachAdamW>(
       online_.actor->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
   bins_ = ReturnBins(n.num_bins, a.gamma).to(device_);
+  if (bf16() && device_.is_cpu()) weight_cache_ = std::make_unique<internal::Bf16WeightCache>();
 }
 
 MsprAgent::MsprAgent(const MsprOptions& options, const MsprNetworks& networks, torch::Device device)
@@ -87,7 +88,7 @@ mspr::TransitionLatents MsprAgent::EncodeTransitions(const TransitionBatch& batc
 }
 
 mspr::TransitionLatents MsprAgent::EncodeForUpdate(const TransitionBatch& batch) {
-  PrecisionScope precision(bf16(), device_);
+  PrecisionScope precision(bf16(), device_, weight_cache_.get());
   return mspr::EncodeTransitions(*online_.repr, batch);
 }
 
@@ -125,7 +126,7 @@ void MsprAgent::RepresentationBackward(const ChunkBatch& batch, LossInfo* info) 
   ClearGrads(*online_.repr);
   torch::Tensor loss;
   {
-    PrecisionScope precision(bf16(), device_);
+    PrecisionScope precision(bf16(), device_, weight_cache_.get());
     loss = RepresentationLoss(batch, info);
   }
   loss.backward();
@@ -157,7 +158,7 @@ void MsprAgent::UpdateCritic(const TransitionBatch& batch, const mspr::Transitio
                              const torch::Tensor& noise, LossInfo* info) {
   torch::Tensor y;
   {
-    PrecisionScope precision(bf16(), device_);
+    PrecisionScope precision(bf16(), device_, weight_cache_.get());
     y = mspr::CriticTarget(options_.agent, target_, batch, noise);
   }
   UpdateCriticFromTarget(batch, lat, y, info);
@@ -171,7 +172,7 @@ void MsprAgent::UpdateCriticFromTarget(const TransitionBatch& batch,
   if (through) ClearGrads(*online_.repr);
   torch::Tensor loss;
   {
-    PrecisionScope precision(bf16(), device_);
+    PrecisionScope precision(bf16(), device_, weight_cache_.get());
     loss = mspr::CriticLoss(options_.agent, online_, batch, lat, y, info);
   }
   loss.backward();
@@ -191,7 +192,7 @@ void MsprAgent::UpdateActor(const TransitionBatch& batch, const mspr::Transition
   // differentiated through but not updated by the actor loss.
   torch::Tensor loss;
   {
-    PrecisionScope precision(bf16(), device_);
+    PrecisionScope precision(bf16(), device_, weight_cache_.get());
     loss = mspr::ActorLoss(options_.agent, online_, batch, lat, info);
   }
   std::vector<torch::Tensor> params = online_.actor->parameters();

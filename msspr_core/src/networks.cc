@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
+#include "bf16_weights.h"
 #include "layer_norm_bf16.h"
 
 namespace msspr {
@@ -28,18 +30,36 @@ MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer
 torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
   // Under bf16 autocast (trainer.precision) a Linear returns bfloat16, and
   // LayerNorm (fp32 weights) is computed in fp32. On the CPU one op does it
-  // and returns bfloat16 for the next Linear (internal::LayerNormBf16);
-  // elsewhere its input is cast up here. In fp32 the casts are no-ops.
+  // and returns bfloat16 for the next Linear (internal::LayerNormBf16), with
+  // the GELU before it (internal::GeluLayerNormBf16); elsewhere its input is
+  // cast up here. In fp32 the casts are no-ops.
   torch::Tensor h = x;
-  for (auto& layer : *net) {
-    if (auto* norm = layer.ptr()->as<nn::LayerNorm>()) {
+  for (auto it = net->begin(); it != net->end(); ++it) {
+    torch::nn::Module* layer = it->ptr().get();
+    if (auto* linear = layer->as<nn::Linear>()) {
+      h = internal::Linear(*linear, h);
+      continue;
+    }
+    if (layer->as<nn::GELU>()) {
+      const bool bf16 = internal::UseLayerNormBf16(h);
+      auto next = std::next(it);
+      nn::LayerNormImpl* norm = next != net->end() ? next->ptr()->as<nn::LayerNorm>() : nullptr;
+      if (bf16 && norm) {
+        h = internal::GeluLayerNormBf16(h, norm->weight, norm->bias, norm->options.eps());
+        it = next;
+      } else {
+        h = bf16 ? internal::GeluBf16(h) : torch::gelu(h);
+      }
+      continue;
+    }
+    if (auto* norm = layer->as<nn::LayerNorm>()) {
       if (internal::UseLayerNormBf16(h)) {
         h = internal::LayerNormBf16(h, norm->weight, norm->bias, norm->options.eps());
         continue;
       }
       h = h.to(torch::kFloat32);
     }
-    h = layer.forward(h);
+    h = it->forward(h);
   }
   return h;
 }
@@ -223,7 +243,8 @@ ActionEncoderImpl::ActionEncoderImpl(const NetworkOptions& o) {
 }
 
 torch::Tensor ActionEncoderImpl::forward(const torch::Tensor& a) {
-  return torch::gelu(linear->forward(a));
+  const torch::Tensor h = internal::Linear(*linear, a);
+  return internal::UseLayerNormBf16(h) ? internal::GeluBf16(h) : torch::gelu(h);
 }
 
 StateActionEncoderImpl::StateActionEncoderImpl(const NetworkOptions& o) {
@@ -245,22 +266,25 @@ PredictorsImpl::PredictorsImpl(const NetworkOptions& o)
       "goal_action", nn::Linear(o.zs_dim + o.goal_dim, int64_t{o.goal_horizon} * o.action_dim));
 }
 
-torch::Tensor PredictorsImpl::Dynamics(const torch::Tensor& zsa) { return dynamics->forward(zsa); }
+torch::Tensor PredictorsImpl::Dynamics(const torch::Tensor& zsa) {
+  return internal::Linear(*dynamics, zsa);
+}
 
 torch::Tensor PredictorsImpl::Reward(const torch::Tensor& zsa, const torch::Tensor& grep) {
-  return reward->forward(torch::cat({zsa, grep}, -1));
+  return internal::Linear(*reward, torch::cat({zsa, grep}, -1));
 }
 
 torch::Tensor PredictorsImpl::Inverse(const torch::Tensor& zs, const torch::Tensor& zs_next) {
-  return inverse->forward(torch::cat({zs, zs_next}, -1));
+  return internal::Linear(*inverse, torch::cat({zs, zs_next}, -1));
 }
 
 torch::Tensor PredictorsImpl::GoalDynamics(const torch::Tensor& zs, const torch::Tensor& grep) {
-  return goal_dynamics->forward(torch::cat({zs, grep}, -1));
+  return internal::Linear(*goal_dynamics, torch::cat({zs, grep}, -1));
 }
 
 torch::Tensor PredictorsImpl::GoalActions(const torch::Tensor& zs, const torch::Tensor& grep) {
-  return goal_action->forward(torch::cat({zs, grep}, -1)).view({-1, goal_horizon, action_dim});
+  return internal::Linear(*goal_action, torch::cat({zs, grep}, -1))
+      .view({-1, goal_horizon, action_dim});
 }
 
 RepresentationImpl::RepresentationImpl(const NetworkOptions& o) {
@@ -315,7 +339,8 @@ ActorImpl::ActorImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
 
 torch::Tensor ActorImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep,
                                  const torch::Tensor& s, const torch::Tensor& g) {
-  return torch::tanh(head->forward(backbone->forward(PolicyInput(inputs, {zs, grep}, {s, g}))));
+  return torch::tanh(
+      internal::Linear(*head, backbone->forward(PolicyInput(inputs, {zs, grep}, {s, g}))));
 }
 
 torch::Tensor ReturnBins(int64_t num_bins, double gamma) {

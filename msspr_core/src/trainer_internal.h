@@ -8,6 +8,8 @@
 #include <torch/torch.h>
 #include <torch/version.h>
 
+#include "bf16_weights.h"
+
 // The OpenMP runtime that LibTorch loaded (weak: null without one). Its
 // thread count is per calling thread, unlike at::set_num_threads, which is
 // process-wide and also drops oneDNN's cached convolution primitives.
@@ -36,8 +38,12 @@ inline bool CreditDue(double credit) { return credit >= 1.0 - 1e-9; }
 // PyTorch recommends. A no-op for fp32.
 class PrecisionScope {
  public:
-  PrecisionScope(bool bf16, const torch::Device& device)
-      : bf16_(bf16), type_(device.is_cuda() ? at::kCUDA : at::kCPU) {
+  // cache: where the Linears of this scope take their bfloat16 weights on
+  // the CPU (null: autocast casts them at every call).
+  PrecisionScope(bool bf16, const torch::Device& device, internal::Bf16WeightCache* cache = nullptr)
+      : bf16_(bf16),
+        type_(device.is_cuda() ? at::kCUDA : at::kCPU),
+        cache_scope_(bf16 && !device.is_cuda() ? cache : nullptr) {
     if (!bf16_) return;
     prev_ = Enabled(type_);
     SetDtype(type_, at::kBFloat16);
@@ -80,6 +86,7 @@ class PrecisionScope {
   bool bf16_;
   at::DeviceType type_;
   bool prev_ = false;
+  internal::Bf16WeightCacheScope cache_scope_;
 };
 
 // Sets the calling thread's intra-op thread count for a scope (no-op for

@@ -5,6 +5,8 @@
 
 #include <cmath>
 
+#include "bf16_weights.h"
+#include "layer_norm_bf16.h"
 #include "torch_test_util.h"
 
 namespace msspr {
@@ -114,6 +116,119 @@ TEST(NetworksTest, Bf16LayerNormEqualsCastFp32LayerNormInValueAndGradient) {
   // And against fp32 throughout, within bfloat16's precision.
   const torch::Tensor y32 = mlp->forward(x);
   EXPECT_LT(RelativeError(fused.first, y32), 3e-2);
+}
+
+// Whether bfloat16 tensor a is `exact` (float64) rounded to bfloat16, to within
+// one rounding: each element by at most one unit in the last place (or 1e-6:
+// erf's approximation is absolute, so values under 1e-3 keep fewer bits), and at
+// most 1% of the elements of magnitude 1e-3 or more differ from the rounded value.
+void ExpectBf16WithinOneRounding(const torch::Tensor& a, const torch::Tensor& exact) {
+  ASSERT_EQ(a.scalar_type(), torch::kBFloat16);
+  const torch::Tensor fa = a.to(torch::kFloat64), rounded = exact.to(torch::kBFloat16);
+  const torch::Tensor fr = rounded.to(torch::kFloat64);
+  const torch::Tensor diff = (fa - fr).abs();
+  const double ulp = 1.0 / 128.0;  // bfloat16 keeps 8 significant bits
+  const torch::Tensor large = fr.abs().ge(1e-3);
+  EXPECT_LE(diff.gt(0).logical_and(large).sum().item<double>(), 0.01 * large.sum().item<double>());
+  EXPECT_TRUE(diff.le(fr.abs() * ulp + 1e-6).all().item<bool>())
+      << "largest difference " << diff.max().item<double>();
+}
+
+// The bfloat16 GELU computes the exact GELU in fp32 and rounds once: its
+// values and input gradients are the exact ones (float64) rounded to bfloat16.
+TEST(NetworksTest, Bf16GeluIsTheExactGeluRoundedOnceInValueAndGradient) {
+  torch::manual_seed(0);
+  const torch::Tensor x =
+      (torch::randn({5000}) * 3.0).to(torch::kBFloat16).detach().requires_grad_(true);
+  const torch::Tensor dy = torch::randn({5000}).to(torch::kBFloat16);
+  const torch::Tensor y = internal::GeluBf16(x);
+  y.backward(dy);
+  const torch::Tensor xd = x.detach().to(torch::kFloat64).requires_grad_(true);
+  const torch::Tensor yd = torch::gelu(xd);
+  yd.backward(dy.to(torch::kFloat64));
+  ExpectBf16WithinOneRounding(y.detach(), yd.detach());
+  ExpectBf16WithinOneRounding(x.grad(), xd.grad());
+  // Far tails: GELU(-10) = -7.6e-23, GELU(10) = 10.
+  const torch::Tensor tails =
+      internal::GeluBf16(torch::tensor({-10.0f, 10.0f, 0.0f}).to(torch::kBFloat16));
+  EXPECT_LT(std::fabs(tails.to(torch::kFloat32)[0].item<float>()), 1e-20f);
+  EXPECT_EQ(tails.to(torch::kFloat32)[1].item<float>(), 10.0f);
+  EXPECT_EQ(tails.to(torch::kFloat32)[2].item<float>(), 0.0f);
+}
+
+// GELU and the LayerNorm after it as one op give the two ops' values and
+// gradients bit for bit, over more rows than one parallel chunk.
+TEST(NetworksTest, Bf16GeluLayerNormEqualsGeluThenLayerNormBitForBit) {
+  torch::manual_seed(0);
+  const torch::Tensor x0 = (torch::randn({300, 256}) * 2.0).to(torch::kBFloat16);
+  const torch::Tensor w0 = torch::rand({256}) + 0.5, b0 = torch::rand({256}) * 0.4 - 0.2;
+  const torch::Tensor dy = torch::randn({300, 256}).to(torch::kBFloat16);
+  auto run = [&](bool fused) {
+    const torch::Tensor x = x0.clone().requires_grad_(true);
+    const torch::Tensor w = w0.clone().requires_grad_(true), b = b0.clone().requires_grad_(true);
+    const torch::Tensor y = fused ? internal::GeluLayerNormBf16(x, w, b, 1e-6)
+                                  : internal::LayerNormBf16(internal::GeluBf16(x), w, b, 1e-6);
+    y.backward(dy);
+    return std::vector<torch::Tensor>{y.detach(), x.grad(), w.grad(), b.grad()};
+  };
+  const auto fused = run(true), chain = run(false);
+  const char* names[] = {"output", "input gradient", "weight gradient", "bias gradient"};
+  for (size_t i = 0; i < fused.size(); ++i)
+    EXPECT_TRUE(torch::equal(fused[i], chain[i])) << names[i];
+  EXPECT_EQ(fused[0].scalar_type(), torch::kBFloat16);
+  EXPECT_EQ(fused[1].scalar_type(), torch::kBFloat16);
+}
+
+// The bf16 weight cache: an Mlp under bf16 autocast gives autocast's own
+// outputs and gradients bit for bit, casts each weight once while it is
+// unchanged, and casts it again after an in-place update.
+TEST(NetworksTest, Bf16WeightCacheMatchesAutocastAndRecastsAfterAnUpdate) {
+  torch::manual_seed(0);
+  Mlp mlp(std::vector<int64_t>{16, 64, 64, 8}, /*output_gelu=*/false);
+  const torch::Tensor x = torch::randn({40, 16});
+  internal::Bf16WeightCache cache;
+  auto run = [&](bool cached) {
+    mlp->zero_grad();
+    torch::Tensor y;
+    {
+      CpuBf16Autocast autocast;
+      internal::Bf16WeightCacheScope scope(cached ? &cache : nullptr);
+      y = mlp->forward(x);
+    }
+    y.to(torch::kFloat32).sum().backward();
+    std::vector<torch::Tensor> out{y.detach()};
+    for (const auto& p : mlp->parameters()) out.push_back(p.grad().clone());
+    return out;
+  };
+  auto expect_equal = [](const std::vector<torch::Tensor>& a, const std::vector<torch::Tensor>& b) {
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(torch::equal(a[i], b[i])) << "tensor " << i;
+  };
+  const auto plain = run(false);
+  const auto first = run(true);
+  expect_equal(first, plain);
+  EXPECT_EQ(cache.size(), 6u);  // three Linears' weights and biases
+  // The second pass reuses the copies (and their graphs) and still matches.
+  const torch::Tensor w0 = cache.Get(mlp->net->ptr(0)->as<torch::nn::Linear>()->weight);
+  expect_equal(run(true), plain);
+  EXPECT_TRUE(cache.Get(mlp->net->ptr(0)->as<torch::nn::Linear>()->weight).is_same(w0));
+  // An in-place update (as an optimiser step makes) is seen.
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : mlp->parameters()) p.mul_(1.5);
+  }
+  const auto updated_plain = run(false);
+  EXPECT_FALSE(torch::equal(updated_plain[0], plain[0]));
+  expect_equal(run(true), updated_plain);
+  // A copy cast without gradient mode is recast with a graph when one is needed.
+  cache.Clear();
+  {
+    torch::NoGradGuard no_grad;
+    CpuBf16Autocast autocast;
+    internal::Bf16WeightCacheScope scope(&cache);
+    mlp->forward(x);
+  }
+  expect_equal(run(true), updated_plain);
 }
 
 TEST(NetworksTest, StateModuleShapes) {

@@ -21,6 +21,9 @@ namespace msspr {
 namespace core {
 
 class AsyncWorker;
+namespace internal {
+class Bf16WeightCache;
+}
 
 class MsprAgent : public GcAgent {
  public:
@@ -118,7 +121,9 @@ class MsprAgent : public GcAgent {
   torch::Device device_;
   MsprNetworks online_, target_, average_;
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
-  torch::Tensor bins_;        // [num_bins] float32 on device
+  torch::Tensor bins_;  // [num_bins] float32 on device
+  // bf16 on the CPU: the weights' bfloat16 copies, cast once per update.
+  std::unique_ptr<internal::Bf16WeightCache> weight_cache_;
   double repr_credit_ = 0.0;  // accumulated fractional representation updates
   // Pipelined with agent.critic_grad_to_encoder: the actor update of the
   // last step, deferred so that the worker runs it beside the next step's
