@@ -102,11 +102,14 @@ void GeluBackward(const uint16_t* x, const uint16_t* dy16, const float* dy32, ui
   }
 }
 
-// LayerNorm over rows of u = bf16(GELU(x)) (the GELU's output rounded to
-// bfloat16, as a bfloat16 GELU op would hand it on).
-MSSPR_ROW_KERNEL
-void GeluForwardRows(const uint16_t* x, const float* w, const float* b, uint16_t* y, float* mean,
-                     float* rstd, int64_t begin, int64_t end, int64_t d, float eps, float* buf) {
+// LayerNorm over rows of x (kGelu false), or of u = bf16(GELU(x)): the GELU's
+// output rounded to bfloat16, as a bfloat16 GELU op would hand it on. Inlined
+// into each compiled copy of the kernels below.
+template <bool kGelu>
+__attribute__((always_inline)) inline void NormRows(const uint16_t* x, const float* w,
+                                                    const float* b, uint16_t* y, float* mean,
+                                                    float* rstd, int64_t begin, int64_t end,
+                                                    int64_t d, float eps, float* buf) {
   const float inv_d = 1.0f / static_cast<float>(d);
   for (int64_t r = begin; r < end; ++r) {
     const uint16_t* xr = x + r * d;
@@ -114,7 +117,7 @@ void GeluForwardRows(const uint16_t* x, const float* w, const float* b, uint16_t
     float s = 0.0f;
 #pragma omp simd reduction(+ : s)
     for (int64_t i = 0; i < d; ++i) {
-      const float v = ToFloat(ToBf16(Gelu(ToFloat(xr[i]), nullptr)));
+      const float v = kGelu ? ToFloat(ToBf16(Gelu(ToFloat(xr[i]), nullptr))) : ToFloat(xr[i]);
       buf[i] = v;
       s += v;
     }
@@ -133,12 +136,17 @@ void GeluForwardRows(const uint16_t* x, const float* w, const float* b, uint16_t
   }
 }
 
-// The LayerNorm's backward (as BackwardRows, its dx rounded to bfloat16), then
-// the GELU's: dx = bf16(du) * GELU'(x).
-MSSPR_ROW_KERNEL
-void GeluBackwardRows(const uint16_t* x, const uint16_t* dy16, const float* dy32, const float* w,
-                      const float* mean, const float* rstd, uint16_t* dx, float* dw, float* db,
-                      int64_t begin, int64_t end, int64_t d, float* xh, float* gw, float* dg) {
+// The LayerNorm's backward: dx = rstd * (g - mean(g) - xhat * mean(g * xhat)) with
+// g = dy * weight; dweight += dy * xhat and dbias += dy over the rows. dy is
+// bfloat16 (dy16) or fp32 (dy32). With kGelu, the GELU's backward follows:
+// dx = bf16(du) * GELU'(x), du the LayerNorm's dx rounded to bfloat16.
+template <bool kGelu>
+__attribute__((always_inline)) inline void NormBackwardRows(const uint16_t* x, const uint16_t* dy16,
+                                                            const float* dy32, const float* w,
+                                                            const float* mean, const float* rstd,
+                                                            uint16_t* dx, float* dw, float* db,
+                                                            int64_t begin, int64_t end, int64_t d,
+                                                            float* xh, float* gw, float* dg) {
   const float inv_d = 1.0f / static_cast<float>(d);
   for (int64_t r = begin; r < end; ++r) {
     const uint16_t* xr = x + r * d;
@@ -153,8 +161,8 @@ void GeluBackwardRows(const uint16_t* x, const uint16_t* dy16, const float* dy32
     float s1 = 0.0f, s2 = 0.0f;
 #pragma omp simd reduction(+ : s1, s2)
     for (int64_t i = 0; i < d; ++i) {
-      float dgelu;
-      const float u = ToFloat(ToBf16(Gelu(ToFloat(xr[i]), &dgelu)));
+      float dgelu = 1.0f;
+      const float u = kGelu ? ToFloat(ToBf16(Gelu(ToFloat(xr[i]), &dgelu))) : ToFloat(xr[i]);
       const float xhat = (u - m) * rs;
       const float g = gw[i];
       db[i] += g;
@@ -162,83 +170,44 @@ void GeluBackwardRows(const uint16_t* x, const uint16_t* dy16, const float* dy32
       const float gwi = g * w[i];
       xh[i] = xhat;
       gw[i] = gwi;
-      dg[i] = dgelu;
+      if (kGelu) dg[i] = dgelu;
       s1 += gwi;
       s2 += gwi * xhat;
     }
     const float c1 = s1 * inv_d, c2 = s2 * inv_d;
     uint16_t* dxr = dx + r * d;
 #pragma omp simd
-    for (int64_t i = 0; i < d; ++i)
-      dxr[i] = ToBf16(ToFloat(ToBf16(rs * (gw[i] - c1 - xh[i] * c2))) * dg[i]);
+    for (int64_t i = 0; i < d; ++i) {
+      const float du = rs * (gw[i] - c1 - xh[i] * c2);
+      dxr[i] = kGelu ? ToBf16(ToFloat(ToBf16(du)) * dg[i]) : ToBf16(du);
+    }
   }
 }
 
 MSSPR_ROW_KERNEL
 void ForwardRows(const uint16_t* x, const float* w, const float* b, uint16_t* y, float* mean,
                  float* rstd, int64_t begin, int64_t end, int64_t d, float eps, float* buf) {
-  const float inv_d = 1.0f / static_cast<float>(d);
-  for (int64_t r = begin; r < end; ++r) {
-    const uint16_t* xr = x + r * d;
-    uint16_t* yr = y + r * d;
-    float s = 0.0f;
-#pragma omp simd reduction(+ : s)
-    for (int64_t i = 0; i < d; ++i) {
-      const float v = ToFloat(xr[i]);
-      buf[i] = v;
-      s += v;
-    }
-    const float m = s * inv_d;
-    float q = 0.0f;
-#pragma omp simd reduction(+ : q)
-    for (int64_t i = 0; i < d; ++i) {
-      const float c = buf[i] - m;
-      q += c * c;
-    }
-    const float rs = 1.0f / std::sqrt(q * inv_d + eps);
-#pragma omp simd
-    for (int64_t i = 0; i < d; ++i) yr[i] = ToBf16((buf[i] - m) * rs * w[i] + b[i]);
-    mean[r] = m;
-    rstd[r] = rs;
-  }
+  NormRows<false>(x, w, b, y, mean, rstd, begin, end, d, eps, buf);
 }
 
-// dx = rstd * (g - mean(g) - xhat * mean(g * xhat)) with g = dy * weight;
-// dweight += dy * xhat and dbias += dy over the rows. dy is bfloat16 (dy16)
-// or fp32 (dy32).
+MSSPR_ROW_KERNEL
+void GeluForwardRows(const uint16_t* x, const float* w, const float* b, uint16_t* y, float* mean,
+                     float* rstd, int64_t begin, int64_t end, int64_t d, float eps, float* buf) {
+  NormRows<true>(x, w, b, y, mean, rstd, begin, end, d, eps, buf);
+}
+
 MSSPR_ROW_KERNEL
 void BackwardRows(const uint16_t* x, const uint16_t* dy16, const float* dy32, const float* w,
                   const float* mean, const float* rstd, uint16_t* dx, float* dw, float* db,
                   int64_t begin, int64_t end, int64_t d, float* xh, float* gw) {
-  const float inv_d = 1.0f / static_cast<float>(d);
-  for (int64_t r = begin; r < end; ++r) {
-    const uint16_t* xr = x + r * d;
-    const float m = mean[r], rs = rstd[r];
-    if (dy16) {
-      const uint16_t* gr = dy16 + r * d;
-#pragma omp simd
-      for (int64_t i = 0; i < d; ++i) gw[i] = ToFloat(gr[i]);
-    } else {
-      std::memcpy(gw, dy32 + r * d, sizeof(float) * static_cast<size_t>(d));
-    }
-    float s1 = 0.0f, s2 = 0.0f;
-#pragma omp simd reduction(+ : s1, s2)
-    for (int64_t i = 0; i < d; ++i) {
-      const float xhat = (ToFloat(xr[i]) - m) * rs;
-      const float g = gw[i];
-      db[i] += g;
-      dw[i] += g * xhat;
-      const float gwi = g * w[i];
-      xh[i] = xhat;
-      gw[i] = gwi;
-      s1 += gwi;
-      s2 += gwi * xhat;
-    }
-    const float c1 = s1 * inv_d, c2 = s2 * inv_d;
-    uint16_t* dxr = dx + r * d;
-#pragma omp simd
-    for (int64_t i = 0; i < d; ++i) dxr[i] = ToBf16(rs * (gw[i] - c1 - xh[i] * c2));
-  }
+  NormBackwardRows<false>(x, dy16, dy32, w, mean, rstd, dx, dw, db, begin, end, d, xh, gw, nullptr);
+}
+
+MSSPR_ROW_KERNEL
+void GeluBackwardRows(const uint16_t* x, const uint16_t* dy16, const float* dy32, const float* w,
+                      const float* mean, const float* rstd, uint16_t* dx, float* dw, float* db,
+                      int64_t begin, int64_t end, int64_t d, float* xh, float* gw, float* dg) {
+  NormBackwardRows<true>(x, dy16, dy32, w, mean, rstd, dx, dw, db, begin, end, d, xh, gw, dg);
 }
 
 // Rows per parallel chunk: small enough to spread a batch over threads, large
