@@ -221,6 +221,18 @@ uint16_t* MutableBits(torch::Tensor& t) {
   return reinterpret_cast<uint16_t*>(t.data_ptr<at::BFloat16>());
 }
 
+// An incoming gradient as the backward kernels read it: bfloat16 as it comes,
+// anything else as fp32; contiguous. Exactly one of bf16 and fp32 is set.
+struct GradIn {
+  explicit GradIn(const torch::Tensor& dy)
+      : t((dy.scalar_type() == torch::kBFloat16 ? dy : dy.to(torch::kFloat32)).contiguous()),
+        bf16(t.scalar_type() == torch::kBFloat16 ? Bits(t) : nullptr),
+        fp32(bf16 ? nullptr : t.data_ptr<float>()) {}
+  torch::Tensor t;
+  const uint16_t* bf16;
+  const float* fp32;
+};
+
 class LayerNormBf16Fn : public torch::autograd::Function<LayerNormBf16Fn> {
  public:
   // gelu: the LayerNorm of bf16(GELU(x)) (GeluLayerNormBf16).
@@ -256,17 +268,14 @@ class LayerNormBf16Fn : public torch::autograd::Function<LayerNormBf16Fn> {
     const torch::Tensor &x = saved[0], &w = saved[1], &mean = saved[2], &rstd = saved[3];
     const bool gelu = ctx->saved_data["gelu"].toBool();
     const int64_t d = x.size(-1), rows = d > 0 ? x.numel() / d : 0;
-    torch::Tensor dy = grads[0];
-    if (dy.scalar_type() != torch::kBFloat16) dy = dy.to(torch::kFloat32);
-    dy = dy.contiguous();
-    const bool bf = dy.scalar_type() == torch::kBFloat16;
+    const GradIn dy(grads[0]);
     torch::Tensor dx = torch::empty_like(x);
     // Per-thread partial sums of dweight and dbias, added up after.
     const int64_t threads = std::max<int64_t>(1, at::get_num_threads());
     torch::Tensor partial = torch::zeros({threads, 2, d}, x.options().dtype(torch::kFloat32));
     const uint16_t* xp = Bits(x);
-    const uint16_t* dy16 = bf ? Bits(dy) : nullptr;
-    const float* dy32 = bf ? nullptr : dy.data_ptr<float>();
+    const uint16_t* dy16 = dy.bf16;
+    const float* dy32 = dy.fp32;
     const float *wp = w.data_ptr<float>(), *mp = mean.data_ptr<float>(),
                 *rp = rstd.data_ptr<float>();
     uint16_t* dxp = MutableBits(dx);
@@ -306,17 +315,12 @@ class GeluBf16Fn : public torch::autograd::Function<GeluBf16Fn> {
   static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx,
                                                torch::autograd::tensor_list grads) {
     const torch::Tensor x = ctx->get_saved_variables()[0];
-    torch::Tensor dy = grads[0];
-    if (dy.scalar_type() != torch::kBFloat16) dy = dy.to(torch::kFloat32);
-    dy = dy.contiguous();
-    const bool bf = dy.scalar_type() == torch::kBFloat16;
+    const GradIn dy(grads[0]);
     torch::Tensor dx = torch::empty_like(x);
     const uint16_t* xp = Bits(x);
-    const uint16_t* dy16 = bf ? Bits(dy) : nullptr;
-    const float* dy32 = bf ? nullptr : dy.data_ptr<float>();
     uint16_t* dxp = MutableBits(dx);
     at::parallel_for(0, x.numel(), kGeluGrain, [&](int64_t begin, int64_t end) {
-      GeluBackward(xp, dy16, dy32, dxp, begin, end);
+      GeluBackward(xp, dy.bf16, dy.fp32, dxp, begin, end);
     });
     return {dx};
   }

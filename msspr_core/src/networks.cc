@@ -27,6 +27,13 @@ MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer
   register_module("net", net);
 }
 
+namespace {
+// GELU (exact, erf): one bfloat16 op on a bfloat16 CPU tensor, LibTorch's otherwise.
+torch::Tensor Gelu(const torch::Tensor& h) {
+  return internal::UseLayerNormBf16(h) ? internal::GeluBf16(h) : torch::gelu(h);
+}
+}  // namespace
+
 torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
   // Under bf16 autocast (trainer.precision) a Linear returns bfloat16, and
   // LayerNorm (fp32 weights) is computed in fp32. On the CPU one op does it
@@ -41,14 +48,13 @@ torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
       continue;
     }
     if (layer->as<nn::GELU>()) {
-      const bool bf16 = internal::UseLayerNormBf16(h);
       auto next = std::next(it);
       nn::LayerNormImpl* norm = next != net->end() ? next->ptr()->as<nn::LayerNorm>() : nullptr;
-      if (bf16 && norm) {
+      if (norm && internal::UseLayerNormBf16(h)) {
         h = internal::GeluLayerNormBf16(h, norm->weight, norm->bias, norm->options.eps());
         it = next;
       } else {
-        h = bf16 ? internal::GeluBf16(h) : torch::gelu(h);
+        h = Gelu(h);
       }
       continue;
     }
@@ -243,8 +249,7 @@ ActionEncoderImpl::ActionEncoderImpl(const NetworkOptions& o) {
 }
 
 torch::Tensor ActionEncoderImpl::forward(const torch::Tensor& a) {
-  const torch::Tensor h = internal::Linear(*linear, a);
-  return internal::UseLayerNormBf16(h) ? internal::GeluBf16(h) : torch::gelu(h);
+  return Gelu(internal::Linear(*linear, a));
 }
 
 StateActionEncoderImpl::StateActionEncoderImpl(const NetworkOptions& o) {
