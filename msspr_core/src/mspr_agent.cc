@@ -63,6 +63,12 @@ MsprAgent::MsprAgent(const MsprOptions& options, torch::Device device, bool trai
       online_.critic->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
   actor_opt_ = std::make_unique<ForeachAdamW>(
       online_.actor->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
+  if (a.critic_target == "expectile") {
+    value_ = register_module("value", core::Value(n));
+    value_->to(device_);
+    value_opt_ = std::make_unique<ForeachAdamW>(
+        value_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
+  }
   bins_ = ReturnBins(n.num_bins, a.gamma).to(device_);
   if (bf16() && device_.is_cpu()) weight_cache_ = std::make_unique<internal::Bf16WeightCache>();
 }
@@ -101,7 +107,7 @@ torch::Tensor MsprAgent::CriticLoss(const TransitionBatch& batch, const torch::T
   const bool through = options_.agent.critic_grad_to_encoder && torch::GradMode::is_enabled();
   std::optional<mspr::TransitionLatents> lat;
   if (!through) lat = EncodeTransitions(batch);
-  const torch::Tensor y = mspr::CriticTarget(options_.agent, target_, batch, noise);
+  const torch::Tensor y = TdTarget(batch, noise, /*update=*/false);
   return mspr::CriticLoss(options_.agent, online_, batch, lat ? &*lat : nullptr, y, info);
 }
 
@@ -156,12 +162,30 @@ void MsprAgent::UpdateCritic(const TransitionBatch& batch, const torch::Tensor& 
 
 void MsprAgent::UpdateCritic(const TransitionBatch& batch, const mspr::TransitionLatents* lat,
                              const torch::Tensor& noise, LossInfo* info) {
-  torch::Tensor y;
+  UpdateCriticFromTarget(batch, lat, TdTarget(batch, noise, /*update=*/true), info);
+}
+
+torch::Tensor MsprAgent::TdTarget(const TransitionBatch& batch, const torch::Tensor& noise,
+                                  bool update) {
+  if (!value_) {
+    PrecisionScope precision(bf16(), device_, weight_cache_.get());
+    return mspr::CriticTarget(options_.agent, target_, batch, noise);
+  }
+  if (!update) {
+    torch::NoGradGuard no_grad;
+    PrecisionScope precision(bf16(), device_, weight_cache_.get());
+    return mspr::ExpectileCriticTarget(options_.agent, target_, *value_, batch).y;
+  }
+  ClearGrads(*value_);
+  mspr::ExpectileTarget t;
   {
     PrecisionScope precision(bf16(), device_, weight_cache_.get());
-    y = mspr::CriticTarget(options_.agent, target_, batch, noise);
+    t = mspr::ExpectileCriticTarget(options_.agent, target_, *value_, batch);
   }
-  UpdateCriticFromTarget(batch, lat, y, info);
+  t.value_loss.backward();
+  AverageGradients(value_->parameters());
+  value_opt_->step();
+  return t.y;
 }
 
 void MsprAgent::UpdateCriticFromTarget(const TransitionBatch& batch,
@@ -269,6 +293,7 @@ NamedModules MsprAgent::CheckpointModules() {
                        {"target_repr", target_.repr.get()},
                        {"target_critic", target_.critic.get()},
                        {"target_actor", target_.actor.get()}};
+  if (value_) modules.emplace_back("value", value_.get());
   if (average_.repr) {
     modules.emplace_back("ema_repr", average_.repr.get());
     modules.emplace_back("ema_critic", average_.critic.get());
@@ -278,9 +303,11 @@ NamedModules MsprAgent::CheckpointModules() {
 }
 
 NamedOptimizers MsprAgent::Optimizers() {
-  return {{"repr_opt", repr_opt_.get()},
-          {"critic_opt", critic_opt_.get()},
-          {"actor_opt", actor_opt_.get()}};
+  NamedOptimizers opts{{"repr_opt", repr_opt_.get()},
+                       {"critic_opt", critic_opt_.get()},
+                       {"actor_opt", actor_opt_.get()}};
+  if (value_opt_) opts.emplace_back("value_opt", value_opt_.get());
+  return opts;
 }
 
 NamedModules MsprAgent::PolicyModules(bool raw) {

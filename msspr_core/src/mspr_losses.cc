@@ -172,6 +172,38 @@ torch::Tensor CriticTarget(const AgentOptions& a, MsprNetworks& target,
   return y;
 }
 
+ExpectileTarget ExpectileCriticTarget(const AgentOptions& a, MsprNetworks& target, ValueImpl& value,
+                                      const TransitionBatch& batch) {
+  const int64_t b = batch.obs.size(0);
+  torch::Tensor zs, zs_next, grep, grep_next, q_data;
+  ExpectileTarget out;
+  {
+    torch::NoGradGuard no_grad;
+    RepresentationImpl& repr = *target.repr;
+    // One encoder call and one goal-head call for s and s'.
+    const torch::Tensor z =
+        repr.state_encoder->forward(torch::cat({batch.obs, batch.next_obs, batch.value_goal}, 0));
+    const torch::Tensor zg = z.narrow(0, 2 * b, b);
+    const torch::Tensor g2 =
+        repr.goal_head->forward(z.narrow(0, 0, 2 * b), torch::cat({zg, zg}, 0));
+    zs = z.narrow(0, 0, b);
+    zs_next = z.narrow(0, b, b);
+    grep = g2.narrow(0, 0, b);
+    grep_next = g2.narrow(0, b, b);
+    q_data = std::get<0>(F32(target.critic->forward(repr.Zsa(zs, batch.action), grep, batch.obs,
+                                                    batch.action, batch.value_goal))
+                             .min(-1));
+    const torch::Tensor v_next =
+        value.forward(zs_next, grep_next, batch.next_obs, batch.value_goal);
+    out.y = batch.ret + batch.discount * v_next;
+    if (a.clip_target) out.y = out.y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
+  }
+  const torch::Tensor d = q_data - value.forward(zs, grep, batch.obs, batch.value_goal);
+  const torch::Tensor w = torch::where(d < 0, 1.0 - a.expectile, a.expectile);
+  out.value_loss = (w * d * d).mean();
+  return out;
+}
+
 torch::Tensor CriticLoss(const AgentOptions& a, MsprNetworks& online, const TransitionBatch& batch,
                          const TransitionLatents* lat, const torch::Tensor& y, LossInfo* info) {
   const int64_t b = batch.obs.size(0);

@@ -136,8 +136,7 @@ LossInfo MsprAgent::CriticGradPipelinedStep(TrainingContext& context, bool colle
   pending_actor_.reset();
   RunOnWorker(worker_threads, [this, actor_batch = std::move(actor_batch), batch, noise] {
     if (actor_batch) UpdateActor(*actor_batch, EncodeForUpdate(*actor_batch), nullptr);
-    PrecisionScope precision(bf16(), device_, weight_cache_.get());
-    worker_target_ = mspr::CriticTarget(options_.agent, target_, batch, noise);
+    worker_target_ = TdTarget(batch, noise, /*update=*/true);
   });
   for (const ChunkBatch& c : chunks) {
     RepresentationBackward(c, out);

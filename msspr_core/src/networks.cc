@@ -348,6 +348,17 @@ torch::Tensor ActorImpl::forward(const torch::Tensor& zs, const torch::Tensor& g
       internal::Linear(*head, backbone->forward(PolicyInput(inputs, {zs, grep}, {s, g}))));
 }
 
+ValueImpl::ValueImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
+  const int64_t in = (inputs.latent ? o.zs_dim + o.goal_dim : 0) + (inputs.raw ? 2 * o.obs_dim : 0);
+  v = register_module(
+      "v", Mlp(Sizes(in, o.critic_hidden, o.critic_layers, 1), false, true, o.layer_norm_eps));
+}
+
+torch::Tensor ValueImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep,
+                                 const torch::Tensor& s, const torch::Tensor& g) {
+  return v->forward(PolicyInput(inputs, {zs, grep}, {s, g})).to(torch::kFloat32).squeeze(-1);
+}
+
 torch::Tensor ReturnBins(int64_t num_bins, double gamma) {
   return torch::linspace(-1.0 / (1.0 - gamma), 0.0, num_bins, torch::kFloat32);
 }

@@ -297,6 +297,9 @@ void ValidateOptions(const MsprOptions& o) {
   Require(a.actor_loss == "ddpg_bc" || a.actor_loss == "awr",
           "agent.actor_loss must be 'ddpg_bc' or 'awr', got '" + a.actor_loss + "'");
   Require(a.awr_temperature >= 0, "agent.awr_temperature must be >= 0");
+  Require(a.critic_target == "td3" || a.critic_target == "expectile",
+          "agent.critic_target must be 'td3' or 'expectile', got '" + a.critic_target + "'");
+  Require(a.expectile > 0 && a.expectile < 1, "agent.expectile must be in (0, 1)");
   const RelabelOptions& l = o.relabel;
   Require(std::abs(l.value_p_curgoal + l.value_p_trajgoal + l.value_p_randomgoal - 1.0) < 1e-6,
           "relabel.value_p_* must sum to 1");

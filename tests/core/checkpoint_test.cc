@@ -75,6 +75,27 @@ TEST(CheckpointTest, ResumedRunEqualsUninterruptedRun) {
   ExpectSameState(straight, resumed);
 }
 
+// agent.critic_target "expectile": the value network and its optimiser are
+// part of the checkpoint (the critic's targets depend on them).
+TEST(CheckpointTest, ResumedRunWithExpectileTargetEqualsUninterruptedRun) {
+  TempDir dir;
+  auto data = RandomStateDataset();
+  MsprOptions o = ResumeOptions();
+  o.agent.critic_target = "expectile";
+  Trainer straight(o, data);
+  for (int i = 0; i < 8; ++i) straight.Step();
+  {
+    Trainer first(o, data);
+    for (int i = 0; i < 5; ++i) first.Step();
+    first.SaveCheckpoint(dir.File("half.ckpt"));
+  }
+  Trainer resumed(o, data);
+  resumed.LoadCheckpoint(dir.File("half.ckpt"));
+  for (int i = 0; i < 3; ++i) resumed.Step();
+  ExpectSameState(straight, resumed);
+  EXPECT_TRUE(torch::equal(Flat(*straight.value()), Flat(*resumed.value())));
+}
+
 TEST(CheckpointTest, PolicyAverageResumesExactlyAndIsWhatTheExportsHold) {
   TempDir dir;
   auto data = RandomStateDataset();

@@ -81,6 +81,14 @@ TEST(LearningAwrActor, PointInSquareReachesGoals) {
   ExpectLearnsPointInSquare(o, "fp32, awr actor");
 }
 
+// The critic bootstrapped in-sample from an expectile value (agent.critic_target:
+// expectile) learns too.
+TEST(LearningExpectileCritic, PointInSquareReachesGoals) {
+  MsprOptions o = SmallAgent("fp32");
+  o.agent.critic_target = "expectile";
+  ExpectLearnsPointInSquare(o, "fp32, expectile critic target");
+}
+
 INSTANTIATE_TEST_SUITE_P(Precision, LearningTest, testing::Values("fp32", "bf16"),
                          [](const testing::TestParamInfo<std::string>& info) {
                            return info.param;

@@ -102,6 +102,72 @@ TEST(TrainerTest, CriticTargetIsClippedToReturnRange) {
               1e-5);
 }
 
+// agent.critic_target "expectile": y = R + discount * V(s', g) (V, not the target
+// critic at the target actor's action), and V's loss is the expectile loss
+// against the target critic at the dataset's action.
+TEST(TrainerTest, ExpectileTargetBootstrapsFromValueAndFitsAnUpperExpectile) {
+  MsprOptions o = TinyOptions();
+  o.agent.critic_target = "expectile";
+  o.agent.expectile = 0.9;
+  Trainer t(o, RandomStateDataset());
+  ASSERT_TRUE(t.value());
+  SetConstant(t.critic()->q1, -2.0f);
+  SetConstant(t.critic()->q2, -3.0f);
+  SetConstant(t.target_critic()->q1, -4.0f);
+  SetConstant(t.target_critic()->q2, -5.0f);
+  SetConstant(t.value()->v, -1.5f);
+  const TransitionBatch b = ToDevice(FixedBatch(3), t.device());
+  // y = R + discount * V = {0, -2.35, -3.8035, -2.5}
+  const double y[4] = {0.0, -1.0 + 0.9 * -1.5, -2.71 + 0.729 * -1.5, -2.5};
+  double expected = 0.0;
+  for (double q : {-2.0, -3.0})
+    for (double yi : y) expected += HuberValue(q - yi) / 4.0;
+  EXPECT_NEAR(t.CriticLoss(b, torch::randn({4, 2})).item<double>(), expected, 1e-5);
+
+  // V's loss: d = min(-4, -5) - (-1.5) = -3.5 < 0, weight 1 - 0.9.
+  const mspr::ExpectileTarget e =
+      mspr::ExpectileCriticTarget(o.agent, t.mspr().target(), *t.value(), b);
+  EXPECT_NEAR(e.value_loss.item<double>(), 0.1 * 3.5 * 3.5, 1e-5);
+  SetConstant(t.value()->v, -6.0f);  // d = 1 > 0, weight 0.9
+  EXPECT_NEAR(mspr::ExpectileCriticTarget(o.agent, t.mspr().target(), *t.value(), b)
+                  .value_loss.item<double>(),
+              0.9, 1e-5);
+  // The gradient reaches V only.
+  ClearGradsForTest(*t.value());
+  ClearGradsForTest(*t.target_critic());
+  mspr::ExpectileCriticTarget(o.agent, t.mspr().target(), *t.value(), b).value_loss.backward();
+  EXPECT_TRUE(LastLinear(t.value()->v)->bias.grad().defined());
+  for (const auto& p : t.target_critic()->parameters()) EXPECT_FALSE(p.grad().defined());
+}
+
+// Fit to fixed targets, the value network's output settles at their upper
+// expectile: with tau = 0.9 over {0, -1} the solution of
+// 0.9 (0 - v) = 0.1 (v + 1) is v = -0.1.
+TEST(TrainerTest, ExpectileValueConvergesToTheUpperExpectileOfTheTargets) {
+  MsprOptions o = TinyOptions();
+  o.agent.critic_target = "expectile";
+  o.agent.expectile = 0.9;
+  Trainer t(o, RandomStateDataset());
+  SetConstant(t.target_critic()->q1, 0.0f);
+  SetConstant(t.target_critic()->q2, 0.0f);
+  TransitionBatch b = ToDevice(FixedBatch(3), t.device());
+  // min(Q') alternates between 0 and -1 from one step to the next; V is its
+  // output bias alone.
+  auto v_bias = LastLinear(t.value()->v);
+  {
+    torch::NoGradGuard no_grad;
+    LastLinear(t.value()->v)->weight.zero_();
+  }
+  torch::optim::SGD sgd({v_bias->bias}, torch::optim::SGDOptions(0.5));
+  for (int i = 0; i < 400; ++i) {
+    SetConstant(t.target_critic()->q2, i % 2 == 0 ? 0.0f : -1.0f);
+    sgd.zero_grad();
+    mspr::ExpectileCriticTarget(o.agent, t.mspr().target(), *t.value(), b).value_loss.backward();
+    sgd.step();
+  }
+  EXPECT_NEAR(v_bias->bias.item<double>(), -0.1, 0.02);
+}
+
 TEST(TrainerTest, ActorLossEqualsHandComputedValue) {
   MsprOptions o = TinyOptions();
   o.agent.bc_weight = 0.7;
@@ -525,52 +591,61 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
     for (const char* precision : {"fp32", "bf16"}) {
       for (double updates : {1.0, 0.5, 2.0}) {
         for (bool pixels : {false, true}) {
-          if (updates == 2.0 && (pixels || !through)) continue;
-          MsprOptions o = pixels ? PixelOptions(0.5) : TinyOptions();
-          o.trainer.precision = precision;
-          o.representation.updates_per_step = updates;
-          o.agent.critic_grad_to_encoder = through;
-          o.trainer.policy_ema = through ? 0.9 : 0.0;
-          o.agent.target_update_every = 4;  // target copies inside the run
-          auto data = pixels ? testing_util::RandomImageDataset() : RandomStateDataset();
-          // 10 steps, losses read back on every third; the trainer and those losses.
-          auto run = [&](const char* pipeline, int threads, std::vector<LossInfo>* info) {
-            o.trainer.pipeline = pipeline;
-            torch::set_num_threads(threads);
-            auto t = std::make_unique<Trainer>(o, data);
-            EXPECT_EQ(t->pipelined(), threads > 1);
-            for (int i = 0; i < 10; ++i) info->push_back(t->Step(i % 3 == 2));
-            return t;
-          };
-          std::vector<LossInfo> seq_info, pipe_info;
-          const auto seq_trainer = run("off", 1, &seq_info);
-          const auto pipe_trainer = run("auto", 2, &pipe_info);
-          Trainer& sequential = *seq_trainer;
-          Trainer& pipelined = *pipe_trainer;
-          const std::string what = std::string(precision) + " updates_per_step " +
-                                   std::to_string(updates) + (pixels ? " pixels" : " state") +
-                                   (through ? " critic_grad_to_encoder" : "");
-          EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
-          if (through) {
-            // The moving average took in the same weights at the same points.
-            EXPECT_TRUE(torch::equal(Flat(*sequential.ema_actor()), Flat(*pipelined.ema_actor())))
-                << what;
+          for (const char* critic_target : {"td3", "expectile"}) {
+            if (updates == 2.0 && (pixels || !through)) continue;
+            // The in-sample target (a value update inside the critic's) in both schedules.
+            if (std::string(critic_target) == "expectile" && (updates != 1.0 || pixels)) continue;
+            MsprOptions o = pixels ? PixelOptions(0.5) : TinyOptions();
+            o.trainer.precision = precision;
+            o.representation.updates_per_step = updates;
+            o.agent.critic_grad_to_encoder = through;
+            o.agent.critic_target = critic_target;
+            o.trainer.policy_ema = through ? 0.9 : 0.0;
+            o.agent.target_update_every = 4;  // target copies inside the run
+            auto data = pixels ? testing_util::RandomImageDataset() : RandomStateDataset();
+            // 10 steps, losses read back on every third; the trainer and those losses.
+            auto run = [&](const char* pipeline, int threads, std::vector<LossInfo>* info) {
+              o.trainer.pipeline = pipeline;
+              torch::set_num_threads(threads);
+              auto t = std::make_unique<Trainer>(o, data);
+              EXPECT_EQ(t->pipelined(), threads > 1);
+              for (int i = 0; i < 10; ++i) info->push_back(t->Step(i % 3 == 2));
+              return t;
+            };
+            std::vector<LossInfo> seq_info, pipe_info;
+            const auto seq_trainer = run("off", 1, &seq_info);
+            const auto pipe_trainer = run("auto", 2, &pipe_info);
+            Trainer& sequential = *seq_trainer;
+            Trainer& pipelined = *pipe_trainer;
+            const std::string what = std::string(precision) + " updates_per_step " +
+                                     std::to_string(updates) + (pixels ? " pixels" : " state") +
+                                     (through ? " critic_grad_to_encoder" : "") + " " +
+                                     critic_target;
+            EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
+            if (std::string(critic_target) == "expectile")
+              EXPECT_TRUE(torch::equal(Flat(*sequential.value()), Flat(*pipelined.value())))
+                  << what;
+            if (through) {
+              // The moving average took in the same weights at the same points.
+              EXPECT_TRUE(torch::equal(Flat(*sequential.ema_actor()), Flat(*pipelined.ema_actor())))
+                  << what;
+            }
+            for (int i = 2; i < 10; i += 3) {
+              EXPECT_TRUE(std::isfinite(pipe_info[i].critic)) << what;
+              EXPECT_EQ(seq_info[i].critic, pipe_info[i].critic) << what << " step " << i;
+              EXPECT_EQ(seq_info[i].actor, pipe_info[i].actor) << what << " step " << i;
+            }
+            // Steps without losses return before their actor-critic update is done;
+            // the accessors wait for it (and it ran: the critic moved).
+            const torch::Tensor before = Flat(*pipelined.critic()).clone();
+            const torch::Tensor actor_before = Flat(*pipelined.actor()).clone();
+            pipelined.Step(false);
+            EXPECT_FALSE(torch::equal(before, Flat(*pipelined.critic()))) << what;
+            // A deferred actor update (critic_grad_to_encoder) is run by the accessor.
+            EXPECT_FALSE(torch::equal(actor_before, Flat(*pipelined.actor()))) << what;
+            // Threads as the user set them, after the step.
+            EXPECT_EQ(torch::get_num_threads(), 2);
           }
-          for (int i = 2; i < 10; i += 3) {
-            EXPECT_TRUE(std::isfinite(pipe_info[i].critic)) << what;
-            EXPECT_EQ(seq_info[i].critic, pipe_info[i].critic) << what << " step " << i;
-            EXPECT_EQ(seq_info[i].actor, pipe_info[i].actor) << what << " step " << i;
-          }
-          // Steps without losses return before their actor-critic update is done;
-          // the accessors wait for it (and it ran: the critic moved).
-          const torch::Tensor before = Flat(*pipelined.critic()).clone();
-          const torch::Tensor actor_before = Flat(*pipelined.actor()).clone();
-          pipelined.Step(false);
-          EXPECT_FALSE(torch::equal(before, Flat(*pipelined.critic()))) << what;
-          // A deferred actor update (critic_grad_to_encoder) is run by the accessor.
-          EXPECT_FALSE(torch::equal(actor_before, Flat(*pipelined.actor()))) << what;
-          // Threads as the user set them, after the step.
-          EXPECT_EQ(torch::get_num_threads(), 2);
         }
       }
     }

@@ -74,6 +74,8 @@ class MsprAgent : public GcAgent {
   MsprNetworks& target() { return target_; }
   MsprNetworks& average() { return average_; }
   MsprNetworks& policy_networks() { return average_.repr ? average_ : online_; }
+  // V of agent.critic_target "expectile" (null otherwise).
+  core::Value& value() { return value_; }
 
   // Losses on the online networks (scalar tensors with graph), as
   // mspr_losses.h; CriticLoss with agent.critic_grad_to_encoder and
@@ -107,6 +109,10 @@ class MsprAgent : public GcAgent {
   // lat null: the critic's gradient reaches the encoders.
   void UpdateCritic(const TransitionBatch& batch, const mspr::TransitionLatents* lat,
                     const torch::Tensor& noise, LossInfo* info);
+  // The critic's TD target from the target networks (no gradient). With
+  // agent.critic_target "expectile" it also takes one optimiser step of the
+  // value network V (update = true; false: the target alone, for validation).
+  torch::Tensor TdTarget(const TransitionBatch& batch, const torch::Tensor& noise, bool update);
   // The critic update against a TD target y computed beforehand.
   void UpdateCriticFromTarget(const TransitionBatch& batch, const mspr::TransitionLatents* lat,
                               const torch::Tensor& y, LossInfo* info);
@@ -121,6 +127,9 @@ class MsprAgent : public GcAgent {
   torch::Device device_;
   MsprNetworks online_, target_, average_;
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
+  // agent.critic_target "expectile": V(s, g) and its optimiser (else null).
+  core::Value value_{nullptr};
+  std::unique_ptr<torch::optim::AdamW> value_opt_;
   torch::Tensor bins_;  // [num_bins] float32 on device
   // bf16 on the CPU: the weights' bfloat16 copies, cast once per update.
   std::unique_ptr<internal::Bf16WeightCache> weight_cache_;

@@ -51,6 +51,18 @@ torch::Tensor RepresentationLoss(const MsprOptions& options, RepresentationImpl&
 torch::Tensor CriticTarget(const AgentOptions& agent, MsprNetworks& target,
                            const TransitionBatch& batch, const torch::Tensor& noise);
 
+// The in-sample alternative to CriticTarget (agent.critic_target "expectile"),
+// from the target representation and critic and the value network V:
+//   y = ret + discount * V(s', g), clipped as CriticTarget's (no gradient);
+//   value_loss = E[|tau - 1(d < 0)| d^2], d = min_j Q'_j(s, a) - V(s, g), with
+// a the dataset's action (gradient into V only).
+struct ExpectileTarget {
+  torch::Tensor y;           // [B]
+  torch::Tensor value_loss;  // []
+};
+ExpectileTarget ExpectileCriticTarget(const AgentOptions& agent, MsprNetworks& target,
+                                      ValueImpl& value, const TransitionBatch& batch);
+
 // Eq. 2's loss: the Huber distance of both online Q heads to y, summed over
 // the heads. lat: the batch's latents (the encoders get no gradient); null:
 // encode here with gradient into the encoders (agent.critic_grad_to_encoder).

@@ -201,6 +201,22 @@ class ActorImpl : public torch::nn::Module {
 };
 TORCH_MODULE(Actor);
 
+// State value V: [z_s, g_rep] -> 1 (MLP critic_hidden x critic_layers, Pre-LN);
+// with network.policy_inputs raw / both, [s, g] / [z_s, g_rep, s, g]. Trained
+// only with agent.critic_target "expectile" (the in-sample target of IQL).
+class ValueImpl : public torch::nn::Module {
+ public:
+  explicit ValueImpl(const NetworkOptions& o);
+  // [B, zs_dim], [B, goal_dim] (and the raw state and goal, read only with
+  // policy_inputs raw / both) -> [B] float32
+  torch::Tensor forward(const torch::Tensor& zs, const torch::Tensor& grep,
+                        const torch::Tensor& s = {}, const torch::Tensor& g = {});
+
+  Mlp v{nullptr};  // "v"
+  PolicyInputs inputs;
+};
+TORCH_MODULE(Value);
+
 // Returns the K bin centres of the two-hot return head:
 // linspace(-1/(1-gamma), 0, K) [K] float32.
 torch::Tensor ReturnBins(int64_t num_bins, double gamma);

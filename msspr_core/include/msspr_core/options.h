@@ -151,6 +151,13 @@ struct AgentOptions {
   // GCIVL/HIQL weight their actors; bc_weight unused).
   std::string actor_loss = "ddpg_bc";
   double awr_temperature = 10.0;
+  // The critic's bootstrap at s_{t+n}: "td3" (the paper's Eq. 2: min of the target
+  // critic at the target actor's noisy action) or "expectile" (in-sample, as IQL and
+  // OGBench's GCIQL: a value network V(s, g) fit by expectile regression to the target
+  // critic at the dataset's actions, so the target never queries an action the data
+  // lacks; y = R_n + gamma^n V(s_{t+n}, g)).
+  std::string critic_target = "td3";
+  double expectile = 0.9;  // tau of the expectile loss (critic_target "expectile")
 
   template <class V>
   void Visit(V& v) {
@@ -167,6 +174,8 @@ struct AgentOptions {
     v("target_update_every", target_update_every);
     v("actor_loss", actor_loss);
     v("awr_temperature", awr_temperature);
+    v("critic_target", critic_target);
+    v("expectile", expectile);
   }
 };
 

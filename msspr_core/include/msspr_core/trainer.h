@@ -167,6 +167,8 @@ class Trainer {
   Actor& target_actor() { return mspr().target().actor; }
   Representation& ema_repr() { return mspr().average().repr; }
   Critic& ema_critic() { return mspr().average().critic; }
+  // V of agent.critic_target "expectile" (null with "td3").
+  Value& value() { return mspr().value(); }
   Actor& ema_actor() { return mspr().average().actor; }
 
   // A Policy sharing the agent's networks the exports write (no copy): for
