@@ -1,7 +1,6 @@
 #include "bf16_weights.h"
 
-#include <ATen/autocast_mode.h>
-#include <torch/version.h>
+#include "autocast_compat.h"
 
 namespace msspr {
 namespace core {
@@ -9,15 +8,6 @@ namespace internal {
 namespace {
 
 thread_local Bf16WeightCache* current_cache = nullptr;
-
-bool CpuBf16Autocast() {
-#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
-  return at::autocast::is_autocast_enabled(at::kCPU) &&
-         at::autocast::get_autocast_dtype(at::kCPU) == at::kBFloat16;
-#else
-  return at::autocast::is_cpu_enabled() && at::autocast::get_autocast_cpu_dtype() == at::kBFloat16;
-#endif
-}
 
 }  // namespace
 

@@ -8,6 +8,7 @@
 #include <torch/torch.h>
 #include <torch/version.h>
 
+#include "autocast_compat.h"
 #include "bf16_weights.h"
 
 // The OpenMP runtime that LibTorch loaded (weak: null without one). Its
@@ -45,44 +46,19 @@ class PrecisionScope {
         type_(device.is_cuda() ? at::kCUDA : at::kCPU),
         cache_scope_(bf16 && !device.is_cuda() ? cache : nullptr) {
     if (!bf16_) return;
-    prev_ = Enabled(type_);
-    SetDtype(type_, at::kBFloat16);
-    SetEnabled(type_, true);
+    prev_ = internal::AutocastEnabled(type_);
+    internal::SetAutocastDtype(type_, at::kBFloat16);
+    internal::SetAutocastEnabled(type_, true);
   }
   ~PrecisionScope() {
     if (!bf16_) return;
-    SetEnabled(type_, prev_);
+    internal::SetAutocastEnabled(type_, prev_);
     at::autocast::clear_cache();
   }
   PrecisionScope(const PrecisionScope&) = delete;
   PrecisionScope& operator=(const PrecisionScope&) = delete;
 
  private:
-  // LibTorch 2.4 replaced the per-device functions by ones taking the device
-  // type (the old ones warn on every call there).
-#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
-  static bool Enabled(at::DeviceType t) { return at::autocast::is_autocast_enabled(t); }
-  static void SetEnabled(at::DeviceType t, bool on) { at::autocast::set_autocast_enabled(t, on); }
-  static void SetDtype(at::DeviceType t, at::ScalarType d) {
-    at::autocast::set_autocast_dtype(t, d);
-  }
-#else
-  static bool Enabled(at::DeviceType t) {
-    return t == at::kCUDA ? at::autocast::is_enabled() : at::autocast::is_cpu_enabled();
-  }
-  static void SetEnabled(at::DeviceType t, bool on) {
-    if (t == at::kCUDA)
-      at::autocast::set_enabled(on);
-    else
-      at::autocast::set_cpu_enabled(on);
-  }
-  static void SetDtype(at::DeviceType t, at::ScalarType d) {
-    if (t == at::kCUDA)
-      at::autocast::set_autocast_gpu_dtype(d);
-    else
-      at::autocast::set_autocast_cpu_dtype(d);
-  }
-#endif
   bool bf16_;
   at::DeviceType type_;
   bool prev_ = false;
