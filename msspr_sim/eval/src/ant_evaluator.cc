@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "msspr_core/policy.h"
+#include "msspr_eval/batched_episodes.h"
 #include "msspr_sim/ant_maze.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
@@ -57,16 +58,12 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
       slots.push_back(std::move(s));
     }
 
-  torch::InferenceMode guard;
-  for (int step = 0; step < options.max_steps; ++step) {
-    std::vector<Slot*> active;
-    for (auto& s : slots)
-      if (!s.done) active.push_back(&s);
-    if (active.empty()) break;
+  const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
+                          torch::Tensor* goal) {
     const int64_t B = static_cast<int64_t>(active.size());
-    torch::Tensor obs = torch::empty({B, kObs}, torch::kFloat32),
-                  goal = torch::empty({B, kObs}, torch::kFloat32);
-    auto o = obs.accessor<float, 2>(), g = goal.accessor<float, 2>();
+    *obs = torch::empty({B, kObs}, torch::kFloat32);
+    *goal = torch::empty({B, kObs}, torch::kFloat32);
+    auto o = obs->accessor<float, 2>(), g = goal->accessor<float, 2>();
     for (int64_t b = 0; b < B; ++b) {
       const Eigen::VectorXd& gs = active[b]->env->goal();
       for (int k = 0; k < kObs; ++k) {
@@ -74,17 +71,14 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
         g[b][k] = static_cast<float>(gs[k]);
       }
     }
-    const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
-    auto a = act.accessor<float, 2>();
-    Eigen::VectorXd u(kAct);
-    for (int64_t b = 0; b < B; ++b) {
-      Slot& s = *active[b];
-      for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[b][k], -1.0, 1.0);
-      s.obs = s.env->Step(u);
-      s.success = s.env->success();
-      s.done = s.success || s.env->truncated();
-    }
-  }
+  };
+  Eigen::VectorXd u(kAct);
+  StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
+    for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
+    s.obs = s.env->Step(u);
+    s.success = s.env->success();
+    s.done = s.success || s.env->truncated();
+  });
 
   std::vector<bool> success;
   std::vector<int> steps;

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "msspr_core/policy.h"
+#include "msspr_eval/batched_episodes.h"
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/package_files.h"
@@ -60,32 +61,25 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
       slots.push_back(std::move(s));
     }
 
-  torch::InferenceMode guard;
-  for (int step = 0; step < options.max_steps; ++step) {
-    std::vector<Slot*> active;
-    for (auto& s : slots)
-      if (!s.done) active.push_back(&s);
-    if (active.empty()) break;
+  const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
+                          torch::Tensor* goal) {
     const int64_t B = static_cast<int64_t>(active.size());
-    torch::Tensor obs = torch::empty({B, kObs}, torch::kFloat32),
-                  goal = torch::empty({B, kObs}, torch::kFloat32);
+    *obs = torch::empty({B, kObs}, torch::kFloat32);
+    *goal = torch::empty({B, kObs}, torch::kFloat32);
     for (int64_t b = 0; b < B; ++b) {
-      std::copy(active[b]->obs.begin(), active[b]->obs.end(), obs[b].data_ptr<float>());
+      std::copy(active[b]->obs.begin(), active[b]->obs.end(), (*obs)[b].data_ptr<float>());
       const auto& g = active[b]->env->goal_observation();
-      std::copy(g.begin(), g.end(), goal[b].data_ptr<float>());
+      std::copy(g.begin(), g.end(), (*goal)[b].data_ptr<float>());
     }
-    const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
-    auto a = act.accessor<float, 2>();
-    for (int64_t b = 0; b < B; ++b) {
-      Slot& s = *active[b];
-      sim::CubeEnv::Action u;
-      for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[b][k], -1.0, 1.0);
-      s.success = s.env->Step(u);
-      s.obs = s.env->GetObservation();
-      ++s.steps;
-      s.done = s.success || s.steps >= options.max_steps;
-    }
-  }
+  };
+  StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
+    sim::CubeEnv::Action u;
+    for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
+    s.success = s.env->Step(u);
+    s.obs = s.env->GetObservation();
+    ++s.steps;
+    s.done = s.success || s.steps >= options.max_steps;
+  });
 
   std::vector<bool> success;
   std::vector<int> steps;

@@ -16,6 +16,7 @@
 
 #include "msspr_core/frame_stack.h"
 #include "msspr_core/policy.h"
+#include "msspr_eval/batched_episodes.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
@@ -161,30 +162,19 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
       for (size_t k = 0; k < batch.size(); ++k) out[b0 + k].q0 = qa[static_cast<int64_t>(k)];
     }
   }
-  for (int step = 0; step < max_steps; ++step) {
-    std::vector<Slot*> active;
-    for (auto& s : slots)
-      if (!s.done) active.push_back(&s);
-    if (active.empty()) break;
-    torch::Tensor obs, goal;
-    inputs(active, &obs, &goal);
-    const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
-    auto a = act.accessor<float, 2>();
-    for (int64_t b = 0; b < static_cast<int64_t>(active.size()); ++b) {
-      Slot& s = *active[b];
-      const auto next = s.env->Step(Eigen::Vector2d(a[b][0], a[b][1]));
-      ++s.steps;
-      if (keep_paths) s.path.push_back(next);
-      if (s.env->success()) {
-        s.success = true;
-        s.done = true;
-      } else if (s.steps >= max_steps) {
-        s.done = true;
-      } else if (pixels) {
-        push_frame(s, next, /*fill=*/false);
-      }
+  StepEpisodesBatched(policy, slots, max_steps, inputs, [&](Slot& s, const auto& a) {
+    const auto next = s.env->Step(Eigen::Vector2d(a[0], a[1]));
+    ++s.steps;
+    if (keep_paths) s.path.push_back(next);
+    if (s.env->success()) {
+      s.success = true;
+      s.done = true;
+    } else if (s.steps >= max_steps) {
+      s.done = true;
+    } else if (pixels) {
+      push_frame(s, next, /*fill=*/false);
     }
-  }
+  });
   for (size_t k = 0; k < slots.size(); ++k) {
     out[k].success = slots[k].success;
     out[k].steps = slots[k].steps;

@@ -1,0 +1,36 @@
+// The in-process evaluators' episode loop (maze_evaluator.cc, cube_evaluator.cc,
+// ant_evaluator.cc): every episode in a slot, and at each step one batched policy
+// call for the slots not yet done.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <vector>
+
+#include "msspr_core/policy.h"
+
+namespace msspr::agent {
+
+// Steps `slots` (each with a bool `done`) for at most max_steps steps.
+// inputs(active, &obs, &goal) writes the policy's inputs for the slots not done
+// (std::vector<Slot*>, in order); apply(slot, action) steps one slot with its
+// action (a float row of action_dim values, as the policy gave it) and updates
+// slot.done. Runs in inference mode.
+template <class Slot, class Inputs, class Apply>
+void StepEpisodesBatched(core::Policy& policy, std::vector<Slot>& slots, int max_steps,
+                         Inputs inputs, Apply apply) {
+  torch::InferenceMode guard;
+  for (int step = 0; step < max_steps; ++step) {
+    std::vector<Slot*> active;
+    for (auto& s : slots)
+      if (!s.done) active.push_back(&s);
+    if (active.empty()) return;
+    torch::Tensor obs, goal;
+    inputs(active, &obs, &goal);
+    const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
+    auto a = act.accessor<float, 2>();
+    for (size_t b = 0; b < active.size(); ++b) apply(*active[b], a[static_cast<int64_t>(b)]);
+  }
+}
+
+}  // namespace msspr::agent
