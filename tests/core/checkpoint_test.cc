@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <memory>
 #include <random>
+#include <utility>
 
 #include "msspr_core/policy.h"
 #include "msspr_core/trainer.h"
@@ -56,61 +58,49 @@ TEST(CheckpointTest, RoundTripRestoresEverything) {
     EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
-TEST(CheckpointTest, ResumedRunEqualsUninterruptedRun) {
-  TempDir dir;
+// Trains `o` for 8 steps straight, and for 5 steps, a checkpoint in `dir`, a
+// new trainer that loads it and 3 more steps: {straight, resumed}.
+std::pair<std::unique_ptr<Trainer>, std::unique_ptr<Trainer>> StraightAndResumed(
+    const MsprOptions& o, const TempDir& dir) {
   auto data = RandomStateDataset();
-  Trainer straight(ResumeOptions(), data);
-  for (int i = 0; i < 8; ++i) straight.Step();
-
+  auto straight = std::make_unique<Trainer>(o, data);
+  for (int i = 0; i < 8; ++i) straight->Step();
   {
-    Trainer first(ResumeOptions(), data);
+    Trainer first(o, data);
     for (int i = 0; i < 5; ++i) first.Step();
     first.SaveCheckpoint(dir.File("half.ckpt"));
   }
-  Trainer resumed(ResumeOptions(), data);
-  resumed.LoadCheckpoint(dir.File("half.ckpt"));
-  EXPECT_EQ(resumed.step(), 5);
-  LossInfo last;
-  for (int i = 0; i < 3; ++i) last = resumed.Step();
-  ExpectSameState(straight, resumed);
+  auto resumed = std::make_unique<Trainer>(o, data);
+  resumed->LoadCheckpoint(dir.File("half.ckpt"));
+  EXPECT_EQ(resumed->step(), 5);
+  for (int i = 0; i < 3; ++i) resumed->Step();
+  return {std::move(straight), std::move(resumed)};
+}
+
+TEST(CheckpointTest, ResumedRunEqualsUninterruptedRun) {
+  TempDir dir;
+  auto [straight, resumed] = StraightAndResumed(ResumeOptions(), dir);
+  ExpectSameState(*straight, *resumed);
 }
 
 // agent.critic_target "expectile": the value network and its optimiser are
 // part of the checkpoint (the critic's targets depend on them).
 TEST(CheckpointTest, ResumedRunWithExpectileTargetEqualsUninterruptedRun) {
   TempDir dir;
-  auto data = RandomStateDataset();
   MsprOptions o = ResumeOptions();
   o.agent.critic_target = "expectile";
-  Trainer straight(o, data);
-  for (int i = 0; i < 8; ++i) straight.Step();
-  {
-    Trainer first(o, data);
-    for (int i = 0; i < 5; ++i) first.Step();
-    first.SaveCheckpoint(dir.File("half.ckpt"));
-  }
-  Trainer resumed(o, data);
-  resumed.LoadCheckpoint(dir.File("half.ckpt"));
-  for (int i = 0; i < 3; ++i) resumed.Step();
-  ExpectSameState(straight, resumed);
-  EXPECT_TRUE(torch::equal(Flat(*straight.value()), Flat(*resumed.value())));
+  auto [straight, resumed] = StraightAndResumed(o, dir);
+  ExpectSameState(*straight, *resumed);
+  EXPECT_TRUE(torch::equal(Flat(*straight->value()), Flat(*resumed->value())));
 }
 
 TEST(CheckpointTest, PolicyAverageResumesExactlyAndIsWhatTheExportsHold) {
   TempDir dir;
-  auto data = RandomStateDataset();
   MsprOptions o = ResumeOptions();
   o.trainer.policy_ema = 0.9;
-  Trainer straight(o, data);
-  for (int i = 0; i < 8; ++i) straight.Step();
-  {
-    Trainer first(o, data);
-    for (int i = 0; i < 5; ++i) first.Step();
-    first.SaveCheckpoint(dir.File("half.ckpt"));
-  }
-  Trainer resumed(o, data);
-  resumed.LoadCheckpoint(dir.File("half.ckpt"));
-  for (int i = 0; i < 3; ++i) resumed.Step();
+  auto [straight_ptr, resumed_ptr] = StraightAndResumed(o, dir);
+  Trainer& straight = *straight_ptr;
+  Trainer& resumed = *resumed_ptr;
   ExpectSameState(straight, resumed);
   EXPECT_TRUE(torch::equal(Flat(*straight.ema_repr()), Flat(*resumed.ema_repr())));
   EXPECT_TRUE(torch::equal(Flat(*straight.ema_critic()), Flat(*resumed.ema_critic())));
@@ -133,7 +123,7 @@ TEST(CheckpointTest, PolicyAverageResumesExactlyAndIsWhatTheExportsHold) {
   EXPECT_TRUE(torch::equal(raw.Act(obs, goal), online.Act(obs, goal)));
 
   // A run keeps its average or its lack of one: resuming across the switch is refused.
-  Trainer without(ResumeOptions(), data);
+  Trainer without(ResumeOptions(), RandomStateDataset());
   try {
     without.LoadCheckpoint(dir.File("end.ckpt"));
     FAIL() << "an averaged run's checkpoint loaded into a trainer without the average";

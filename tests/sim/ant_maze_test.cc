@@ -320,6 +320,33 @@ TEST(AntMazeTest, SeededEpisodeIsDeterministic) {
   EXPECT_EQ(b.goal(), g1);
 }
 
+// Ants of one maze share one compiled model (the evaluators build hundreds side
+// by side); each keeps its own state, and another maze gets its own model.
+TEST(AntMazeTest, MazesOfOneMapShareOneCompiledModelAndKeepTheirOwnState) {
+  AntMaze a(Options("medium")), b(Options("medium")), large(Options("large"));
+  EXPECT_EQ(a.model(), b.model());
+  EXPECT_NE(a.model(), large.model());
+  EXPECT_NE(a.data(), b.data());
+  const Eigen::VectorXd start_a = a.ResetToTask(1, 5), start_b = b.ResetToTask(1, 5);
+  ASSERT_EQ(start_a, start_b);
+  std::mt19937_64 rng(3);
+  Eigen::VectorXd last;
+  for (int t = 0; t < 20; ++t) last = a.Step(RandomAction(rng));
+  EXPECT_NE(last, start_a);
+  EXPECT_EQ(b.state(), start_b);  // stepping a left b where it was
+  rng.seed(3);
+  for (int t = 0; t < 20; ++t) b.Step(RandomAction(rng));
+  EXPECT_EQ(b.state(), last);
+  // The model lives while any ant holds it: one built after another is gone shares it.
+  const mjModel* shared = b.model();
+  {
+    AntMaze c(Options("medium"));
+    EXPECT_EQ(c.model(), shared);
+  }
+  AntMaze d(Options("medium"));
+  EXPECT_EQ(d.model(), shared);
+}
+
 // The ant with zero action settles on its legs and stays upright.
 TEST(AntMazeTest, AntAtRestStaysUpright) {
   AntMaze env(Options("medium"));

@@ -17,7 +17,7 @@ constexpr double kResetNoise = 0.1;
 
 AntPhysics::AntPhysics(const std::string& xml, const std::string& name) {
   InstallMujocoHandlers();
-  model_ = LoadInlineModel(xml, name);
+  model_ = SharedInlineModel(xml, name);
   const mjModel* m = model_.get();
   if (m->nq != kAntQposDim || m->nv != kAntQvelDim || m->nu != kAntActionDim) {
     throw std::logic_error("AntPhysics: the model must have nq 15, nv 14, nu 8");

@@ -49,7 +49,7 @@ class AntPhysics {
   const mjData* data() const { return data_.get(); }
 
  private:
-  ModelPtr model_;
+  std::shared_ptr<const mjModel> model_;  // shared by every AntPhysics of the same MJCF
   DataPtr data_;
 };
 

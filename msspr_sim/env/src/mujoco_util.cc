@@ -2,6 +2,8 @@
 
 #include <cstdio>
 #include <cstring>
+#include <iterator>
+#include <map>
 #include <mutex>
 #include <stdexcept>
 
@@ -47,6 +49,19 @@ ModelPtr LoadInlineModel(const std::string& xml, const std::string& name) {
     throw std::runtime_error("MuJoCo: cannot load the generated MJCF " + file + ": " + error);
   }
   return ModelPtr(m);
+}
+
+std::shared_ptr<const mjModel> SharedInlineModel(const std::string& xml, const std::string& name) {
+  static std::mutex mutex;
+  static std::map<std::string, std::weak_ptr<const mjModel>> cache;  // keyed by name + text
+  const std::string key = name + '\n' + xml;
+  std::lock_guard<std::mutex> lock(mutex);
+  for (auto it = cache.begin(); it != cache.end();)  // forget models nobody holds
+    it = it->second.expired() ? cache.erase(it) : std::next(it);
+  if (auto m = cache[key].lock()) return m;
+  std::shared_ptr<const mjModel> m(LoadInlineModel(xml, name).release(), ModelDeleter());
+  cache[key] = m;
+  return m;
 }
 
 std::vector<PointMaze::AgentJoint> ModelJoints(const mjModel* m) {

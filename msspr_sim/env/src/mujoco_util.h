@@ -30,6 +30,11 @@ using DataPtr = std::unique_ptr<mjData, DataDeleter>;
 // std::runtime_error with MuJoCo's message naming that file if it fails.
 ModelPtr LoadInlineModel(const std::string& xml, const std::string& name);
 
+// The same, compiled once per distinct text while any model it returned is
+// alive: environments built side by side (the evaluators' hundreds of episodes)
+// share one read-only model and keep their own mjData. Thread-safe.
+std::shared_ptr<const mjModel> SharedInlineModel(const std::string& xml, const std::string& name);
+
 // Every joint of a model: name, type, axis and range (for the URDF checks).
 std::vector<PointMaze::AgentJoint> ModelJoints(const mjModel* m);
 
