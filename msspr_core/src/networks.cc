@@ -317,6 +317,11 @@ torch::Tensor PolicyInput(const PolicyInputs& in, std::vector<torch::Tensor> lat
   }
   return torch::cat(latent, -1);
 }
+
+// The width of what an actor or a value network reads: [z_s, g_rep] and/or [s, g].
+int64_t StateGoalInputSize(const PolicyInputs& in, const NetworkOptions& o) {
+  return (in.latent ? o.zs_dim + o.goal_dim : 0) + (in.raw ? 2 * o.obs_dim : 0);
+}
 }  // namespace
 
 CriticImpl::CriticImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
@@ -335,8 +340,7 @@ torch::Tensor CriticImpl::forward(const torch::Tensor& zsa, const torch::Tensor&
 }
 
 ActorImpl::ActorImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
-  std::vector<int64_t> sizes{(inputs.latent ? o.zs_dim + o.goal_dim : 0) +
-                             (inputs.raw ? 2 * o.obs_dim : 0)};
+  std::vector<int64_t> sizes{StateGoalInputSize(inputs, o)};
   for (int i = 0; i < o.actor_layers; ++i) sizes.push_back(o.actor_hidden);
   backbone = register_module("backbone", Mlp(sizes, true, true, o.layer_norm_eps));
   head = register_module("head", nn::Linear(o.actor_hidden, o.action_dim));
@@ -349,9 +353,9 @@ torch::Tensor ActorImpl::forward(const torch::Tensor& zs, const torch::Tensor& g
 }
 
 ValueImpl::ValueImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
-  const int64_t in = (inputs.latent ? o.zs_dim + o.goal_dim : 0) + (inputs.raw ? 2 * o.obs_dim : 0);
   v = register_module(
-      "v", Mlp(Sizes(in, o.critic_hidden, o.critic_layers, 1), false, true, o.layer_norm_eps));
+      "v", Mlp(Sizes(StateGoalInputSize(inputs, o), o.critic_hidden, o.critic_layers, 1), false,
+               true, o.layer_norm_eps));
 }
 
 torch::Tensor ValueImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep,
