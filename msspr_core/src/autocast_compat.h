@@ -44,6 +44,25 @@ inline void SetAutocastDtype(at::DeviceType t, at::ScalarType d) {
 }
 #endif
 
+// Turns autocast off on this thread (CPU and CUDA) for a scope, and back to
+// what it was at the end.
+class AutocastOffScope {
+ public:
+  AutocastOffScope() : cpu_(AutocastEnabled(at::kCPU)), cuda_(AutocastEnabled(at::kCUDA)) {
+    if (cpu_) SetAutocastEnabled(at::kCPU, false);
+    if (cuda_) SetAutocastEnabled(at::kCUDA, false);
+  }
+  ~AutocastOffScope() {
+    if (cpu_) SetAutocastEnabled(at::kCPU, true);
+    if (cuda_) SetAutocastEnabled(at::kCUDA, true);
+  }
+  AutocastOffScope(const AutocastOffScope&) = delete;
+  AutocastOffScope& operator=(const AutocastOffScope&) = delete;
+
+ private:
+  bool cpu_, cuda_;
+};
+
 // Whether autocast runs CPU products in bfloat16 on this thread.
 inline bool CpuBf16Autocast() {
   return AutocastEnabled(at::kCPU) && AutocastDtype(at::kCPU) == at::kBFloat16;

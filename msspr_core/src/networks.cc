@@ -6,6 +6,7 @@
 #include <cmath>
 #include <iterator>
 
+#include "autocast_compat.h"
 #include "bf16_weights.h"
 #include "layer_norm_bf16.h"
 
@@ -34,17 +35,31 @@ torch::Tensor Gelu(const torch::Tensor& h) {
 }
 }  // namespace
 
-torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
+namespace {
+// The last Linear of a value head (the critics' Q, the value network's V) in
+// float32 under bf16 autocast too. Returns reach 1 / (1 - gamma) = 100 in
+// magnitude, where bfloat16 keeps 8 significant bits: Q = -70 would round to
+// a multiple of 0.5, coarser than the differences of a step or an action
+// (about gamma^d for a goal d steps away) that the critic has to resolve.
+torch::Tensor LinearFp32(nn::LinearImpl& linear, const torch::Tensor& x) {
+  internal::AutocastOffScope off;
+  return torch::linear(x.to(torch::kFloat32), linear.weight, linear.bias);
+}
+
+// MlpImpl::forward; fp32_output: the last Linear as LinearFp32.
+torch::Tensor MlpForward(MlpImpl& mlp, const torch::Tensor& x, bool fp32_output) {
   // Under bf16 autocast (trainer.precision) a Linear returns bfloat16, and
   // LayerNorm (fp32 weights) is computed in fp32. On the CPU one op does it
   // and returns bfloat16 for the next Linear (internal::LayerNormBf16), with
   // the GELU before it (internal::GeluLayerNormBf16); elsewhere its input is
   // cast up here. In fp32 the casts are no-ops.
   torch::Tensor h = x;
+  nn::Sequential& net = mlp.net;
   for (auto it = net->begin(); it != net->end(); ++it) {
     torch::nn::Module* layer = it->ptr().get();
     if (auto* linear = layer->as<nn::Linear>()) {
-      h = internal::Linear(*linear, h);
+      h = fp32_output && std::next(it) == net->end() ? LinearFp32(*linear, h)
+                                                     : internal::Linear(*linear, h);
       continue;
     }
     if (layer->as<nn::GELU>()) {
@@ -69,6 +84,9 @@ torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
   }
   return h;
 }
+}  // namespace
+
+torch::Tensor MlpImpl::forward(const torch::Tensor& x) { return MlpForward(*this, x, false); }
 
 std::vector<std::string> MlpImpl::LayerKinds() const {
   std::vector<std::string> kinds;
@@ -336,7 +354,7 @@ torch::Tensor CriticImpl::forward(const torch::Tensor& zsa, const torch::Tensor&
                                   const torch::Tensor& s, const torch::Tensor& a,
                                   const torch::Tensor& g) {
   const torch::Tensor x = PolicyInput(inputs, {zsa, grep}, {s, a, g});
-  return torch::cat({q1->forward(x), q2->forward(x)}, -1);
+  return torch::cat({MlpForward(*q1, x, true), MlpForward(*q2, x, true)}, -1);
 }
 
 ActorImpl::ActorImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
@@ -360,7 +378,7 @@ ValueImpl::ValueImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
 
 torch::Tensor ValueImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep,
                                  const torch::Tensor& s, const torch::Tensor& g) {
-  return v->forward(PolicyInput(inputs, {zs, grep}, {s, g})).to(torch::kFloat32).squeeze(-1);
+  return MlpForward(*v, PolicyInput(inputs, {zs, grep}, {s, g}), true).squeeze(-1);
 }
 
 torch::Tensor ReturnBins(int64_t num_bins, double gamma) {

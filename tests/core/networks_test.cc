@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "autocast_compat.h"
 #include "bf16_weights.h"
 #include "layer_norm_bf16.h"
 #include "torch_test_util.h"
@@ -229,6 +230,57 @@ TEST(NetworksTest, Bf16WeightCacheMatchesAutocastAndRecastsAfterAnUpdate) {
     mlp->forward(x);
   }
   expect_equal(run(true), updated_plain);
+}
+
+// Under bf16 autocast the critics' Q and the value network's V come out of
+// a float32 last layer: a return near -70 keeps its hundredths, where a
+// bfloat16 output would round it to a multiple of 0.5. The hidden layers stay
+// in bfloat16, autocast is on again afterwards, and the gradient reaches the
+// last layer in float32.
+TEST(NetworksTest, Bf16ValueHeadsKeepFloat32Resolution) {
+  torch::manual_seed(0);
+  const NetworkOptions n = StateNet();
+  const int64_t B = 8;
+  Critic critic(n);
+  Value value(n);
+  const torch::Tensor zsa = torch::randn({B, n.zsa_dim}), grep = torch::randn({B, n.goal_dim});
+  const torch::Tensor zs = torch::randn({B, n.zs_dim});
+  auto last = [](Mlp& mlp) { return mlp->net->ptr(mlp->net->size() - 1)->as<torch::nn::Linear>(); };
+  {
+    torch::NoGradGuard no_grad;
+    for (Mlp* m : {&critic->q1, &critic->q2, &value->v}) {
+      last(*m)->weight.mul_(1e-3);  // outputs within a few hundredths of the bias
+      last(*m)->bias.fill_(-70.3);
+    }
+  }
+  torch::Tensor q, v, fp32_q;
+  {
+    CpuBf16Autocast autocast;
+    q = critic->forward(zsa, grep);
+    v = value->forward(zs, grep);
+    EXPECT_TRUE(internal::CpuBf16Autocast());
+    // A hidden layer under the same autocast still gives bfloat16.
+    EXPECT_EQ(critic->q1->net->ptr(0)
+                  ->as<torch::nn::Linear>()
+                  ->forward(torch::cat({zsa, grep}, 1))
+                  .scalar_type(),
+              torch::kBFloat16);
+  }
+  fp32_q = critic->forward(zsa, grep);
+  ASSERT_EQ(q.scalar_type(), torch::kFloat32);
+  ASSERT_EQ(v.scalar_type(), torch::kFloat32);
+  // Not multiples of 0.5 (bfloat16's spacing in [64, 128)), and within
+  // bfloat16 hidden-layer error of the float32 forward.
+  const torch::Tensor frac = (q * 2.0 - (q * 2.0).round()).abs();
+  EXPECT_GT(frac.max().item<double>(), 0.01);
+  EXPECT_LT((q - fp32_q).abs().max().item<double>(), 0.01);
+  EXPECT_NEAR(v.mean().item<double>(), -70.3, 0.05);
+  EXPECT_GT((v * 2.0 - (v * 2.0).round()).abs().max().item<double>(), 0.01);
+  // Gradients reach the last layer.
+  q.sum().backward();
+  ASSERT_TRUE(last(critic->q1)->weight.grad().defined());
+  EXPECT_EQ(last(critic->q1)->weight.grad().scalar_type(), torch::kFloat32);
+  EXPECT_GT(last(critic->q1)->weight.grad().abs().sum().item<double>(), 0.0);
 }
 
 TEST(NetworksTest, StateModuleShapes) {
