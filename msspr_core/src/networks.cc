@@ -33,9 +33,7 @@ namespace {
 torch::Tensor Gelu(const torch::Tensor& h) {
   return internal::UseLayerNormBf16(h) ? internal::GeluBf16(h) : torch::gelu(h);
 }
-}  // namespace
 
-namespace {
 // The last Linear of a value head (the critics' Q, the value network's V) in
 // float32 under bf16 autocast too. Returns reach 1 / (1 - gamma) = 100 in
 // magnitude, where bfloat16 keeps 8 significant bits: Q = -70 would round to
