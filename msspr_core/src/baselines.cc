@@ -1,10 +1,18 @@
 #include "msspr_core/baselines.h"
 
+#include <ATen/CPUGeneratorImpl.h>
+
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <stdexcept>
 
+#include "autocast_compat.h"
+#include "bf16_weights.h"
+#include "layer_norm_bf16.h"
 #include "module_io.h"
 #include "msspr_core/networks.h"
+#include "trainer_internal.h"
 
 namespace msspr {
 namespace core {
@@ -45,6 +53,64 @@ torch::Tensor LengthNormalize(const torch::Tensor& x) {
   return x / x.norm(2, -1, /*keepdim=*/true).clamp_min(1e-12) * scale;
 }
 
+// linear(x) in fp32 with autocast off: a network's output keeps fp32
+// resolution under bf16 (a value near -70 would round to a multiple of 0.5).
+torch::Tensor LinearFp32(torch::nn::LinearImpl& linear, const torch::Tensor& x) {
+  internal::AutocastOffScope off;
+  return torch::linear(x.to(torch::kFloat32), linear.weight, linear.bias);
+}
+
+// OGBench's GELU (tanh approximation) of a bfloat16 CPU activation, in fp32
+// and rounded to bfloat16 once: 0.5 x (1 + tanh(u / 2)) = x sigmoid(u) with
+// u = 2 sqrt(2 / pi) (x + 0.044715 x^3). LibTorch 1.13's tanh-GELU runs a slow
+// tanh (the sigmoid form takes about 0.4x its time in fp32, 0.2x in
+// bfloat16); the result is its fp32 one within float rounding.
+class GeluTanhBf16Fn : public torch::autograd::Function<GeluTanhBf16Fn> {
+ public:
+  static constexpr double kA = 2.0 * 0.7978845608028654;  // 2 sqrt(2 / pi)
+  static constexpr double kC = 0.044715;
+
+  // sigmoid(u(x)) for fp32 x.
+  static torch::Tensor Gate(const torch::Tensor& x) {
+    return x.square().mul_(kA * kC).add_(kA).mul_(x).sigmoid_();
+  }
+
+  static torch::Tensor forward(torch::autograd::AutogradContext* ctx, const torch::Tensor& h) {
+    ctx->save_for_backward({h});
+    const torch::Tensor x = h.to(torch::kFloat32);
+    return Gate(x).mul_(x).to(torch::kBFloat16);
+  }
+
+  static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx,
+                                               torch::autograd::tensor_list grads) {
+    const torch::Tensor x = ctx->get_saved_variables()[0].to(torch::kFloat32);
+    const torch::Tensor s = Gate(x);
+    // d/dx x sigmoid(u) = s + x s (1 - s) u', u' = kA (1 + 3 kC x^2).
+    torch::Tensor d = x.square().mul_(3.0 * kA * kC).add_(kA).mul_(x).mul_(s).mul_(1.0 - s).add_(s);
+    return {d.mul_(grads[0]).to(torch::kBFloat16)};
+  }
+};
+
+// A new actor of `actor`'s shape holding a copy of its weights, without
+// gradient. Torch's generator is restored after its (discarded) initial draws.
+GaussianActor CopyOf(GaussianActorImpl& actor) {
+  int64_t in = 0, layers = 0;
+  for (const auto& m : actor.backbone->net->children()) {
+    if (const auto* linear = m->as<torch::nn::Linear>()) {
+      if (layers++ == 0) in = linear->options.in_features();
+    }
+  }
+  at::Generator gen = at::detail::getDefaultCPUGenerator();
+  const torch::Tensor state = gen.get_state();
+  GaussianActor copy(in, actor.head->options.in_features(), layers,
+                     actor.head->options.out_features());
+  gen.set_state(state);
+  copy->to(actor.head->weight.device());
+  HardUpdate(*copy, actor);
+  SetRequiresGrad(*copy, false);
+  return copy;
+}
+
 // AWR weights min(exp(alpha * adv), 100).
 torch::Tensor AwrWeight(const torch::Tensor& adv, double alpha) {
   return torch::exp(adv * alpha).clamp_max(100.0);
@@ -75,7 +141,8 @@ torch::Tensor TwinExpectileValueLoss(const TransitionBatch& batch, const torch::
 
 // --- Building blocks ----------------------------------------------------------
 
-OgMlpImpl::OgMlpImpl(const std::vector<int64_t>& sizes, bool activate_final, bool layer_norm) {
+OgMlpImpl::OgMlpImpl(const std::vector<int64_t>& sizes, bool activate_final, bool layer_norm)
+    : activate_final_(activate_final) {
   TORCH_CHECK(sizes.size() >= 2, "OgMlp: need at least {in, out}");
   net = torch::nn::Sequential();
   for (size_t i = 0; i + 1 < sizes.size(); ++i) {
@@ -94,7 +161,33 @@ OgMlpImpl::OgMlpImpl(const std::vector<int64_t>& sizes, bool activate_final, boo
   register_module("net", net);
 }
 
-torch::Tensor OgMlpImpl::forward(const torch::Tensor& x) { return net->forward(x); }
+torch::Tensor OgMlpImpl::forward(const torch::Tensor& x) {
+  // In fp32 every cast here is a no-op: the plain Sequential's result.
+  torch::Tensor h = x;
+  for (auto it = net->begin(); it != net->end(); ++it) {
+    torch::nn::Module* layer = it->ptr().get();
+    if (auto* linear = layer->as<torch::nn::Linear>()) {
+      h = !activate_final_ && std::next(it) == net->end() ? LinearFp32(*linear, h)
+                                                          : internal::Linear(*linear, h);
+      continue;
+    }
+    if (internal::UseLayerNormBf16(h)) {
+      // A bfloat16 activation (bf16 autocast on the CPU): GELU computed in
+      // fp32 and rounded once; LayerNorm in one op with fp32 statistics,
+      // bfloat16 in and out for the next Linear (src/layer_norm_bf16.h).
+      if (layer->as<torch::nn::GELU>()) {
+        h = GeluTanhBf16Fn::apply(h);
+        continue;
+      }
+      if (auto* norm = layer->as<torch::nn::LayerNorm>()) {
+        h = internal::LayerNormBf16(h, norm->weight, norm->bias, norm->options.eps());
+        continue;
+      }
+    }
+    h = it->forward(h.to(torch::kFloat32));  // GELU, LayerNorm in fp32
+  }
+  return h;
+}
 
 GaussianActorImpl::GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers, int64_t out) {
   std::vector<int64_t> sizes{in};
@@ -110,7 +203,7 @@ GaussianActorImpl::GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers,
 }
 
 torch::Tensor GaussianActorImpl::Mean(const torch::Tensor& x) {
-  return head->forward(backbone->forward(x));
+  return LinearFp32(*head, backbone->forward(x));
 }
 
 torch::Tensor GaussianActorImpl::LogProb(const torch::Tensor& x, const torch::Tensor& a) {
@@ -165,24 +258,96 @@ OgbenchAgent::OgbenchAgent(const MsprOptions& options)
   }
 }
 
+OgbenchAgent::~OgbenchAgent() = default;
+
 void OgbenchAgent::PrepareTraining(torch::Device device) {
+  device_ = device;
   to(device);
   optimizer_ = std::make_unique<torch::optim::Adam>(
       TrainableParameters(), torch::optim::AdamOptions(options_.baseline.lr));
+  if (bf16() && device.is_cpu()) weight_cache_ = std::make_unique<internal::Bf16WeightCache>();
+  average_.clear();
+  if (options_.trainer.policy_ema > 0) {
+    for (auto& [name, online] : ActingNetworks()) {
+      average_.push_back({name, online, CopyOf(*online)});
+    }
+  }
 }
 
 LossInfo OgbenchAgent::Step(TrainingContext& context, bool collect_info) {
   LossInfo info;
   NamedValues named;
   const TransitionBatch batch = context.SampleOgbenchTransitions(SubgoalSteps());
-  const torch::Tensor loss = Loss(batch, collect_info ? &named : nullptr);
+  torch::Tensor loss;
+  {
+    // Backward runs outside autocast, as PyTorch recommends.
+    trainer_internal::PrecisionScope precision(bf16(), device_, weight_cache_.get());
+    loss = Loss(batch, collect_info ? &named : nullptr);
+  }
   optimizer_->zero_grad();
   loss.backward();
   AverageGradients(optimizer_->param_groups().front().params());
   optimizer_->step();
   UpdateTargets();
+  UpdatePolicyAverage(context.step());
   if (collect_info) info.agent = std::move(named);
   return info;
+}
+
+GaussianActor OgbenchAgent::PolicyAverage(const std::string& name) const {
+  for (const Averaged& a : average_) {
+    if (a.name == name) return a.average;
+  }
+  return GaussianActor(nullptr);
+}
+
+GaussianActor& OgbenchAgent::ForActing(GaussianActor& online) {
+  for (Averaged& a : average_) {
+    if (a.online.get() == online.get()) return a.average;
+  }
+  return online;
+}
+
+void OgbenchAgent::UpdatePolicyAverage(int64_t step) {
+  if (average_.empty()) return;
+  const double t = static_cast<double>(step);
+  const double decay = std::min(options_.trainer.policy_ema, t / (t + 1.0));
+  torch::NoGradGuard no_grad;
+  std::vector<torch::Tensor> avg, raw;
+  for (Averaged& a : average_) {
+    for (const auto& p : a.average->parameters()) avg.push_back(p);
+    for (const auto& p : a.online->parameters()) raw.push_back(p.detach());
+  }
+  TORCH_CHECK(avg.size() == raw.size(), "UpdatePolicyAverage: parameter count mismatch");
+  torch::_foreach_mul_(avg, decay);
+  torch::_foreach_add_(avg, raw, 1.0 - decay);
+}
+
+NamedModules OgbenchAgent::CheckpointModules() {
+  NamedModules modules{{"agent", this}};
+  for (Averaged& a : average_) modules.emplace_back("ema_" + a.name, a.average.get());
+  return modules;
+}
+
+NamedModules OgbenchAgent::PolicyModules(bool raw) {
+  if (raw || average_.empty()) return {{"agent", this}};
+  // The agent's own tensors and modules (shared, not copied), the acting
+  // networks' averages in their places: saved, it reads as an agent.
+  policy_view_ = std::make_shared<torch::nn::Module>(name());
+  for (const auto& p : named_parameters(/*recurse=*/false)) {
+    policy_view_->register_parameter(p.key(), p.value(), p.value().requires_grad());
+  }
+  for (const auto& b : named_buffers(/*recurse=*/false)) {
+    policy_view_->register_buffer(b.key(), b.value());
+  }
+  for (const auto& c : named_children()) {
+    std::shared_ptr<torch::nn::Module> m = c.value();
+    for (Averaged& a : average_) {
+      if (a.name == c.key()) m = a.average.ptr();
+    }
+    policy_view_->register_module(c.key(), m);
+  }
+  return {{"agent", policy_view_.get()}};
 }
 
 LossInfo OgbenchAgent::ValidationLosses(BatchSource& batches) {
@@ -191,8 +356,11 @@ LossInfo OgbenchAgent::ValidationLosses(BatchSource& batches) {
   return info;
 }
 
-void OgbenchAgent::ReadPolicy(torch::serialize::InputArchive& archive, bool) {
+void OgbenchAgent::ReadPolicy(torch::serialize::InputArchive& archive, bool trainer_checkpoint) {
   ReadModule(archive, "agent", *this);
+  if (trainer_checkpoint && options_.trainer.policy_ema > 0) {
+    for (auto& [name, net] : ActingNetworks()) ReadModule(archive, "ema_" + name, *net);
+  }
 }
 
 std::vector<torch::Tensor> OgbenchAgent::TrainableParameters() {
@@ -249,7 +417,7 @@ void GcActorAgent::RegisterActor() {
 }
 
 torch::Tensor GcActorAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return actor->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+  return ForActing(actor)->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
 }
 
 // --- GCBC ---------------------------------------------------------------------
@@ -462,7 +630,9 @@ torch::Tensor CrlAgent::PairLogits(int e, const torch::Tensor& obs, const torch:
   OgMlp& phi = e == 0 ? phi1 : phi2;
   OgMlp& psi = e == 0 ? psi1 : psi2;
   const double scale = std::sqrt(static_cast<double>(options_.baseline.latent_dim));
-  return phi(Cat(obs, action)).matmul(psi(goal).t()) / scale;
+  const torch::Tensor x = phi(Cat(obs, action)), y = psi(goal);
+  internal::AutocastOffScope off;  // the logits in fp32 under bf16 too
+  return x.matmul(y.t()) / scale;
 }
 
 torch::Tensor CrlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
@@ -581,8 +751,8 @@ void HiqlAgent::UpdateTargets() {
 }
 
 torch::Tensor HiqlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  const torch::Tensor z = LengthNormalize(high_actor->Mean(Cat(obs, goal)));
-  return low_actor->Mean(Cat(obs, z)).clamp(-1.0, 1.0);
+  const torch::Tensor z = LengthNormalize(ForActing(high_actor)->Mean(Cat(obs, goal)));
+  return ForActing(low_actor)->Mean(Cat(obs, z)).clamp(-1.0, 1.0);
 }
 
 torch::Tensor HiqlAgent::Value(const torch::Tensor& obs, const torch::Tensor&,

@@ -324,10 +324,6 @@ void ValidateOptions(const MsprOptions& o) {
                 "': the baselines take state observations only (network.obs_mode "
                 "'state'), got '" +
                 n.obs_mode + "'");
-    Require(o.trainer.precision == "fp32",
-            "baseline.agent '" + b.agent + "': trainer.precision must be 'fp32' for the baselines");
-    Require(o.trainer.policy_ema == 0,
-            "baseline.agent '" + b.agent + "': trainer.policy_ema applies to the mspr agent only");
     Require(b.hidden > 0 && b.layers >= 1, "baseline.hidden must be > 0 and baseline.layers >= 1");
     Require(b.lr > 0, "baseline.lr must be > 0");
     Require(b.tau > 0 && b.tau <= 1, "baseline.tau must be in (0, 1]");

@@ -1,6 +1,7 @@
 // End-to-end: each of OGBench's baseline agents, small, learns to reach
 // goals with a point in an open square from a noisy straight-line expert
-// dataset (the task of learning_test.cc), through the shared Trainer.
+// dataset (the task of learning_test.cc), through the shared Trainer; GCIVL
+// also with bf16 products and acting with a moving average of its actor.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -19,9 +20,14 @@ struct Case {
   std::string agent;
   int64_t steps;
   double min_success;  // untrained: 0
+  std::string precision = "fp32";
+  double policy_ema = 0;
 };
 
-void PrintTo(const Case& c, std::ostream* os) { *os << c.agent << " (" << c.steps << " steps)"; }
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << c.agent << " (" << c.steps << " steps, " << c.precision << ", policy_ema " << c.policy_ema
+      << ")";
+}
 
 class BaselineLearningTest : public testing::TestWithParam<Case> {};
 
@@ -38,6 +44,8 @@ TEST_P(BaselineLearningTest, PointInSquareReachesGoals) {
   o.trainer.steps = c.steps;
   o.trainer.seed = 7;
   o.trainer.log_every = 500;
+  o.trainer.precision = c.precision;
+  o.trainer.policy_ema = c.policy_ema;
   if (const char* s = std::getenv("MSSPR_LEARNING_STEPS")) o.trainer.steps = std::atoll(s);
   if (const char* s = std::getenv("MSSPR_LEARNING_SEED"))
     o.trainer.seed = std::strtoull(s, nullptr, 10);
@@ -52,8 +60,10 @@ TEST_P(BaselineLearningTest, PointInSquareReachesGoals) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const double trained = point_square::SuccessRate(policy, 100, 123);
   std::printf(
-      "baseline learning test (%s): %lld steps in %.1f s; success untrained %.2f, trained %.2f\n",
-      c.agent.c_str(), static_cast<long long>(o.trainer.steps), seconds, untrained, trained);
+      "baseline learning test (%s, %s, policy_ema %g): %lld steps in %.1f s; success untrained "
+      "%.2f, trained %.2f\n",
+      c.agent.c_str(), c.precision.c_str(), c.policy_ema, static_cast<long long>(o.trainer.steps),
+      seconds, untrained, trained);
   RecordProperty("untrained_success", std::to_string(untrained));
   RecordProperty("trained_success", std::to_string(trained));
   EXPECT_LT(untrained, 0.5);
@@ -64,8 +74,15 @@ INSTANTIATE_TEST_SUITE_P(
     Agents, BaselineLearningTest,
     // The DDPG+BC agents (small BC weights) learn through their critics: slower.
     testing::Values(Case{"gcbc", 2000, 0.9}, Case{"gcivl", 2000, 0.9}, Case{"gciql", 4000, 0.9},
-                    Case{"qrl", 2000, 0.9}, Case{"crl", 8000, 0.7}, Case{"hiql", 2000, 0.9}),
-    [](const testing::TestParamInfo<Case>& info) { return info.param.agent; });
+                    Case{"qrl", 2000, 0.9}, Case{"crl", 8000, 0.7}, Case{"hiql", 2000, 0.9},
+                    // The policy (MakePolicy) acts with the average of the actor.
+                    Case{"gcivl", 2000, 0.9, "bf16", 0.99}),
+    [](const testing::TestParamInfo<Case>& info) {
+      std::string name = info.param.agent;
+      if (info.param.precision != "fp32") name += "_" + info.param.precision;
+      if (info.param.policy_ema > 0) name += "_ema";
+      return name;
+    });
 
 }  // namespace
 }  // namespace core

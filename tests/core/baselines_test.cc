@@ -1,12 +1,16 @@
 // OGBench's baseline agents: losses on hand-made batches against values
 // computed by hand or by an independent formula, where gradients flow,
-// presets, the sampler's OGBench transitions, checkpoints and export.
+// presets, the sampler's OGBench transitions, checkpoints and export, bf16
+// steps and the policy's moving average.
 #include "msspr_core/baselines.h"
 
+#include <ATen/autocast_mode.h>
 #include <gtest/gtest.h>
+#include <torch/version.h>
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 
 #include "msspr_core/batch_sampler.h"
@@ -14,6 +18,7 @@
 #include "msspr_core/trainer.h"
 #include "point_square.h"
 #include "test_util.h"
+#include "torch_test_util.h"
 
 namespace msspr {
 namespace core {
@@ -521,7 +526,317 @@ TEST_P(BaselineTrainer, ResumesExactlyAndExportsAPolicy) {
   }
 }
 
+// A run with bf16 and a policy average, interrupted by a checkpoint, ends
+// with the uninterrupted run's weights, averages and exports, bit for bit.
+TEST_P(BaselineTrainer, ResumesExactlyWithBf16AndAPolicyAverage) {
+  torch::set_num_threads(1);
+  MsprOptions o = SmallOptions(GetParam());
+  o.network.obs_dim = 0;
+  o.network.action_dim = 0;
+  o.trainer.precision = "bf16";
+  o.trainer.policy_ema = 0.9;
+  auto data = point_square::ExpertDataset(10, 20, 1);
+  testing_util::TempDir dir;
+  Trainer straight(o, data);
+  for (int i = 0; i < 6; ++i) straight.Step(false);
+  Trainer first(o, data);
+  for (int i = 0; i < 3; ++i) first.Step(false);
+  first.SaveCheckpoint(dir.File("c.ckpt"));
+  Trainer resumed(o, data);
+  resumed.LoadCheckpoint(dir.File("c.ckpt"));
+  for (int i = 0; i < 3; ++i) resumed.Step(false);
+  const NamedModules a = straight.agent()->CheckpointModules(),
+                     b = resumed.agent()->CheckpointModules();
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 1u);  // the agent and its averages
+  for (size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].first, b[i].first);
+    const auto pa = a[i].second->named_parameters(), pb = b[i].second->named_parameters();
+    ASSERT_EQ(pa.size(), pb.size());
+    for (const auto& p : pa) {
+      EXPECT_TRUE(torch::equal(p.value(), pb[p.key()])) << a[i].first << "." << p.key();
+    }
+  }
+  straight.ExportPolicy(dir.File("s.pt"));
+  resumed.ExportPolicy(dir.File("r.pt"));
+  const torch::Tensor s = torch::rand({5, 2}) * 2 - 1, g = torch::rand({5, 2}) * 2 - 1;
+  EXPECT_TRUE(torch::equal(Policy::Load(dir.File("s.pt")).Act(s, g),
+                           Policy::Load(dir.File("r.pt")).Act(s, g)));
+  // The average is part of the run: a trainer without one refuses the checkpoint.
+  MsprOptions plain = o;
+  plain.trainer.policy_ema = 0;
+  Trainer without(plain, data);
+  try {
+    without.LoadCheckpoint(dir.File("c.ckpt"));
+    FAIL() << "an averaged run's checkpoint loaded into a trainer without the average";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("policy_ema"), std::string::npos) << e.what();
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Agents, BaselineTrainer,
+                         testing::Values("gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"),
+                         [](const testing::TestParamInfo<std::string>& info) {
+                           return info.param;
+                         });
+
+// --- bf16 -------------------------------------------------------------------------
+
+// CPU autocast to bfloat16 for a scope, as trainer.precision bf16 runs the update.
+class CpuBf16Autocast {
+ public:
+  CpuBf16Autocast() {
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
+    at::autocast::set_autocast_dtype(at::kCPU, at::kBFloat16);
+    at::autocast::set_autocast_enabled(at::kCPU, true);
+#else
+    at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
+    at::autocast::set_cpu_enabled(true);
+#endif
+  }
+  ~CpuBf16Autocast() {
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
+    at::autocast::set_autocast_enabled(at::kCPU, false);
+#else
+    at::autocast::set_cpu_enabled(false);
+#endif
+    at::autocast::clear_cache();
+  }
+  CpuBf16Autocast(const CpuBf16Autocast&) = delete;
+  CpuBf16Autocast& operator=(const CpuBf16Autocast&) = delete;
+};
+
+// Whether every element of `x` is a bfloat16 number (as an output that came
+// out of a bfloat16 layer is).
+bool AllBf16Representable(const torch::Tensor& x) {
+  return torch::equal(x.to(torch::kBFloat16).to(torch::kFloat32), x.to(torch::kFloat32));
+}
+
+// The value heads in return units (last layers set to -70.3 below) and the
+// step's loss column that averages their output.
+std::vector<OgMlp> ReturnHeads(OgbenchAgent& agent) {
+  if (auto* a = dynamic_cast<GcivlAgent*>(&agent)) return {a->v1, a->v2};
+  if (auto* a = dynamic_cast<GciqlAgent*>(&agent)) return {a->q1, a->q2};
+  if (auto* a = dynamic_cast<HiqlAgent*>(&agent)) return {a->v1, a->v2};
+  return {};
+}
+
+std::string ValueColumn(const std::string& agent) {
+  if (agent == "gciql") return "q";
+  if (agent == "qrl") return "d_neg";
+  if (agent == "crl") return "logits_pos";
+  return "v";  // gcivl, hiql
+}
+
+double RelativeError(const torch::Tensor& a, const torch::Tensor& b) {
+  return ((a.to(torch::kFloat64) - b.to(torch::kFloat64)).norm() /
+          b.to(torch::kFloat64).norm().clamp_min(1e-30))
+      .item<double>();
+}
+
+// OgMlp under bf16 autocast (bfloat16 hidden products; its own GELU and
+// LayerNorm on bfloat16 activations) gives the fp32 output and gradients
+// within bfloat16 rounding: value-style (GELU + LayerNorm, fp32 output) and
+// actor-style (GELU only, activated output).
+TEST(OgMlpBf16, ForwardAndGradientsAreCloseToFp32) {
+  torch::manual_seed(4);
+  for (bool value_style : {true, false}) {
+    SCOPED_TRACE(value_style ? "GELU + LayerNorm" : "GELU");
+    OgMlp mlp(std::vector<int64_t>{6, 64, 64, value_style ? 1 : 64},
+              /*activate_final=*/!value_style, /*layer_norm=*/value_style);
+    const torch::Tensor x = torch::randn({32, 6}) * 2;
+    const torch::Tensor r = torch::randn({32, value_style ? 1 : 64});
+    auto run = [&](bool bf16, torch::Tensor* out) {
+      mlp->zero_grad();
+      torch::Tensor y;
+      {
+        std::optional<CpuBf16Autocast> autocast;
+        if (bf16) autocast.emplace();
+        y = mlp(x);
+      }
+      *out = y.detach();
+      (y.to(torch::kFloat32) * r).sum().backward();
+      std::vector<torch::Tensor> grads;
+      for (const auto& p : mlp->parameters()) grads.push_back(p.grad().flatten().clone());
+      return torch::cat(grads);
+    };
+    torch::Tensor y32, y16;
+    const torch::Tensor g32 = run(false, &y32), g16 = run(true, &y16);
+    EXPECT_EQ(y16.scalar_type(), value_style ? torch::kFloat32 : torch::kBFloat16);
+    EXPECT_LT(RelativeError(y16, y32), 0.02);
+    EXPECT_LT(RelativeError(g16, g32), 0.03);
+    for (const auto& p : mlp->parameters()) EXPECT_EQ(p.grad().scalar_type(), torch::kFloat32);
+  }
+}
+
+class BaselineBf16 : public testing::TestWithParam<std::string> {};
+
+// A bf16 step: finite losses close to fp32's, fp32 master weights, weights
+// that differ from the fp32 step's (the products did run in bfloat16), and
+// value outputs at float32 resolution: in the step (its value column) and
+// from Value under autocast. Returns near -70 keep their tenths where a
+// bfloat16 output would round them to a multiple of 0.5.
+TEST_P(BaselineBf16, StepIsFiniteAndValuesKeepFloat32Resolution) {
+  torch::set_num_threads(1);
+  const std::string name = GetParam();
+  MsprOptions o = SmallOptions(name);
+  o.network.obs_dim = 0;
+  o.network.action_dim = 0;
+  auto data = point_square::ExpertDataset(10, 20, 1);
+  Trainer f32(o, data);
+  o.trainer.precision = "bf16";
+  Trainer b16(o, data);
+  auto& agent = dynamic_cast<OgbenchAgent&>(*b16.agent());
+  ASSERT_TRUE(torch::equal(testing_util::Flat(*f32.agent()), testing_util::Flat(agent)));
+  const LossInfo a = f32.Step(true), b = b16.Step(true);
+  ASSERT_EQ(a.agent.size(), b.agent.size());
+  for (size_t i = 0; i < a.agent.size(); ++i) {
+    const auto& [key, x] = a.agent[i];
+    const double y = b.agent[i].second;
+    EXPECT_TRUE(std::isfinite(y)) << key;
+    if (key != "accuracy") {
+      EXPECT_NEAR(x, y, 0.05 * std::abs(x) + 0.02) << key;
+    }
+  }
+  for (const auto& p : agent.parameters()) EXPECT_EQ(p.scalar_type(), torch::kFloat32);
+  EXPECT_FALSE(torch::equal(testing_util::Flat(*f32.agent()), testing_util::Flat(agent)));
+  if (!agent.has_value()) return;  // gcbc
+
+  const torch::Tensor s = torch::rand({16, 2}) * 2 - 1, g = torch::rand({16, 2}) * 2 - 1,
+                      act = torch::rand({16, 2}) * 2 - 1;
+  const std::vector<OgMlp> heads = ReturnHeads(agent);
+  {
+    torch::NoGradGuard no_grad;
+    for (const OgMlp& h : heads) {
+      auto* last = h->net->ptr(h->net->size() - 1)->as<torch::nn::Linear>();
+      last->weight.mul_(1e-3);  // outputs within a few hundredths of the bias
+      last->bias.fill_(-70.3);
+    }
+  }
+  torch::Tensor v;
+  {
+    torch::NoGradGuard no_grad;
+    CpuBf16Autocast autocast;
+    v = agent.Value(s, act, g);
+  }
+  const torch::Tensor v32 = agent.Value(s, act, g).detach();
+  EXPECT_EQ(v.scalar_type(), torch::kFloat32);
+  EXPECT_FALSE(AllBf16Representable(v)) << v;
+  // Within the hidden layers' bfloat16 error of the fp32 forward.
+  EXPECT_LT((v - v32).abs().max().item<double>(), 0.05 * v32.abs().max().item<double>() + 0.01);
+  if (!heads.empty()) {
+    EXPECT_NEAR(v.mean().item<double>(), -70.3, 0.05);
+    EXPECT_GT((v * 2.0 - (v * 2.0).round()).abs().max().item<double>(), 0.1);
+  }
+  // The step's own value outputs (its value column, a mean over the batch).
+  const LossInfo c = b16.Step(true);
+  double column = NAN;
+  for (const auto& [key, x] : c.agent)
+    if (key == ValueColumn(name)) column = x;
+  ASSERT_TRUE(std::isfinite(column)) << ValueColumn(name);
+  EXPECT_FALSE(AllBf16Representable(torch::full({1}, column, torch::kFloat32))) << column;
+  if (!heads.empty()) {
+    EXPECT_NEAR(column, -70.3, 0.05);
+    EXPECT_GT(std::abs(column * 2 - std::round(column * 2)), 0.1) << column;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Agents, BaselineBf16,
+                         testing::Values("gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"),
+                         [](const testing::TestParamInfo<std::string>& info) {
+                           return info.param;
+                         });
+
+// --- The policy's moving average ---------------------------------------------------
+
+class BaselinePolicyAverage : public testing::TestWithParam<std::string> {};
+
+// With trainer.policy_ema the acting networks' average after step s is
+// d avg + (1 - d) w_s with d = min(ema, s / (s + 1)) (until then the plain
+// mean of the initial weights and every step's); the export, the live policy
+// and the trainer checkpoint act with it, the raw export with the online
+// weights; the export's other networks are the online ones.
+TEST_P(BaselinePolicyAverage, ExportsTheRunningAverageOfTheActingNetworks) {
+  torch::set_num_threads(1);
+  using testing_util::Flat;
+  const std::string name = GetParam();
+  MsprOptions o = SmallOptions(name);
+  o.network.obs_dim = 0;
+  o.network.action_dim = 0;
+  o.trainer.policy_ema = 0.8;  // s / (s + 1) < 0.8 up to step 3: a plain mean, then the EMA
+  auto data = point_square::ExpertDataset(10, 20, 1);
+  Trainer t(o, data);
+  auto& agent = dynamic_cast<OgbenchAgent&>(*t.agent());
+  ASSERT_TRUE(agent.HasRawPolicy());
+  const auto acting = agent.ActingNetworks();
+  ASSERT_EQ(acting.size(), name == "hiql" ? 2u : 1u);
+  auto all_acting = [&](bool average) {
+    std::vector<torch::Tensor> parts;
+    for (const auto& [key, net] : acting) {
+      parts.push_back(average ? Flat(*agent.PolicyAverage(key)) : Flat(*net));
+    }
+    return torch::cat(parts);
+  };
+  const torch::Tensor w0 = all_acting(false).clone();
+  EXPECT_TRUE(torch::equal(all_acting(true), w0));  // starts at the initial weights
+  std::vector<torch::Tensor> seen{w0};
+  torch::Tensor expected = w0.to(torch::kFloat64);
+  for (int step = 1; step <= 7; ++step) {
+    t.Step(false);
+    const torch::Tensor w = all_acting(false).clone();
+    EXPECT_FALSE(torch::equal(w, seen.back())) << "step " << step << " did not train the actors";
+    seen.push_back(w);
+    const double d = std::min(0.8, step / (step + 1.0));
+    expected = d * expected + (1 - d) * w.to(torch::kFloat64);
+    EXPECT_TRUE(torch::allclose(all_acting(true).to(torch::kFloat64), expected, 1e-5, 1e-7))
+        << "step " << step;
+    if (step == 3) {
+      EXPECT_TRUE(torch::allclose(all_acting(true), torch::stack(seen).mean(0), 1e-5, 1e-7));
+    }
+  }
+  EXPECT_FALSE(torch::allclose(all_acting(true), all_acting(false), 1e-4, 1e-6));
+
+  testing_util::TempDir dir;
+  t.ExportPolicy(dir.File("avg.pt"));
+  t.ExportPolicy(dir.File("raw.pt"), /*raw=*/true);
+  t.SaveCheckpoint(dir.File("end.ckpt"));
+  Policy avg = Policy::Load(dir.File("avg.pt")), raw = Policy::Load(dir.File("raw.pt"));
+  auto is_acting = [&](const std::string& key) {
+    for (const auto& [n, net] : acting)
+      if (key.rfind(n + ".", 0) == 0) return true;
+    return false;
+  };
+  const auto live = agent.named_parameters();
+  const auto avg_params = avg.agent()->named_parameters(),
+             raw_params = raw.agent()->named_parameters();
+  ASSERT_EQ(avg_params.size(), live.size());
+  for (const auto& p : live) {
+    EXPECT_TRUE(torch::equal(raw_params[p.key()], p.value())) << p.key();
+    if (is_acting(p.key())) continue;
+    EXPECT_TRUE(torch::equal(avg_params[p.key()], p.value())) << p.key();
+  }
+  for (const auto& [key, net] : acting) {
+    const auto ema = agent.PolicyAverage(key)->named_parameters();
+    for (const auto& p : ema) {
+      EXPECT_TRUE(torch::equal(avg_params[key + "." + p.key()], p.value())) << key << p.key();
+    }
+  }
+  const torch::Tensor s = torch::rand({6, 2}) * 2 - 1, g = torch::rand({6, 2}) * 2 - 1;
+  const torch::Tensor a = t.MakePolicy().Act(s, g);
+  EXPECT_TRUE(torch::equal(avg.Act(s, g), a));
+  EXPECT_TRUE(torch::equal(Policy::Load(dir.File("end.ckpt")).Act(s, g), a));
+  EXPECT_FALSE(torch::allclose(raw.Act(s, g), a, 1e-4, 1e-6));
+
+  // Without the option: no average, one export.
+  o.trainer.policy_ema = 0;
+  Trainer plain(o, data);
+  auto& plain_agent = dynamic_cast<OgbenchAgent&>(*plain.agent());
+  EXPECT_FALSE(plain_agent.HasRawPolicy());
+  EXPECT_FALSE(plain_agent.PolicyAverage(acting.front().first));
+  EXPECT_EQ(plain_agent.CheckpointModules().size(), 1u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Agents, BaselinePolicyAverage,
                          testing::Values("gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"),
                          [](const testing::TestParamInfo<std::string>& info) {
                            return info.param;

@@ -261,12 +261,20 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
   bad.trainer.policy_ema = 0.999;
   EXPECT_NO_THROW(ValidateOptions(bad));
-  bad.baseline.agent = "gcbc";  // the average is Ms.PR's
-  try {
-    ValidateOptions(bad);
-    FAIL() << "policy_ema accepted for a baseline";
-  } catch (const OptionsError& e) {
-    EXPECT_NE(std::string(e.what()).find("policy_ema"), std::string::npos) << e.what();
+  // The baselines average their actors, and take bf16, as Ms.PR does.
+  for (const char* agent : {"gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"}) {
+    SCOPED_TRACE(agent);
+    MsprOptions b = MakePreset(agent, "cpu");
+    b.network.obs_dim = 4;
+    b.network.action_dim = 2;
+    b.trainer.policy_ema = 0.999;
+    b.trainer.precision = "bf16";
+    EXPECT_NO_THROW(ValidateOptions(b));
+    b.trainer.policy_ema = 1.0;
+    EXPECT_THROW(ValidateOptions(b), OptionsError);
+    b.trainer.policy_ema = 0.0;
+    b.trainer.precision = "fp16";
+    EXPECT_THROW(ValidateOptions(b), OptionsError);
   }
 }
 

@@ -17,6 +17,17 @@
 //   gradient to them; targets are Polyak averages (baseline.tau).
 // - One scalar loss (the sum of the agent's losses) and one Adam step (no
 //   weight decay, all parameters but the targets') per training step.
+//
+// trainer.precision "bf16": the step's loss runs under bf16 autocast (on the
+// CPU with Ms.PR's cache of bfloat16 weight copies); weights, optimiser state
+// and targets stay fp32. The hidden layers' matrix products are bfloat16; GELU
+// and LayerNorm compute in fp32 (on the CPU with bfloat16 activations in and
+// out); the last Linear of every network (values, Q, latents, the actors'
+// means) runs in fp32: a value near -70 would round to a multiple of 0.5 in
+// bfloat16. CRL's pair logits are an fp32 product too.
+// trainer.policy_ema: the trainer keeps a moving average of the acting
+// networks (the actor; HIQL's low and high actors), which the exports and
+// the in-training policy act with.
 #pragma once
 
 #include <torch/torch.h>
@@ -33,18 +44,29 @@
 namespace msspr {
 namespace core {
 
+namespace internal {
+class Bf16WeightCache;
+}
+
 // OGBench's MLP. sizes = {in, hidden..., out}; the last layer has GELU (and
-// LayerNorm when layer_norm) only when activate_final.
+// LayerNorm when layer_norm) only when activate_final. Under bf16 autocast
+// the hidden Linears return bfloat16, GELU and LayerNorm compute in fp32
+// (on the CPU: bfloat16 in and out), and without activate_final the last
+// Linear (the output: a value, a latent) runs in fp32 and returns fp32.
 class OgMlpImpl : public torch::nn::Module {
  public:
   OgMlpImpl(const std::vector<int64_t>& sizes, bool activate_final, bool layer_norm);
   torch::Tensor forward(const torch::Tensor& x);  // [B, in] -> [B, out]
 
   torch::nn::Sequential net{nullptr};  // "net"
+
+ private:
+  bool activate_final_;
 };
 TORCH_MODULE(OgMlp);
 
-// OGBench's GCActor with const_std: mean = head(MLP(x)), std 1.
+// OGBench's GCActor with const_std: mean = head(MLP(x)), std 1. The head
+// runs in fp32 under bf16 autocast (the mean is fp32).
 class GaussianActorImpl : public torch::nn::Module {
  public:
   GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers, int64_t out);
@@ -69,13 +91,18 @@ torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_
                           const torch::Tensor& alpha_raw);
 
 // What the six baseline agents share: a training step is one Adam step on
-// Loss over a batch of BatchSampler::SampleOgbenchTransitions followed by
-// UpdateTargets; checkpoints and exports hold the whole agent under the key
-// "agent" and its optimiser under "agent_opt".
+// Loss over a batch of BatchSampler::SampleOgbenchTransitions (under
+// trainer.precision) followed by UpdateTargets and, with trainer.policy_ema,
+// UpdatePolicyAverage; checkpoints and exports hold the whole agent under the
+// key "agent" and its optimiser under "agent_opt". With trainer.policy_ema a
+// checkpoint also holds the average of each acting network under "ema_" +
+// its name ("ema_actor"; HIQL: "ema_low_actor", "ema_high_actor"), and the
+// export's "agent" is the agent with its acting networks replaced by the
+// averages (the raw export: the agent itself).
 class OgbenchAgent : public GcAgent {
  public:
   explicit OgbenchAgent(const MsprOptions& options);
-  ~OgbenchAgent() override = default;
+  ~OgbenchAgent() override;
 
   // The sum of the agent's losses on a batch of
   // BatchSampler::SampleOgbenchTransitions (ret = reward, discount = gamma *
@@ -88,8 +115,22 @@ class OgbenchAgent : public GcAgent {
   std::vector<torch::Tensor> TrainableParameters();
   // The target networks (empty when none), for checks.
   virtual std::vector<torch::nn::Module*> Targets() { return {}; }
-  // Moves the agent to `device` and builds its optimiser (MakeGcAgent).
+  // Moves the agent to `device` and builds its optimiser (MakeGcAgent), and
+  // with trainer.policy_ema the averages of the acting networks (copies of
+  // them; torch's generator is left as it was).
   void PrepareTraining(torch::Device device);
+  // The acting networks by their registered names: what Act reads and
+  // trainer.policy_ema averages (the actor; HIQL: low_actor, high_actor).
+  virtual std::vector<std::pair<std::string, GaussianActor>> ActingNetworks() = 0;
+  // The moving average of acting network `name` (a null holder without
+  // trainer.policy_ema, and in an agent built for acting).
+  GaussianActor PolicyAverage(const std::string& name) const;
+  // One step of the moving average after training step `step` (1 in the
+  // first): avg = d avg + (1 - d) w with d = min(trainer.policy_ema,
+  // step / (step + 1)), w the weights after the step's update; so until
+  // step d / (1 - d) the average is the plain mean of the initial weights and
+  // every step's. A no-op without trainer.policy_ema.
+  void UpdatePolicyAverage(int64_t step);
 
   // GcAgent. UpdateTargets: the Polyak update of the target networks
   // (none for gcbc, qrl, crl). Act: the mean action clipped to [-1, 1].
@@ -99,12 +140,18 @@ class OgbenchAgent : public GcAgent {
   // Only gcivl, gciql and hiql are in return units.
   LossInfo Step(TrainingContext& context, bool collect_info) override;
   LossInfo ValidationLosses(BatchSource& batches) override;
-  NamedModules CheckpointModules() override { return {{"agent", this}}; }
+  NamedModules CheckpointModules() override;
   NamedOptimizers Optimizers() override { return {{"agent_opt", optimizer_.get()}}; }
-  NamedModules PolicyModules(bool) override { return {{"agent", this}}; }
+  NamedModules PolicyModules(bool raw) override;
+  bool HasRawPolicy() const override { return !average_.empty(); }
+  // A trainer checkpoint of a run with trainer.policy_ema gives the acting
+  // networks' averages, as the run's exports do.
   void ReadPolicy(torch::serialize::InputArchive& archive, bool trainer_checkpoint) override;
 
  protected:
+  // The network Act runs for acting network `online`: its average when there
+  // is one, else `online`.
+  GaussianActor& ForActing(GaussianActor& online);
   // Polyak average target <- tau * online + (1 - tau) * target.
   void Polyak(torch::nn::Module& target, const torch::nn::Module& online);
   // A target network starts as a copy of its online network and takes no gradient.
@@ -121,8 +168,22 @@ class OgbenchAgent : public GcAgent {
   int64_t obs_dim_, action_dim_;
 
  private:
+  bool bf16() const { return options_.trainer.precision == "bf16"; }
+
   // OGBench: one Adam (no weight decay) over the trainable parameters.
   std::unique_ptr<torch::optim::Adam> optimizer_;
+  torch::Device device_ = torch::kCPU;
+  // bf16 on the CPU: the weights' bfloat16 copies, cast once per update.
+  std::unique_ptr<internal::Bf16WeightCache> weight_cache_;
+  // trainer.policy_ema: (name, online, average) per acting network.
+  struct Averaged {
+    std::string name;
+    GaussianActor online, average;
+  };
+  std::vector<Averaged> average_;
+  // The averaged export's "agent": this agent's parameters and modules with
+  // the acting networks replaced by their averages (rebuilt by PolicyModules).
+  std::shared_ptr<torch::nn::Module> policy_view_;
 };
 
 // The former name of OgbenchAgent (before Ms.PR implemented GcAgent too).
@@ -140,6 +201,9 @@ class GcActorAgent : public OgbenchAgent {
  public:
   using OgbenchAgent::OgbenchAgent;
   torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  std::vector<std::pair<std::string, GaussianActor>> ActingNetworks() override {
+    return {{"actor", actor}};
+  }
 
   GaussianActor actor{nullptr};  // "actor": pi(a | [s, g])
 
@@ -236,6 +300,11 @@ class HiqlAgent : public OgbenchAgent {
   torch::Tensor Loss(const TransitionBatch& batch, NamedValues* info) override;
   void UpdateTargets() override;
   torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal) override;
+  // Acting runs the high actor, then the low actor on its length-normalised
+  // output (not goal_rep): these two are averaged.
+  std::vector<std::pair<std::string, GaussianActor>> ActingNetworks() override {
+    return {{"low_actor", low_actor}, {"high_actor", high_actor}};
+  }
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
   std::vector<torch::nn::Module*> Targets() override { return {target_v1.get(), target_v2.get()}; }

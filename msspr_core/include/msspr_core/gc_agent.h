@@ -112,7 +112,7 @@ class GcAgent : public torch::nn::Module {
   // The modules of a policy export: the acting networks, or with raw the
   // online ones where the policy is a moving average (HasRawPolicy).
   virtual NamedModules PolicyModules(bool raw) = 0;
-  // Whether exports have a raw variant (Ms.PR with trainer.policy_ema).
+  // Whether exports have a raw variant (with trainer.policy_ema).
   virtual bool HasRawPolicy() const { return false; }
   // Reads the acting networks from a policy export (or, trainer_checkpoint,
   // a trainer checkpoint) into an agent built for acting (MakeGcAgent).

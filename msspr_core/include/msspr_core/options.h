@@ -227,8 +227,9 @@ struct TrainerOptions {
   // next step's TD target run beside the representation update. "auto": on for
   // the CPU with 2 or more torch threads.
   std::string pipeline = "auto";
-  // Ms.PR only. > 0: the trainer keeps an exponential moving average of the
-  // policy's networks (encoders and goal head, actor, critic) with this decay
+  // > 0: the trainer keeps an exponential moving average of the policy's
+  // networks (Ms.PR: encoders and goal head, actor, critic; the baselines:
+  // the actor, HIQL's low and high actors) with this decay
   // per step (warm-up: min(decay, t / (t + 1)) at step t, the plain mean of
   // every step's weights until t = decay / (1 - decay)), and the exports
   // (policy.pt, policy_step<N>.pt) and in-training evaluations use the average
