@@ -1,0 +1,209 @@
+#!/usr/bin/env python3
+"""msspr_compare end to end on a tiny grid (2 agents x 2 seeds x 200 steps): a run killed
+part way resumes where it stopped, finished runs are skipped, a run whose options differ
+from the grid is refused, and report writes the table, the CSV and the learning curves.
+
+usage: msspr_compare_test.py   (MSSPR_BIN: the directory holding msspr_train)
+"""
+import csv
+import fcntl
+import glob
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TOOL = os.path.join(ROOT, "scripts", "msspr_compare")
+SAMPLE = os.path.join(ROOT, "rosbags", "pointmaze-medium-navigate-sample.bag")
+STEPS, EVERY = 200, 50
+
+TINY_MSPR = """scale: cpu
+network: {encoder_hidden: 32, zsa_hidden: 32, goal_hidden: 32, critic_hidden: 32, actor_hidden: 32,
+          zs_dim: 24, zsa_dim: 24, za_dim: 16, goal_dim: 8}
+trainer: {batch_size: 16, log_every: 10}
+"""
+TINY_BASELINE = """scale: cpu
+baseline: {hidden: 32, layers: 2, latent_dim: 32}
+trainer: {batch_size: 16, log_every: 10}
+"""
+
+
+def grid_text(tmp):
+    return f"""name: tiny
+seeds: [0, 1]
+threads: 1
+checkpoint_every: 10
+eval: {{every: {EVERY}, episodes: 1, seed: 0, max_steps: 40}}
+tasks:
+  - name: tiny-maze
+    env: pointmaze-medium
+    steps: {STEPS}
+    data:
+      - {{file: sample.bag, command: "cp {SAMPLE} {{file}}"}}
+    agents:
+      - {{name: mspr, configs: [{tmp}/tiny_mspr.yaml]}}
+      - {{name: gcivl, agent: gcivl, configs: [{tmp}/tiny_baseline.yaml]}}
+"""
+
+
+def read_json(path):
+    with open(path) as f:
+        return json.load(f)
+
+
+def eval_steps(run_dir):
+    steps = []
+    with open(os.path.join(run_dir, "eval.csv")) as f:
+        for rec in csv.reader(f):
+            if len(rec) == 3 and rec[1] == "mean_success":
+                steps.append(int(rec[0]))
+    return steps
+
+
+class MssprCompareTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.mkdtemp(prefix="msspr_compare_test_")
+        with open(os.path.join(self.tmp, "tiny_mspr.yaml"), "w") as f:
+            f.write(TINY_MSPR)
+        with open(os.path.join(self.tmp, "tiny_baseline.yaml"), "w") as f:
+            f.write(TINY_BASELINE)
+        self.grid = os.path.join(self.tmp, "grid.yaml")
+        with open(self.grid, "w") as f:
+            f.write(grid_text(self.tmp))
+        self.out = os.path.join(self.tmp, "out")
+
+    def tearDown(self):
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def compare(self, *args, timeout=600):
+        p = subprocess.run([sys.executable, TOOL] + list(args), capture_output=True, text=True, timeout=timeout)
+        return p.returncode, p.stdout + p.stderr
+
+    def run_dirs(self):
+        return sorted(glob.glob(os.path.join(self.out, "runs", "tiny-maze", "*-s*")))
+
+    def wait_unlocked(self, run_dir, timeout=60):
+        """Waits until no msspr_train holds the run's lock (it exits on its parent's death)."""
+        end = time.time() + timeout
+        with open(os.path.join(run_dir, ".compare.lock"), "a") as f:
+            while time.time() < end:
+                try:
+                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    fcntl.flock(f, fcntl.LOCK_UN)
+                    return
+                except OSError:
+                    time.sleep(0.2)
+        self.fail(f"{run_dir}: msspr_train still running {timeout} s after msspr_compare was killed")
+
+    def test_grid_runs_resumes_after_kill_skips_finished_refuses_changed_and_reports(self):
+        # 1. Start the grid, kill msspr_compare (SIGKILL) once a run has a checkpoint.
+        p = subprocess.Popen([sys.executable, TOOL, "run", self.grid, "--out", self.out, "--jobs", "2"],
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        deadline = time.time() + 300
+        while time.time() < deadline and not glob.glob(os.path.join(self.out, "runs", "*", "*", "checkpoint.ckpt")):
+            if p.poll() is not None:
+                self.fail("msspr_compare ended before any checkpoint: " + p.stdout.read())
+            time.sleep(0.1)
+        p.send_signal(signal.SIGKILL)
+        p.wait()
+        p.stdout.close()
+        for d in self.run_dirs():
+            self.wait_unlocked(d)
+        statuses = [read_json(os.path.join(d, "compare.json"))["status"] for d in self.run_dirs()]
+        self.assertIn("running", statuses, "the killed runs are left marked running until the next run")
+        interrupted = [d for d in self.run_dirs()]
+
+        # 2. The same command finishes the grid; killed runs resume from their checkpoints.
+        rc, out = self.compare("run", self.grid, "--out", self.out, "--jobs", "2")
+        self.assertEqual(rc, 0, out)
+        dirs = self.run_dirs()
+        self.assertEqual([os.path.basename(d) for d in dirs], ["gcivl-s0", "gcivl-s1", "mspr-s0", "mspr-s1"])
+        resumed = 0
+        for d in dirs:
+            rec = read_json(os.path.join(d, "compare.json"))
+            self.assertEqual(rec["status"], "finished", d)
+            # Every evaluation of the schedule exactly once, at the same steps for every run.
+            self.assertEqual(eval_steps(d), list(range(EVERY, STEPS + 1, EVERY)), d)
+            if d in interrupted and len(rec["segments"]) == 2:
+                seg0, seg1 = rec["segments"]
+                self.assertEqual(seg0["exit"], "lost (msspr_compare was killed)")
+                self.assertIn("--resume", seg1["command"])
+                self.assertEqual(seg1["step_end"], STEPS)
+                # From its last checkpoint (a run killed before its first starts at 0).
+                if seg1["step_start"] > 0:
+                    resumed += 1
+            # Every command ran at one thread with the grid's evaluation.
+            for seg in rec["segments"]:
+                cmd = seg["command"]
+                self.assertEqual(cmd[cmd.index("--threads") + 1], "1")
+                self.assertEqual(cmd[cmd.index("--eval-every") + 1], str(EVERY))
+        self.assertGreaterEqual(resumed, 1, "the run with a checkpoint at the kill resumed from it")
+
+        # 3. Run again: everything finished is skipped, nothing new starts.
+        rc, out = self.compare("run", self.grid, "--out", self.out, "--jobs", "2")
+        self.assertEqual(rc, 0, out)
+        self.assertIn("4 finished, 0 to run, 0 refused", out)
+        self.assertNotIn("msspr_compare: started", out)
+
+        # 4. A grid whose config differs is refused for the runs it touches, named.
+        with open(os.path.join(self.tmp, "tiny_mspr.yaml"), "a") as f:
+            f.write("agent: {bc_weight: 0.5}\n")
+        rc, out = self.compare("run", self.grid, "--out", self.out)
+        self.assertEqual(rc, 1, out)
+        self.assertIn("refused tiny-maze/mspr-s0: options differ from the grid (configs:", out)
+        self.assertIn("refused tiny-maze/mspr-s1", out)
+        self.assertNotIn("refused tiny-maze/gcivl", out)
+
+        # 5. The report: a row per agent with mean ± sd over 2 seeds at the full budget.
+        rc, out = self.compare("report", self.out)
+        self.assertEqual(rc, 0, out)
+        with open(os.path.join(self.out, "report.md")) as f:
+            md = f.read()
+        rows = [l for l in md.splitlines() if l.startswith("| tiny-maze |")]
+        self.assertEqual(len(rows), 2, md)
+        for row, agent in zip(rows, ["mspr", "gcivl"]):
+            cells = [c.strip() for c in row.strip("|").split("|")]
+            self.assertEqual(cells[1], agent)
+            self.assertRegex(cells[2], r"^\d+\.\d ± \d+\.\d$")
+            self.assertEqual(cells[3], "2")
+            self.assertEqual(cells[4], f"{STEPS}")
+            self.assertGreater(float(cells[5]), 0.0)  # steps/s
+        with open(os.path.join(self.out, "report.csv")) as f:
+            recs = list(csv.DictReader(f))
+        self.assertEqual(len(recs), 4)
+        for r in recs:
+            # Each seed's figure is the mean of its last 3 evaluations, read from eval.csv.
+            evals = [float(x.split(":")[1]) for x in r["evaluations"].split()]
+            self.assertEqual(len(evals), STEPS // EVERY)
+            self.assertAlmostEqual(float(r["last3_mean_success"]), sum(evals[-3:]) / 3, places=4)
+        # The statistic in the table is the mean and sample sd of the two seeds' figures.
+        for agent, row in zip(["mspr", "gcivl"], rows):
+            figs = [float(r["last3_mean_success"]) * 100 for r in recs if r["agent"] == agent]
+            m = sum(figs) / 2
+            sd = abs(figs[0] - figs[1]) / 2 ** 0.5
+            self.assertIn(f"{m:.1f} ± {sd:.1f}", row)
+        png = os.path.join(self.out, "curves_tiny-maze.png")
+        with open(png, "rb") as f:
+            self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+
+    def test_bad_grid_is_an_error_naming_the_problem(self):
+        with open(self.grid, "a") as f:
+            f.write("bogus: 1\n")
+        rc, out = self.compare("run", self.grid, "--out", self.out)
+        self.assertEqual(rc, 2, out)
+        self.assertIn("unknown key 'bogus'", out)
+        with open(self.grid, "w") as f:
+            f.write(grid_text(self.tmp).replace("steps: 200", "steps: 10"))
+        rc, out = self.compare("run", self.grid, "--out", self.out)
+        self.assertEqual(rc, 2, out)
+        self.assertIn("steps 10 is below eval.every 50", out)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
