@@ -1,10 +1,13 @@
 #include "msspr_core/policy.h"
 
+#include <ATen/Parallel.h>
+
 #include <sstream>
 
 #include "module_io.h"
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/mspr_agent.h"
+#include "trainer_internal.h"
 
 namespace msspr {
 namespace core {
@@ -16,6 +19,21 @@ MsprNetworks& MsprNetworksOf(Policy& policy) {
   if (!m)
     throw std::logic_error("Policy: the " + policy.agent_name() + " agent has no Ms.PR networks");
   return m->policy_networks();
+}
+
+// The agent's action for one row (obs, goal: [1, ...]), computed the same
+// way on any thread: in float32 (autocast off), with every op of the forward
+// pass serial (one OpenMP thread for torch's intra-op loops, OpenBLAS and
+// oneDNN on this thread), so that the result depends neither on the thread
+// setting nor on the batch the row came in.
+torch::Tensor ActOneRow(GcAgent& agent, const torch::Tensor& obs, const torch::Tensor& goal) {
+  torch::InferenceMode inference;  // thread-local: set on torch's worker threads too
+  internal::AutocastOffScope fp32;
+  // Torch initialises a thread's OpenMP thread count at its first query:
+  // before the scope below, so that it does not undo it.
+  (void)at::get_num_threads();
+  trainer_internal::ThreadCountScope one_thread(1);
+  return agent.Act(obs, goal);
 }
 
 }  // namespace
@@ -121,12 +139,30 @@ torch::Tensor Policy::Act(const torch::Tensor& obs_in, const torch::Tensor& goal
   torch::Tensor obs = obs_in.to(device_), goal = goal_in.to(device_);
   const bool single = Batch(&obs);
   Batch(&goal);
+  TORCH_CHECK(goal.size(0) == obs.size(0), "Policy::Act: ", obs.size(0), " observations and ",
+              goal.size(0), " goals");
   if (!pixels()) {
     obs = obs.to(torch::kFloat32);
     goal = goal.to(torch::kFloat32);
   }
-  const torch::Tensor a = agent_->Act(obs, goal);
-  return single ? a.squeeze(0) : a;
+  const int64_t rows = obs.size(0);
+  if (rows <= 1) {
+    const torch::Tensor a = ActOneRow(*agent_, obs, goal);
+    return single ? a.squeeze(0) : a;
+  }
+  // Row by row (see policy.h); on the CPU the rows are shared among torch's
+  // threads, each row's forward pass in one thread.
+  std::vector<torch::Tensor> actions(static_cast<size_t>(rows));
+  const auto act_rows = [&](int64_t begin, int64_t end) {
+    for (int64_t b = begin; b < end; ++b)
+      actions[static_cast<size_t>(b)] =
+          ActOneRow(*agent_, obs.narrow(0, b, 1), goal.narrow(0, b, 1));
+  };
+  if (device_.is_cpu())
+    at::parallel_for(0, rows, /*grain_size=*/1, act_rows);
+  else
+    act_rows(0, rows);
+  return torch::cat(actions);
 }
 
 std::vector<float> Policy::Act(const std::vector<float>& obs, const std::vector<float>& goal) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <vector>
 
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/trainer.h"
@@ -33,17 +34,51 @@ TEST(PolicyTest, StateActSingleAndBatch) {
   EXPECT_FALSE(a.requires_grad());
   const torch::Tensor a3 = p.Act(obs[3], goal[3]);
   EXPECT_EQ(a3.sizes(), (std::vector<int64_t>{2}));
-  EXPECT_TRUE(torch::allclose(a3, a[3], 1e-5, 1e-6));
+  EXPECT_TRUE(torch::equal(a3, a[3]));
   const std::vector<float> v = p.Act(
       std::vector<float>{obs[3][0].item<float>(), obs[3][1].item<float>(), obs[3][2].item<float>()},
       std::vector<float>{goal[3][0].item<float>(), goal[3][1].item<float>(),
                          goal[3][2].item<float>()});
   ASSERT_EQ(v.size(), 2u);
-  EXPECT_NEAR(v[0], a[3][0].item<float>(), 1e-5);
+  EXPECT_EQ(v[0], a[3][0].item<float>());
   const torch::Tensor q = p.Q(obs, a, goal);
   EXPECT_EQ(q.sizes(), (std::vector<int64_t>{7, 2}));
   EXPECT_EQ(p.Q(obs[0], a[0], goal[0]).sizes(), (std::vector<int64_t>{2}));
   EXPECT_THROW(p.Act(torch::randn({2, 2, 3}), torch::randn({2, 2, 3})), c10::Error);
+}
+
+// Policy::Act computes each row on its own in one thread: a batch's actions
+// are bitwise those of its rows one at a time, whatever the batch and the
+// torch thread count. The networks have the shipped checkpoints' widths: a
+// batched forward pass of them rounds most rows' last bits differently from
+// a single row's.
+TEST(PolicyTest, BatchActIsRowByRowBitwiseAtOneAndTwoThreads) {
+  MsprOptions o = TinyOptions();
+  NetworkOptions& n = o.network;
+  n.encoder_hidden = n.zsa_hidden = n.goal_hidden = n.critic_hidden = n.actor_hidden = 256;
+  n.zs_dim = n.zsa_dim = 256;
+  n.goal_dim = 64;
+  Trainer t(o, RandomStateDataset(4, 12, /*obs_dim=*/29));
+  Policy p = t.MakePolicy();
+  torch::manual_seed(7);
+  const int64_t rows = 300;
+  const torch::Tensor obs = 3 * torch::randn({rows, 29}), goal = 3 * torch::randn({rows, 29});
+  const int threads_before = torch::get_num_threads();
+  torch::set_num_threads(1);
+  std::vector<torch::Tensor> single;
+  for (int64_t b = 0; b < rows; ++b) single.push_back(p.Act(obs[b], goal[b]));
+  const torch::Tensor expected = torch::stack(single);
+  for (int threads : {1, 2}) {
+    torch::set_num_threads(threads);
+    EXPECT_TRUE(torch::equal(p.Act(obs, goal), expected)) << threads << " threads, 300 rows";
+    EXPECT_TRUE(torch::equal(p.Act(obs.narrow(0, 100, 77), goal.narrow(0, 100, 77)),
+                             expected.narrow(0, 100, 77)))
+        << threads << " threads, rows 100 to 176";
+    for (int64_t b : {0, 150, 299})
+      EXPECT_TRUE(torch::equal(p.Act(obs[b], goal[b]), expected[b]))
+          << threads << " threads, row " << b << " alone";
+  }
+  torch::set_num_threads(threads_before);
 }
 
 TEST(PolicyTest, ExportLoadsAndActsTheSame) {
@@ -129,7 +164,7 @@ TEST(PolicyTest, PixelActSingleAndBatch) {
   EXPECT_EQ(a.sizes(), (std::vector<int64_t>{3, 2}));
   const torch::Tensor a1 = p.Act(obs[1], goal[1]);
   EXPECT_EQ(a1.sizes(), (std::vector<int64_t>{2}));
-  EXPECT_TRUE(torch::allclose(a1, a[1], 1e-4, 1e-5));
+  EXPECT_TRUE(torch::equal(a1, a[1]));
   EXPECT_EQ(p.Q(obs, a, goal).sizes(), (std::vector<int64_t>{3, 2}));
 }
 

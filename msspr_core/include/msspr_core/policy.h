@@ -2,10 +2,10 @@
 // call, under torch::InferenceMode.
 //
 // Latency on CPU: a single-sample Act takes ~0.3 ms (state, CPU scale) to
-// ~3 ms (image, paper scale) with 1 torch thread. With 2 OpenMP threads on
-// cores shared with other processes and the default (spinning)
-// OMP_WAIT_POLICY it took ~85 ms: set OMP_WAIT_POLICY=PASSIVE in the
-// environment (see process_env.h) or torch::set_num_threads(1) in the node.
+// ~3 ms (image, paper scale); it runs in one thread whatever the thread
+// setting (see Act). Batches share their rows among torch's threads: on
+// cores shared with other processes set OMP_WAIT_POLICY=PASSIVE in the
+// environment (see process_env.h), as spinning OpenMP threads slow them.
 #pragma once
 
 #include <torch/torch.h>
@@ -48,11 +48,22 @@ class Policy {
   // [H, W, C * frame_stack] uint8 (frames stacked oldest first along
   // channels). Returns [B, action_dim] or [action_dim] float32 in [-1, 1] on
   // the policy's device. Inputs on another device are moved.
+  //
+  // Batch- and thread-invariant: each row's action is computed on its own,
+  // as a batch of one, in float32 and with one intra-op thread, so it is
+  // bitwise the same whatever the batch it comes in and whatever the thread
+  // setting (torch::set_num_threads, OMP_NUM_THREADS). A batched matrix
+  // product may round a row's last bits differently from a single row's, or
+  // at another thread count; in a simulator with contacts (the ant) such
+  // differences change episodes' outcomes. A batch of B costs about B
+  // single calls; on the CPU its rows are shared among torch's threads.
   torch::Tensor Act(const torch::Tensor& obs, const torch::Tensor& goal);
   // Single state sample: obs, goal [obs_dim] -> action [action_dim].
   std::vector<float> Act(const std::vector<float>& obs, const std::vector<float>& goal);
   // Twin Q values: obs, goal as in Act; action [B, action_dim] or
   // [action_dim] -> [B, 2] or [2] float32 (returns in [-1/(1-gamma), 0]).
+  // One batched forward pass: unlike Act, its last bits may vary with the
+  // batch and the thread count.
   // Baseline agents: GcAgent::Value (see OgbenchAgent for the units);
   // throws std::logic_error when has_value() is false (gcbc).
   torch::Tensor Q(const torch::Tensor& obs, const torch::Tensor& action, const torch::Tensor& goal);

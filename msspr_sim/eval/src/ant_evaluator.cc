@@ -6,6 +6,8 @@
 #include <chrono>
 #include <memory>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "msspr_core/policy.h"
 #include "msspr_eval/batched_episodes.h"
@@ -80,13 +82,11 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
     s.done = s.success || s.env->truncated();
   });
 
-  std::vector<bool> success;
-  std::vector<int> steps;
-  for (const Slot& s : slots) {
-    success.push_back(s.success);
-    steps.push_back(s.env->steps());
-  }
-  AntEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, success, steps);
+  std::vector<EpisodeResult> episodes;
+  for (const Slot& s : slots)
+    episodes.push_back({s.success, s.env->steps(),
+                        std::vector<double>(s.obs.data(), s.obs.data() + s.obs.size())});
+  AntEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

@@ -6,6 +6,8 @@
 #include <chrono>
 #include <memory>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "msspr_core/policy.h"
 #include "msspr_eval/batched_episodes.h"
@@ -81,13 +83,10 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     s.done = s.success || s.steps >= options.max_steps;
   });
 
-  std::vector<bool> success;
-  std::vector<int> steps;
-  for (const Slot& s : slots) {
-    success.push_back(s.success);
-    steps.push_back(s.steps);
-  }
-  CubeEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, success, steps);
+  std::vector<EpisodeResult> episodes;
+  for (const Slot& s : slots)
+    episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
+  CubeEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

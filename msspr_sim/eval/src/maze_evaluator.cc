@@ -38,7 +38,7 @@ struct EpisodeOutcome {
   bool success = false;
   int steps = 0;
   double q0 = 0;  // the critic at the first observation (want_q0)
-  Eigen::Vector2d start, goal;
+  Eigen::Vector2d start, goal, end;
   std::vector<Eigen::Vector2d> path;  // keep_paths
 };
 
@@ -68,7 +68,7 @@ void CheckPolicyFitsMaze(const core::Policy& policy, const char* who) {
     throw std::invalid_argument(std::string(who) + ": pixels policies need square RGB images");
 }
 
-// Runs the episodes side by side (one batched forward pass per control step);
+// Runs the episodes side by side (one policy call per control step);
 // pixels policies get renders from one rendering context on this thread.
 std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string& maze,
                                         int max_steps, bool keep_paths, bool want_q0,
@@ -180,6 +180,7 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
     out[k].steps = slots[k].steps;
     out[k].start = slots[k].start;
     out[k].goal = slots[k].env->goal();
+    out[k].end = slots[k].env->state();
     out[k].path = std::move(slots[k].path);
   }
   return out;
@@ -236,6 +237,7 @@ MazeEvalResult EvaluateOnMaze(core::Policy& policy, const MazeEvalOptions& optio
   }
   for (size_t k = 0; k < episodes.size(); ++k) {
     auto& ep = episodes[k];
+    r.episodes.push_back({ep.success, ep.steps, {ep.end.x(), ep.end.y()}});
     const size_t ti = k / static_cast<size_t>(options.episodes);
     if (ep.success) {
       ++ok[ti];

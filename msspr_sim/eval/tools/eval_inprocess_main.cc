@@ -1,6 +1,6 @@
 // msspr_eval_inprocess: OGBench's evaluation protocol for a checkpoint, in
 // process (no ROS master, no sim node): the episodes of msspr_eval (same seeds)
-// run side by side, one batched forward pass per control step. The results
+// run side by side, one policy call per control step. The results
 // JSON has msspr_eval's format; msspr_train's evaluations run the same code.
 #include <torch/torch.h>
 
@@ -32,7 +32,7 @@ Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_e
   --episodes N        episodes per task (default 50)
   --max-steps N       step limit (default 1000; cube-single 200)
   --seed S            evaluation seed (default 0)
-  --threads N         torch threads (default: torch's choice)
+  --threads N         torch threads (default: torch's choice; the results do not depend on it)
   --device DEV        where the policy runs: cpu, cuda, cuda:1 (default cpu)
   --agent NAME        label in the results (default: the policy's file name)
   --out FILE.json     results JSON (default: none)

@@ -3,7 +3,9 @@
 // the seeds of msspr_eval (sim::EvalEpisodeSeed), the 29-D goal state of
 // AntMaze's goal construction, up to max_steps control steps, success when
 // the torso is within 0.5 m of the goal's xy (the episode ends there). All
-// episodes run side by side: one batched forward pass per control step.
+// episodes run side by side: one policy call per control step, each
+// episode's action computed on its own (Policy::Act), so outcomes do not
+// depend on the thread count or the number of episodes.
 // State policies only (29-D observations, 8-D actions).
 #pragma once
 

@@ -1,6 +1,9 @@
 // The in-process evaluators' episode loop (maze_evaluator.cc, cube_evaluator.cc,
-// ant_evaluator.cc): every episode in a slot, and at each step one batched policy
-// call for the slots not yet done.
+// ant_evaluator.cc): every episode in a slot, and at each step one policy call
+// for the slots not yet done. Policy::Act computes each row on its own, so an
+// episode's actions, and so its outcome, are the same whatever the other
+// episodes beside it and the thread count (and the same as one observation at
+// a time over ROS).
 #pragma once
 
 #include <torch/torch.h>

@@ -2,9 +2,10 @@
 // ROS): the 5 tasks' resets with the same seeds as msspr_eval --env cube-single
 // over ROS (sim::EvalEpisodeSeed), up to max_steps steps, success when the cube
 // is within 4 cm of the goal (the episode ends there, as over ROS). All
-// episodes run side by side so that each control step is one batched forward
-// pass. State policies only: a pixels policy is evaluated over ROS
-// (msspr_eval --env cube-single with the sim's images).
+// episodes run side by side, one policy call per control step, each episode's
+// action computed on its own (Policy::Act), so outcomes do not depend on the
+// thread count or the number of episodes. State policies only: a pixels policy is evaluated over
+// ROS (msspr_eval --env cube-single with the sim's images).
 #pragma once
 
 #include <cstdint>

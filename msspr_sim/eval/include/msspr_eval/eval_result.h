@@ -4,11 +4,19 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "msspr_sim/eval_protocol.h"
 
 namespace msspr::agent {
+
+// One episode of an evaluation.
+struct EpisodeResult {
+  bool success = false;
+  int steps = 0;                  // control steps taken
+  std::vector<double> final_obs;  // the state observation it ended in
+};
 
 struct TaskSuccessResult {
   std::vector<int> tasks;
@@ -16,14 +24,16 @@ struct TaskSuccessResult {
   std::vector<double> mean_steps_success;  // per task, steps of the successful episodes
   double mean_success = 0.0;
   double seconds = 0.0;
+  // Every episode, task by task (episode e of task i at i * episodes + e);
+  // filled by EvaluateOnMaze, EvaluateOnCube and EvaluateOnAntMaze.
+  std::vector<EpisodeResult> episodes;
 };
 
 // The result of tasks.size() x episodes episodes laid out task by task (episode e of
 // task i at i * episodes + e): success per task, the mean steps of its successful
-// episodes, mean_success over the tasks; seconds left 0.
+// episodes, mean_success over the tasks, the episodes themselves; seconds left 0.
 inline TaskSuccessResult SummarizeTaskEpisodes(const std::vector<int>& tasks, int episodes,
-                                               const std::vector<bool>& success,
-                                               const std::vector<int>& steps) {
+                                               std::vector<EpisodeResult> results) {
   TaskSuccessResult r;
   r.tasks = tasks;
   const size_t nt = tasks.size();
@@ -32,16 +42,18 @@ inline TaskSuccessResult SummarizeTaskEpisodes(const std::vector<int>& tasks, in
   for (size_t ti = 0; ti < nt; ++ti) {
     int ok = 0;
     for (int e = 0; e < episodes; ++e) {
-      const size_t k = ti * static_cast<size_t>(episodes) + static_cast<size_t>(e);
-      if (success[k]) {
+      const EpisodeResult& ep =
+          results[ti * static_cast<size_t>(episodes) + static_cast<size_t>(e)];
+      if (ep.success) {
         ++ok;
-        r.mean_steps_success[ti] += steps[k];
+        r.mean_steps_success[ti] += ep.steps;
       }
     }
     r.success[ti] = episodes > 0 ? static_cast<double>(ok) / episodes : 0.0;
     if (ok) r.mean_steps_success[ti] /= ok;
     r.mean_success += r.success[ti] / static_cast<double>(nt);
   }
+  r.episodes = std::move(results);
   return r;
 }
 

@@ -1,7 +1,9 @@
 // In-process evaluation of a Policy on a point maze by OGBench's protocol
 // (no ROS): the tasks' resets with the same seeds as msspr_eval over ROS, up to
 // max_steps steps, success within the success radius. All episodes run side
-// by side so that each control step is one batched forward pass.
+// by side, one policy call per control step, each episode's action computed on
+// its own (Policy::Act), so outcomes do not depend on the thread count or the
+// number of episodes.
 #pragma once
 
 #include <Eigen/Core>
