@@ -188,6 +188,20 @@ class MssprCompareTest(unittest.TestCase):
             m = sum(figs) / 2
             sd = abs(figs[0] - figs[1]) / 2 ** 0.5
             self.assertIn(f"{m:.1f} ± {sd:.1f}", row)
+        # --insert puts the same table into a document between its markers, again and again.
+        doc = os.path.join(self.tmp, "results.md")
+        with open(doc, "w") as f:
+            f.write("# Results\n\n<!-- msspr_compare report: tiny -->\n\n## Next\n")
+        for _ in range(2):
+            rc, out = self.compare("report", self.out, "--insert", doc)
+            self.assertEqual(rc, 0, out)
+        with open(doc) as f:
+            text = f.read()
+        for row in rows:
+            self.assertEqual(text.count(row), 1, text)
+        self.assertEqual(text.count("<!-- end msspr_compare report -->"), 1, text)
+        self.assertIn("](out/curves_tiny-maze.png)", text)
+        self.assertTrue(text.startswith("# Results\n") and text.endswith("## Next\n"), text)
         png = os.path.join(self.out, "curves_tiny-maze.png")
         with open(png, "rb") as f:
             self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
