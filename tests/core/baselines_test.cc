@@ -582,29 +582,7 @@ INSTANTIATE_TEST_SUITE_P(Agents, BaselineTrainer,
 
 // --- bf16 -------------------------------------------------------------------------
 
-// CPU autocast to bfloat16 for a scope, as trainer.precision bf16 runs the update.
-class CpuBf16Autocast {
- public:
-  CpuBf16Autocast() {
-#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
-    at::autocast::set_autocast_dtype(at::kCPU, at::kBFloat16);
-    at::autocast::set_autocast_enabled(at::kCPU, true);
-#else
-    at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
-    at::autocast::set_cpu_enabled(true);
-#endif
-  }
-  ~CpuBf16Autocast() {
-#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
-    at::autocast::set_autocast_enabled(at::kCPU, false);
-#else
-    at::autocast::set_cpu_enabled(false);
-#endif
-    at::autocast::clear_cache();
-  }
-  CpuBf16Autocast(const CpuBf16Autocast&) = delete;
-  CpuBf16Autocast& operator=(const CpuBf16Autocast&) = delete;
-};
+using testing_util::CpuBf16Autocast;
 
 // Whether every element of `x` is a bfloat16 number (as an output that came
 // out of a bfloat16 layer is).

@@ -38,27 +38,7 @@ TEST(NetworksTest, MlpPreLayerNormPlacement) {
   EXPECT_EQ(mlp->forward(torch::randn({7, 4})).sizes(), (std::vector<int64_t>{7, 3}));
 }
 
-// CPU bf16 autocast on for a scope (the trainer's trainer.precision: bf16).
-class CpuBf16Autocast {
- public:
-  CpuBf16Autocast() {
-#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
-    at::autocast::set_autocast_dtype(at::kCPU, at::kBFloat16);
-    at::autocast::set_autocast_enabled(at::kCPU, true);
-#else
-    at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
-    at::autocast::set_cpu_enabled(true);
-#endif
-  }
-  ~CpuBf16Autocast() {
-#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
-    at::autocast::set_autocast_enabled(at::kCPU, false);
-#else
-    at::autocast::set_cpu_enabled(false);
-#endif
-    at::autocast::clear_cache();
-  }
-};
+using testing_util::CpuBf16Autocast;
 
 double RelativeError(const torch::Tensor& a, const torch::Tensor& b) {
   return ((a.to(torch::kFloat64) - b.to(torch::kFloat64)).norm() /
