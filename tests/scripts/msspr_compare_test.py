@@ -151,14 +151,21 @@ class MssprCompareTest(unittest.TestCase):
         self.assertIn("4 finished, 0 to run, 0 refused", out)
         self.assertNotIn("msspr_compare: started", out)
 
-        # 4. A grid whose config differs is refused for the runs it touches, named.
+        # 4. A comment in a config changes nothing; a grid whose options differ is refused for
+        # the runs it touches, named.
+        with open(os.path.join(self.tmp, "tiny_mspr.yaml"), "a") as f:
+            f.write("# a comment\n")
+        rc, out = self.compare("run", self.grid, "--out", self.out)
+        self.assertEqual(rc, 0, out)
         with open(os.path.join(self.tmp, "tiny_mspr.yaml"), "a") as f:
             f.write("agent: {bc_weight: 0.5}\n")
         rc, out = self.compare("run", self.grid, "--out", self.out)
         self.assertEqual(rc, 1, out)
-        self.assertIn("refused tiny-maze/mspr-s0: options differ from the grid (configs:", out)
+        self.assertIn("refused tiny-maze/mspr-s0: options differ from the grid (the options its configs resolve to", out)
         self.assertIn("refused tiny-maze/mspr-s1", out)
         self.assertNotIn("refused tiny-maze/gcivl", out)
+        with open(os.path.join(self.tmp, "tiny_mspr.yaml"), "w") as f:
+            f.write(TINY_MSPR)
 
         # 5. The report: a row per agent with mean ± sd over 2 seeds at the full budget.
         rc, out = self.compare("report", self.out)
@@ -188,6 +195,22 @@ class MssprCompareTest(unittest.TestCase):
             m = sum(figs) / 2
             sd = abs(figs[0] - figs[1]) / 2 ** 0.5
             self.assertIn(f"{m:.1f} ± {sd:.1f}", row)
+        # --grid reports a grid file's runs from the directory (grids may share one --out); the
+        # mspr runs, of another config than this grid's, are left out of it, named.
+        with open(os.path.join(self.tmp, "tiny_mspr2.yaml"), "w") as f:
+            f.write(TINY_MSPR + "agent: {bc_weight: 0.5}\n")
+        grid2 = os.path.join(self.tmp, "grid2.yaml")
+        with open(grid2, "w") as f:
+            f.write(grid_text(self.tmp).replace("tiny_mspr.yaml", "tiny_mspr2.yaml"))
+        other = os.path.join(self.tmp, "other.md")
+        rc, out = self.compare("report", self.out, "--grid", grid2, "--md", other)
+        self.assertEqual(rc, 0, out)
+        with open(other) as f:
+            text = f.read()
+        other_rows = [l for l in text.splitlines() if l.startswith("| tiny-maze |")]
+        self.assertEqual(other_rows[1], rows[1])
+        self.assertIn("| tiny-maze | mspr | not run | 0 |", other_rows[0])
+        self.assertIn("Left out: 2 run(s) whose options differ", text)
         # --insert puts the same table into a document between its markers, again and again.
         doc = os.path.join(self.tmp, "results.md")
         with open(doc, "w") as f:
