@@ -229,6 +229,16 @@ class MssprCompareTest(unittest.TestCase):
         with open(png, "rb") as f:
             self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
 
+    def test_shipped_grids_resolve(self):
+        # Every grid in config/grids: its configs are found and resolve to valid options.
+        grids = sorted(glob.glob(os.path.join(ROOT, "config", "grids", "*.yaml")))
+        self.assertGreaterEqual(len(grids), 2)
+        for g in grids:
+            rc, out = self.compare("run", g, "--out", self.out, "--dry-run")
+            self.assertEqual(rc, 0, g + ": " + out)
+            self.assertIn("--eval-every 5000 --eval-episodes 50 --eval-seed 0", out, g)
+            self.assertFalse(os.path.exists(self.out), "--dry-run wrote nothing")
+
     def test_bad_grid_is_an_error_naming_the_problem(self):
         with open(self.grid, "a") as f:
             f.write("bogus: 1\n")
