@@ -7,6 +7,7 @@
 #include <torch/torch.h>
 
 #include <string>
+#include <vector>
 
 #include "msspr_core/policy.h"
 #include "msspr_eval/ant_evaluator.h"
@@ -45,87 +46,71 @@ core::Policy ShippedPolicy(const std::string& name) {
   return core::Policy::Load(sim::PackageFile("msspr_policy_node/checkpoints/" + name));
 }
 
+// 150 episodes side by side (every task x 30) for `short_steps` steps, then whole episodes
+// of `full_tasks` x 3: the same at 1 and 2 threads.
+template <class Options, class Evaluate>
+void ExpectSameAtOneAndTwoThreads(Evaluate evaluate, core::Policy& policy, int short_steps,
+                                  const std::vector<int>& full_tasks) {
+  Options wide;
+  wide.episodes = 30;
+  wide.max_steps = short_steps;
+  ExpectSameEpisodes(WithThreads(1, evaluate, policy, wide), 0,
+                     WithThreads(2, evaluate, policy, wide), 0, 150,
+                     "5 tasks x 30 episodes, " + std::to_string(short_steps) + " steps");
+  Options full;  // whole episodes (up to the env's step limit)
+  full.tasks = full_tasks;
+  full.episodes = 3;
+  const auto one = WithThreads(1, evaluate, policy, full);
+  const auto two = WithThreads(2, evaluate, policy, full);
+  ExpectSameEpisodes(one, 0, two, 0, 3 * full_tasks.size(), "whole episodes");
+  EXPECT_EQ(one.success, two.success);
+}
+
+// Episode 0 of each of `alone_tasks` run on its own (a batch of one) equals the same episode
+// among 150 (`short_steps` steps); and episode 0 of `full_task` alone equals it among 3,
+// over a whole episode.
+template <class Options, class Evaluate>
+void ExpectSameAloneAsAmongOthers(Evaluate evaluate, core::Policy& policy, int short_steps,
+                                  const std::vector<int>& alone_tasks, int full_task) {
+  Options wide;
+  wide.episodes = 30;
+  wide.max_steps = short_steps;
+  const auto among = WithThreads(1, evaluate, policy, wide);
+  Options alone = wide;
+  alone.episodes = 1;
+  for (int task : alone_tasks) {
+    alone.tasks = {task};
+    ExpectSameEpisodes(
+        among, static_cast<size_t>(task - 1) * 30, WithThreads(1, evaluate, policy, alone), 0, 1,
+        "task " + std::to_string(task) + ", " + std::to_string(short_steps) + " steps");
+  }
+  Options full;
+  full.tasks = {full_task};
+  full.episodes = 3;
+  const auto three = WithThreads(2, evaluate, policy, full);
+  full.episodes = 1;
+  ExpectSameEpisodes(three, 0, WithThreads(2, evaluate, policy, full), 0, 1,
+                     "task " + std::to_string(full_task) + ", a whole episode");
+}
+
 TEST(ReproducibleEvaluation, AntEpisodesAreTheSameAtOneAndTwoThreads) {
   auto policy = ShippedPolicy("antmaze-medium-state.pt");
-  // 150 episodes side by side for 40 steps...
-  AntEvalOptions wide;
-  wide.episodes = 30;
-  wide.max_steps = 40;
-  ExpectSameEpisodes(WithThreads(1, EvaluateOnAntMaze, policy, wide), 0,
-                     WithThreads(2, EvaluateOnAntMaze, policy, wide), 0, 150,
-                     "5 tasks x 30 episodes, 40 steps");
-  // ...and a few whole episodes (up to 1000 steps).
-  AntEvalOptions full;
-  full.tasks = {1, 3};
-  full.episodes = 3;
-  const auto one = WithThreads(1, EvaluateOnAntMaze, policy, full);
-  const auto two = WithThreads(2, EvaluateOnAntMaze, policy, full);
-  ExpectSameEpisodes(one, 0, two, 0, 6, "tasks 1 and 3 x 3 episodes");
-  EXPECT_EQ(one.success, two.success);
+  ExpectSameAtOneAndTwoThreads<AntEvalOptions>(EvaluateOnAntMaze, policy, 40, {1, 3});
 }
 
 TEST(ReproducibleEvaluation, AntEpisodeIsTheSameAloneAsAmongOthers) {
   auto policy = ShippedPolicy("antmaze-medium-state.pt");
-  AntEvalOptions wide;
-  wide.episodes = 30;
-  wide.max_steps = 40;
-  const auto among = WithThreads(1, EvaluateOnAntMaze, policy, wide);
-  AntEvalOptions alone = wide;
-  alone.episodes = 1;  // episode 0 of each task on its own: a batch of one
-  for (int task : {2, 5}) {
-    alone.tasks = {task};
-    ExpectSameEpisodes(among, static_cast<size_t>(task - 1) * 30,
-                       WithThreads(1, EvaluateOnAntMaze, policy, alone), 0, 1,
-                       "task " + std::to_string(task) + ", 40 steps");
-  }
-  AntEvalOptions full;
-  full.tasks = {1, 3};
-  full.episodes = 3;
-  const auto six = WithThreads(2, EvaluateOnAntMaze, policy, full);
-  full.tasks = {3};
-  full.episodes = 1;
-  ExpectSameEpisodes(six, 3, WithThreads(2, EvaluateOnAntMaze, policy, full), 0, 1,
-                     "task 3, up to 1000 steps");
+  ExpectSameAloneAsAmongOthers<AntEvalOptions>(EvaluateOnAntMaze, policy, 40, {2, 5}, 3);
 }
 
 TEST(ReproducibleEvaluation, CubeEpisodesAreTheSameAtOneAndTwoThreads) {
   auto policy = ShippedPolicy("cube-single-state.pt");
-  CubeEvalOptions wide;
-  wide.episodes = 30;
-  wide.max_steps = 20;
-  ExpectSameEpisodes(WithThreads(1, EvaluateOnCube, policy, wide), 0,
-                     WithThreads(2, EvaluateOnCube, policy, wide), 0, 150,
-                     "5 tasks x 30 episodes, 20 steps");
-  CubeEvalOptions full;  // whole episodes (up to 200 steps)
-  full.tasks = {2};
-  full.episodes = 3;
-  const auto one = WithThreads(1, EvaluateOnCube, policy, full);
-  const auto two = WithThreads(2, EvaluateOnCube, policy, full);
-  ExpectSameEpisodes(one, 0, two, 0, 3, "task 2 x 3 episodes");
-  EXPECT_EQ(one.success, two.success);
+  ExpectSameAtOneAndTwoThreads<CubeEvalOptions>(EvaluateOnCube, policy, 20, {2});
 }
 
 TEST(ReproducibleEvaluation, CubeEpisodeIsTheSameAloneAsAmongOthers) {
   auto policy = ShippedPolicy("cube-single-state.pt");
-  CubeEvalOptions wide;
-  wide.episodes = 30;
-  wide.max_steps = 20;
-  const auto among = WithThreads(1, EvaluateOnCube, policy, wide);
-  CubeEvalOptions alone = wide;
-  alone.episodes = 1;
-  for (int task : {1, 4}) {
-    alone.tasks = {task};
-    ExpectSameEpisodes(among, static_cast<size_t>(task - 1) * 30,
-                       WithThreads(1, EvaluateOnCube, policy, alone), 0, 1,
-                       "task " + std::to_string(task) + ", 20 steps");
-  }
-  CubeEvalOptions full;
-  full.tasks = {2};
-  full.episodes = 3;
-  const auto three = WithThreads(2, EvaluateOnCube, policy, full);
-  full.episodes = 1;
-  ExpectSameEpisodes(three, 0, WithThreads(2, EvaluateOnCube, policy, full), 0, 1,
-                     "task 2, up to 200 steps");
+  ExpectSameAloneAsAmongOthers<CubeEvalOptions>(EvaluateOnCube, policy, 20, {1, 4}, 2);
 }
 
 }  // namespace
