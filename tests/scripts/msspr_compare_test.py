@@ -181,6 +181,7 @@ class MssprCompareTest(unittest.TestCase):
             self.assertEqual(cells[3], "2")
             self.assertEqual(cells[4], f"{STEPS}")
             self.assertGreater(float(cells[5]), 0.0)  # steps/s
+            self.assertEqual(cells[8], f"{cells[2]} at {STEPS}")  # both agents at equal steps
         with open(os.path.join(self.out, "report.csv")) as f:
             recs = list(csv.DictReader(f))
         self.assertEqual(len(recs), 4)
