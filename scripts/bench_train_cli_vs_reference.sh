@@ -2,7 +2,7 @@
 # msspr_train itself, run the way a user runs it, against the eager PyTorch
 # reference (../shared/tools/mspr_ref.py) at its faster OpenMP wait policy:
 #   msspr_train --data rosbags/pointmaze-medium-navigate-sample.bag \
-#     --config config/pointmaze_cpu.yaml [--config config/precision_bf16.yaml] \
+#     --config config/pointmaze_cpu.yaml [--precision fp32|bf16] \
 #     --steps 300 --threads T --out DIR
 # plus --eval-every 0 (no validation or simulator evaluation; in a 300-step run
 # the shipped eval_every of 5000 would only add the final one, after the loop)
@@ -90,9 +90,12 @@ fi
 
 rows=()
 for threads in 1 2; do
-  for precision in fp32 bf16; do
+  # "default": no --precision, the preset's own (trainer.precision: auto); the
+  # precision it resolved to is read from the run's options.yaml.
+  for precision in fp32 bf16 default; do
     cfg=(--config config/pointmaze_cpu.yaml)
-    [ "$precision" = bf16 ] && cfg+=(--config config/precision_bf16.yaml)
+    [ "$precision" != default ] && cfg+=(--precision "$precision")
+    used=null
     times="{"
     for pol in $CLI_POLICIES; do
       echo "[bench] msspr_train ($precision), $threads thread(s), $CLI_STEPS steps, OpenMP wait policy $pol"
@@ -101,14 +104,17 @@ for threads in 1 2; do
         --threads "$threads" --eval-every 0 --log-every "$LOG_EVERY" --out "$run" > "$run.log" 2>&1 ||
         { echo "[bench] msspr_train failed:"; tail -5 "$run.log"; }
       times+="\"$pol\": $(window_ms "$run/metrics.csv"), "
+      p=$(sed -n 's/^ *precision: *"\{0,1\}\([a-z0-9]*\)"\{0,1\}$/\1/p' "$run/options.yaml" 2>/dev/null | head -1)
+      [ -n "$p" ] && used="\"$p\""
       rm -rf "$run" "$run.log"
     done
-    rows+=("{\"threads\": $threads, \"precision\": \"$precision\", \"msspr_train_ms_by_policy\": ${times%, }}}")
+    rows+=("{\"threads\": $threads, \"precision\": \"$precision\", \"precision_used\": $used, \"msspr_train_ms_by_policy\": ${times%, }}}")
   done
 done
 
+MSSPR_CPU_JSON=$(/usr/bin/python3 scripts/cpu_json.py) \
 /usr/bin/python3 - "$JSON" "$ref_src" "$CLI_STEPS" "$LOG_EVERY" "$BAG" "${#ref_rows[@]}" "${ref_rows[@]}" "${rows[@]}" <<'PY'
-import json, sys
+import json, os, sys
 path, ref_src, steps, log_every, bag, nref = sys.argv[1:7]
 steps, log_every, nref = int(steps), int(log_every), int(nref)
 ref_rows = [json.loads(r) for r in sys.argv[7:7 + nref]]
@@ -140,8 +146,9 @@ for r in rows:
     ref, m, shipped = r['reference_ms_per_step'], r['msspr_train_ms_per_step'], r['msspr_train_as_shipped_ms_per_step']
     r['ratio'] = round(ref / m, 3) if ref and m else None
     r['ratio_as_shipped'] = round(ref / shipped, 3) if ref and shipped else None
-out = {'command': (f'msspr_train --data {bag} --config config/pointmaze_cpu.yaml '
-                   '[--config config/precision_bf16.yaml] '
+out = {'cpu': json.loads(os.environ.get('MSSPR_CPU_JSON') or '{}'),
+       'command': (f'msspr_train --data {bag} --config config/pointmaze_cpu.yaml '
+                   '[--precision fp32|bf16] '
                    f'--steps {steps} --threads T --eval-every 0 --log-every {log_every} --out DIR'),
        'window': f'metrics.csv wall_s, steps {log_every}-{steps}',
        'reference': 'shared/tools/mspr_ref.py --time_only (python3-torch, same LibTorch), '
@@ -152,8 +159,11 @@ out = {'command': (f'msspr_train --data {bag} --config config/pointmaze_cpu.yaml
                                    'policy timed, ratio_as_shipped the unset one.'),
        'rows': rows}
 json.dump(out, open(path, 'w'), indent=2)
+c = out['cpu']
+print(f"  CPU: {c.get('model_name', '?')} ({c.get('vendor', '?')} family {c.get('family', '?')} "
+      f"model {c.get('model', '?')}; {' '.join(c.get('flags', []))})")
 for r in rows:
-    print(f"  msspr_train {r['precision']}, {r['threads']} thread(s): {r['msspr_train_ms_per_step']} ms/step "
+    print(f"  msspr_train {r['precision']} ({r['precision_used']}), {r['threads']} thread(s): {r['msspr_train_ms_per_step']} ms/step "
           f"({r['msspr_train_policy']}); reference {r['reference_ms_per_step']} ms/step "
           f"({r['reference_policy']}); ratio {r['ratio']} (as shipped {r['ratio_as_shipped']})")
 PY

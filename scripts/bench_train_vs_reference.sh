@@ -131,43 +131,12 @@ for threads in 1 2; do
     rows+=("{\"threads\": $threads, \"precision\": \"$precision\", \"msspr_ms_by_policy\": $ours_times, \"reference_ms_by_policy\": $ref_times}")
   done
 done
-# msspr_train as a user runs it (OMP_WAIT_POLICY unset), on the shipped sample bag:
-# ms/step from its metrics.csv between steps 100 and 300 (after start-up, data
-# loading and warm-up), no evaluation.
-TRAIN=${MSSPR_TRAIN_BIN:-$(dirname "$BENCH")/msspr_train}
-BAG=rosbags/pointmaze-medium-navigate-sample.bag
-: > "$OUT/cli_rows.jsonl"
-if [ -x "$TRAIN" ] && [ -f "$BAG" ]; then
-  for threads in 1 2; do
-    for precision in fp32 bf16; do
-      extra=()
-      [ "$precision" = bf16 ] && extra=(--config config/precision_bf16.yaml)
-      echo "[bench] msspr_train ($precision), $threads thread(s), as shipped"
-      rm -rf "$OUT/cli_run"
-      env -u OMP_WAIT_POLICY "$TRAIN" --data "$BAG" --config config/pointmaze_cpu.yaml "${extra[@]}" \
-        --steps 300 --eval-every 0 --checkpoint-every 0 --log-every 100 --threads "$threads" --quiet \
-        --out "$OUT/cli_run" >/dev/null 2>&1
-      /usr/bin/python3 - "$OUT/cli_run/metrics.csv" "$threads" "$precision" >> "$OUT/cli_rows.jsonl" <<'PY'
-import csv, json, sys
-try:
-    rows = {int(r['step']): float(r['wall_s']) for r in csv.DictReader(open(sys.argv[1]))}
-    ms = round(1000.0 * (rows[300] - rows[100]) / 200.0, 2)
-except Exception:
-    ms = None
-print(json.dumps({'threads': int(sys.argv[2]), 'precision': sys.argv[3], 'msspr_train_ms_per_step': ms}))
-PY
-    done
-  done
-  rm -rf "$OUT/cli_run"
-else
-  echo "[bench] msspr_train or $BAG missing: the command-line timing is skipped"
-fi
-/usr/bin/python3 - "$JSON" "$STEPS" "$OUT/cli_rows.jsonl" "${#spins[@]}" "${spins[@]}" "${rows[@]}" <<'PY'
-import json, sys
-path, steps, cli_path, nspin = sys.argv[1], int(sys.argv[2]), sys.argv[3], int(sys.argv[4])
-cli_rows = [json.loads(l) for l in open(cli_path) if l.strip()]
-spins = [json.loads(s) for s in sys.argv[5:5 + nspin]]
-rows = [json.loads(r) for r in sys.argv[5 + nspin:]]
+MSSPR_CPU_JSON=$(/usr/bin/python3 scripts/cpu_json.py) \
+/usr/bin/python3 - "$JSON" "$STEPS" "${#spins[@]}" "${spins[@]}" "${rows[@]}" <<'PY'
+import json, os, sys
+path, steps, nspin = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+spins = [json.loads(s) for s in sys.argv[4:4 + nspin]]
+rows = [json.loads(r) for r in sys.argv[4 + nspin:]]
 
 def best(times):
     ok = {k: v for k, v in times.items() if isinstance(v, (int, float)) and v > 0}
@@ -185,7 +154,8 @@ for r in rows:
     shipped = r['msspr_ms_by_policy'].get('PASSIVE')
     r['msspr_as_shipped_ms_per_step'] = shipped
     r['ratio_as_shipped'] = round(ref / shipped, 3) if shipped and ref else None
-out = {'config': 'config/pointmaze_cpu.yaml (widths 256, batch 256, repr update every step)',
+out = {'cpu': json.loads(os.environ.get('MSSPR_CPU_JSON') or '{}'),
+       'config': 'config/pointmaze_cpu.yaml (widths 256, batch 256, repr update every step)',
        'reference': 'shared/tools/mspr_ref.py --time_only (python3-torch, same LibTorch)',
        'timed_steps': steps,
        'omp_wait_policy': ('each side timed under every policy listed; ms_per_step and ratio use '
@@ -196,25 +166,12 @@ out = {'config': 'config/pointmaze_cpu.yaml (widths 256, batch 256, repr update 
        'policies': list(rows[0]['reference_ms_by_policy']) if rows else [],
        'gomp_spincount_seen': spins,
        'rows': rows}
-# The command line beside the bench harness, against the same reference figure.
-ref_best = {r['threads']: r['reference_ms_per_step'] for r in rows}
-for c in cli_rows:
-    ref = ref_best.get(c['threads'])
-    m = c['msspr_train_ms_per_step']
-    c['reference_ms_per_step'] = ref
-    c['ratio'] = round(ref / m, 3) if m and ref else None
-out['msspr_train_cli'] = {
-    'command': 'msspr_train --data rosbags/pointmaze-medium-navigate-sample.bag --config '
-               'config/pointmaze_cpu.yaml [--config config/precision_bf16.yaml] --steps 300 '
-               '--eval-every 0 --threads T (OMP_WAIT_POLICY unset); ms/step over steps 100-300 '
-               'from metrics.csv',
-    'rows': cli_rows}
 json.dump(out, open(path, 'w'), indent=2)
+c = out['cpu']
+print(f"  CPU: {c.get('model_name', '?')} ({c.get('vendor', '?')} family {c.get('family', '?')} "
+      f"model {c.get('model', '?')}; {' '.join(c.get('flags', []))})")
 for s in spins:
     print(f"  {s['side']} under {s['policy']}: GOMP_SPINCOUNT {s['gomp_spincount']}")
-for c in cli_rows:
-    print(f"  msspr_train, {c['threads']} thread(s), {c['precision']}: {c['msspr_train_ms_per_step']} ms/step, "
-          f"ratio {c['ratio']} against the reference's best")
 for r in rows:
     print(f"  {r['threads']} thread(s), {r['precision']}: msspr {r['msspr_ms_per_step']} ms/step "
           f"({r['msspr_policy']}), reference {r['reference_ms_per_step']} ms/step ({r['reference_policy']}), "

@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "msspr_core/cpu_info.h"
 #include "yaml_sections.h"
 
 namespace msspr {
@@ -306,8 +307,9 @@ void ValidateOptions(const MsprOptions& o) {
   Require(std::abs(l.actor_p_curgoal + l.actor_p_trajgoal + l.actor_p_randomgoal - 1.0) < 1e-6,
           "relabel.actor_p_* must sum to 1");
   Require(o.trainer.batch_size > 0, "trainer.batch_size must be > 0");
-  Require(o.trainer.precision == "fp32" || o.trainer.precision == "bf16",
-          "trainer.precision must be 'fp32' or 'bf16', got '" + o.trainer.precision + "'");
+  Require(o.trainer.precision == "fp32" || o.trainer.precision == "bf16" ||
+              o.trainer.precision == "auto",
+          "trainer.precision must be 'fp32', 'bf16' or 'auto', got '" + o.trainer.precision + "'");
   Require(o.trainer.pipeline == "auto" || o.trainer.pipeline == "on" || o.trainer.pipeline == "off",
           "trainer.pipeline must be 'auto', 'on' or 'off', got '" + o.trainer.pipeline + "'");
   Require(o.trainer.policy_ema >= 0 && o.trainer.policy_ema < 1,
@@ -336,6 +338,25 @@ void ValidateOptions(const MsprOptions& o) {
     Require(b.rep_dim > 0, "baseline.rep_dim must be > 0");
     Require(b.subgoal_steps >= 1, "baseline.subgoal_steps must be >= 1");
   }
+}
+
+std::string EffectivePrecision(const TrainerOptions& t, std::string* why) {
+  if (t.precision != "auto") {
+    if (why) *why = "trainer.precision: " + t.precision;
+    return t.precision;
+  }
+  const bool cpu = t.device.rfind("cpu", 0) == 0;
+  const CpuInfo& host = HostCpu();
+  const bool bf16 = cpu && host.NativeBf16();
+  if (why) {
+    if (!cpu)
+      *why = "auto: fp32 on " + t.device;
+    else if (bf16)
+      *why = "auto: bf16, this CPU multiplies bfloat16 in hardware (" + host.Summary() + ")";
+    else
+      *why = "auto: fp32, this CPU has no bfloat16 arithmetic (" + host.Summary() + ")";
+  }
+  return bf16 ? "bf16" : "fp32";
 }
 
 }  // namespace core

@@ -2,6 +2,7 @@
 
 #include <signal.h>
 #include <sys/stat.h>
+#include <torch/version.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -20,6 +21,7 @@
 
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/cli_args.h"
+#include "msspr_core/cpu_info.h"
 #include "msspr_core/npz.h"
 #include "msspr_core/stop_signals.h"
 
@@ -38,7 +40,7 @@ const char kUsage[] =
     "  --val FILE         validation dataset (.npz); its critic/representation losses are\n"
     "                     logged to eval.csv at every --eval-every\n"
     "  --out DIR          output directory: metrics.csv, eval.csv, checkpoint.ckpt, policy.pt,\n"
-    "                     options.yaml\n"
+    "                     options.yaml, host.yaml (the CPU, threads and precision)\n"
     "  --agent NAME       mspr (default) | gcbc | gcivl | gciql | qrl | crl | hiql: the baselines\n"
     "                     with OGBench's pointmaze hyperparameters (the preset of that name;\n"
     "                     config/agents/ has the other environments' settings)\n"
@@ -51,8 +53,9 @@ const char kUsage[] =
     "  --steps N          training steps (overrides trainer.steps)\n"
     "  --batch N          batch size (overrides trainer.batch_size)\n"
     "  --device DEV       cpu | cuda | cuda:N (default cpu)\n"
-    "  --precision P      fp32 | bf16: the update's matrix products (overrides\n"
-    "                     trainer.precision; may change on --resume)\n"
+    "  --precision P      fp32 | bf16 | auto: the update's matrix products (overrides\n"
+    "                     trainer.precision; auto: bf16 on a CPU with bfloat16 arithmetic,\n"
+    "                     AVX512-BF16 or AMX, else fp32; may change on --resume)\n"
     "  --seed S           random seed (default 0)\n"
     "  --eval-every N     validation period in steps (0: never)\n"
     "  --checkpoint-every N  checkpoint period in steps (0: only at the end)\n"
@@ -154,6 +157,17 @@ void WriteTextAtomically(const std::string& path, const std::string& text) {
   if (std::fclose(f) != 0 || !ok) throw std::runtime_error(tmp + ": cannot write (disk full?)");
   if (std::rename(tmp.c_str(), path.c_str()) != 0)
     throw std::runtime_error(path + ": cannot rename " + tmp + " to it: " + std::strerror(errno));
+}
+
+// Where the latest segment ran: the figures in metrics.csv depend on it.
+std::string HostRecord(const std::string& precision_why) {
+  std::ostringstream s;
+  s << "# msspr_train: the machine, threads and precision of the run's latest segment\n"
+    << "cpu:\n"
+    << HostCpu().ToYaml("  ") << "torch_threads: " << torch::get_num_threads() << "\n"
+    << "precision: \"" << precision_why << "\"\n"
+    << "libtorch: \"" << TORCH_VERSION << "\"\n";
+  return s.str();
 }
 
 void WriteRunRecord(const std::string& path, const RunRecord& r) {
@@ -319,8 +333,8 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   }
   const std::string data_path = flag("data"), val_path = flag("val"), device = flag("device"),
                     obs_mode = flag("obs-mode"), precision = flag("precision");
-  if (!precision.empty() && precision != "fp32" && precision != "bf16")
-    return usage_error("--precision must be fp32 or bf16, got '" + precision + "'");
+  if (!precision.empty() && precision != "fp32" && precision != "bf16" && precision != "auto")
+    return usage_error("--precision must be fp32, bf16 or auto, got '" + precision + "'");
   std::map<std::string, std::string> extra;
   for (const auto& k : ext.extra_options)
     if (run.flags.count(k)) extra[k] = run.flags.at(k);
@@ -362,6 +376,10 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
     if (log_every > 0) options.trainer.log_every = static_cast<int>(log_every);
     if (time_limit >= 0) options.trainer.time_limit_s = static_cast<double>(time_limit);
     if (!obs_mode.empty()) options.network.obs_mode = obs_mode;
+    // "auto" is decided here, on this machine; options.yaml and the checkpoint
+    // record the result.
+    std::string precision_why;
+    options.trainer.precision = EffectivePrecision(options.trainer, &precision_why);
     if (print_options && data_path.empty()) {
       std::cout << OptionsToYaml(options);
       return 0;
@@ -409,7 +427,13 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
                 << " before its first checkpoint: from step 0\n";
     }
     // The resolved options, for the record.
-    if (!follower) WriteTextAtomically(out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
+    if (!follower) {
+      WriteTextAtomically(out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
+      WriteTextAtomically(out_dir + "/host.yaml", HostRecord(precision_why));
+    }
+    std::cerr << ext.program << ": precision " << trainer.options().trainer.precision << " ("
+              << precision_why << "), " << torch::get_num_threads() << " torch thread(s) on "
+              << HostCpu().Summary() << "\n";
 
     // Rank 0 alone validates and evaluates.
     std::shared_ptr<const Dataset> val;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "msspr_core/cli_args.h"
+#include "msspr_core/cpu_info.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/trainer.h"
 
@@ -158,6 +159,7 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
   MsprOptions o = ResolveOptions("", "", configs, nullptr, "mspr", "cpu");
   o.trainer.device = device;
   if (!precision.empty()) o.trainer.precision = precision;
+  o.trainer.precision = EffectivePrecision(o.trainer);
   const bool pixels = o.network.obs_mode == "pixels";
   auto data = SyntheticDataset(obs_dim, action_dim, pixels, episodes, length);
   const TrainResult r = TimeTraining("config", o, data, warmup, steps);
@@ -175,7 +177,8 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
     << o.network.obs_mode << "\", \"batch\": " << r.batch
     << ", \"updates_per_step\": " << o.representation.updates_per_step
     << ", \"timed_steps\": " << r.steps << ", \"warmup_steps\": " << warmup
-    << ", \"ms_per_step\": " << r.ms_per_step << ", \"peak_rss_mb\": " << PeakRssMb() << "}\n";
+    << ", \"ms_per_step\": " << r.ms_per_step << ", \"peak_rss_mb\": " << PeakRssMb()
+    << ", \"cpu\": " << HostCpu().ToJson() << "}\n";
   return WriteJson(out, j.str());
 }
 
@@ -201,7 +204,8 @@ int main(int argc, char** argv) {
     device = args.Get("device", "cpu");
     threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
     quick = args.Has("quick");
-    precision = args.Has("precision") ? args.GetChoice("precision", "fp32", {"fp32", "bf16"}) : "";
+    precision =
+        args.Has("precision") ? args.GetChoice("precision", "fp32", {"fp32", "bf16", "auto"}) : "";
     // --config a.yaml,b.yaml: layered in order.
     std::stringstream list(args.Get("config", ""));
     for (std::string item; std::getline(list, item, ',');) {
@@ -299,7 +303,8 @@ int main(int argc, char** argv) {
     std::ostringstream j;
     j.precision(6);
     j << "{\n  \"device\": \"" << device << "\",\n  \"precision\": \""
-      << cpu_state.trainer.precision << "\",\n  \"threads\": " << torch::get_num_threads()
+      << EffectivePrecision(cpu_state.trainer) << "\",\n  \"threads\": " << torch::get_num_threads()
+      << ",\n  \"cpu\": " << HostCpu().ToJson()
       << ",\n  \"state_dataset\": {\"obs_dim\": 29, \"action_dim\": 8},\n"
       << "  \"pixel_dataset\": {\"image\": [64, 64, 3], \"action_dim\": 8},\n  \"train\": [\n";
     for (size_t i = 0; i < train.size(); ++i) {

@@ -273,6 +273,8 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
     b.trainer.policy_ema = 1.0;
     EXPECT_THROW(ValidateOptions(b), OptionsError);
     b.trainer.policy_ema = 0.0;
+    b.trainer.precision = "auto";
+    EXPECT_NO_THROW(ValidateOptions(b));
     b.trainer.precision = "fp16";
     EXPECT_THROW(ValidateOptions(b), OptionsError);
   }

@@ -168,7 +168,7 @@ class OgbenchAgent : public GcAgent {
   int64_t obs_dim_, action_dim_;
 
  private:
-  bool bf16() const { return options_.trainer.precision == "bf16"; }
+  bool bf16() const { return EffectivePrecision(options_.trainer) == "bf16"; }
 
   // OGBench: one Adam (no weight decay) over the trainable parameters.
   std::unique_ptr<torch::optim::Adam> optimizer_;

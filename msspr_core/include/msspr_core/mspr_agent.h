@@ -96,7 +96,7 @@ class MsprAgent : public GcAgent {
   void UpdatePolicyAverage(int64_t step);
 
  private:
-  bool bf16() const { return options_.trainer.precision == "bf16"; }
+  bool bf16() const { return EffectivePrecision(options_.trainer) == "bf16"; }
   // Whether the accumulated representation credit (plus `extra_credit`, the
   // credit the next step adds) calls for a representation update.
   bool ReprUpdateDue(double extra_credit = 0.0) const;

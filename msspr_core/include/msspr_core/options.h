@@ -206,18 +206,22 @@ struct RelabelOptions {
 
 // The training loop.
 struct TrainerOptions {
-  int batch_size = 1024;           // 1024 states, 256 pixels
-  int64_t steps = 1000000;         // 1M states, 500k pixels
-  uint64_t seed = 0;               // seeds torch and the sampler
-  std::string device = "cpu";      // "cpu", "cuda", "cuda:1"
-  int log_every = 100;             // progress / CSV row period (steps)
-  int eval_every = 0;              // evaluator period (steps); 0 = never
-  int checkpoint_every = 0;        // checkpoint period (steps); 0 = only at the end
-  int export_every = 0;            // period (steps) of extra inference exports
-                                   // out_dir/policy_step<N>.pt (learning curves); 0 = none
-  double time_limit_s = 0;         // stop Train() after this wall time (s) of the run; 0 = none
-  std::string precision = "fp32";  // "fp32", or "bf16": matrix products and convolutions in
-                                   // bfloat16 (autocast: LayerNorm, losses, optimiser in fp32)
+  int batch_size = 1024;       // 1024 states, 256 pixels
+  int64_t steps = 1000000;     // 1M states, 500k pixels
+  uint64_t seed = 0;           // seeds torch and the sampler
+  std::string device = "cpu";  // "cpu", "cuda", "cuda:1"
+  int log_every = 100;         // progress / CSV row period (steps)
+  int eval_every = 0;          // evaluator period (steps); 0 = never
+  int checkpoint_every = 0;    // checkpoint period (steps); 0 = only at the end
+  int export_every = 0;        // period (steps) of extra inference exports
+                               // out_dir/policy_step<N>.pt (learning curves); 0 = none
+  double time_limit_s = 0;     // stop Train() after this wall time (s) of the run; 0 = none
+  // "fp32", "bf16" (matrix products and convolutions in bfloat16 through
+  // autocast; LayerNorm, losses and the optimiser in fp32) or "auto": bf16 on
+  // a CPU that multiplies bfloat16 in hardware (AVX512-BF16 or AMX), fp32
+  // elsewhere (other CPUs, where bf16 is emulated, and GPUs).
+  // EffectivePrecision() resolves it; msspr_train records the result.
+  std::string precision = "fp32";
   // "auto", "on" or "off". On the CPU, a step's actor-critic update runs on a
   // second thread beside the next step's representation update (the two read
   // the encoders, only the representation update writes them, after the
@@ -359,6 +363,10 @@ std::string OptionsToYaml(const MsprOptions& options);
 // Checks consistency (positive sizes, proportions summing to 1, known
 // modes); throws OptionsError naming the field.
 void ValidateOptions(const MsprOptions& options);
+
+// "fp32" or "bf16": trainer.precision with "auto" resolved for trainer.device
+// on this machine (HostCpu()). why, if given, says what decided it.
+std::string EffectivePrecision(const TrainerOptions& trainer, std::string* why = nullptr);
 
 }  // namespace core
 }  // namespace msspr

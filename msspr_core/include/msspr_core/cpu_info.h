@@ -1,0 +1,42 @@
+// The CPU this process runs on, so that every timing and every precision
+// decision can say where it came from. No torch.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace msspr {
+namespace core {
+
+struct CpuInfo {
+  std::string model_name;  // as lscpu's "Model name" ("/proc/cpuinfo" model name)
+  std::string vendor;      // "GenuineIntel", "AuthenticAMD", ...
+  int family = -1;         // cpu family (-1: unknown)
+  int model = -1;          // model number within the family (-1: unknown)
+  int logical_cpus = 0;    // processors listed in /proc/cpuinfo (0: unknown)
+  // The flags that decide the trainer's speed, among: avx2 fma avx512f
+  // avx512_bf16 amx_bf16 amx_tile avx512_fp16 (in that order, those present).
+  std::vector<std::string> flags;
+
+  bool Has(const std::string& flag) const;
+  // bfloat16 matrix products in hardware (AVX512-BF16 or AMX-BF16): oneDNN
+  // then runs bf16 GEMMs several times faster than fp32 ones. Without it,
+  // bf16 is emulated and slower than fp32.
+  bool NativeBf16() const { return Has("avx512_bf16") || Has("amx_bf16"); }
+  // "Intel(R) Xeon(R) Processor (GenuineIntel family 6 model 167; avx2 fma ...)"
+  std::string Summary() const;
+  // {"model_name": ..., "vendor": ..., "family": 6, "model": 167,
+  //  "logical_cpus": 2, "flags": ["avx2", ...]}
+  std::string ToJson() const;
+  // The same as YAML lines, each prefixed with indent.
+  std::string ToYaml(const std::string& indent = "") const;
+};
+
+// Parses the text of /proc/cpuinfo (the first processor's entries).
+CpuInfo ParseCpuInfo(const std::string& proc_cpuinfo);
+
+// This machine's CPU, read once (empty fields where /proc/cpuinfo is absent).
+const CpuInfo& HostCpu();
+
+}  // namespace core
+}  // namespace msspr
