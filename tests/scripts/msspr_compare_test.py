@@ -151,6 +151,34 @@ class MssprCompareTest(unittest.TestCase):
         self.assertIn("4 finished, 0 to run, 0 refused", out)
         self.assertNotIn("msspr_compare: started", out)
 
+        # 3b. --records keeps each finished run's record (no checkpoint, no data); a fresh
+        # directory given the records runs nothing, and the records report as the runs do.
+        rec_dir = os.path.join(self.tmp, "records")
+        rc, out = self.compare("run", self.grid, "--out", self.out, "--records", rec_dir)
+        self.assertEqual(rc, 0, out)
+        kept = sorted(glob.glob(os.path.join(rec_dir, "runs", "tiny-maze", "*-s*")))
+        self.assertEqual([os.path.basename(d) for d in kept], ["gcivl-s0", "gcivl-s1", "mspr-s0", "mspr-s1"])
+        for d in kept:
+            names = set(os.listdir(d))
+            self.assertTrue({"compare.json", "eval.csv", "segment_00.log"} <= names, names)
+            self.assertFalse([n for n in names if n.endswith((".ckpt", ".pt", ".bag", ".tmp"))], names)
+            self.assertEqual(read_json(os.path.join(d, "compare.json")),
+                             read_json(os.path.join(self.out, "runs", "tiny-maze", os.path.basename(d),
+                                                    "compare.json")))
+        fresh = os.path.join(self.tmp, "fresh")
+        rc, out = self.compare("run", self.grid, "--out", fresh, "--records", rec_dir, "--jobs", "2")
+        self.assertEqual(rc, 0, out)
+        self.assertIn("4 finished run(s) taken from the records", out)
+        self.assertIn("4 finished, 0 to run, 0 refused", out)
+        self.assertFalse(glob.glob(os.path.join(fresh, "runs", "*", "*", "checkpoint.ckpt")))
+        for where in (self.out, rec_dir):
+            rc, out = self.compare("report", where, "--md", os.path.join(self.tmp, "r.md"),
+                                   "--csv", os.path.join(self.tmp, os.path.basename(where) + ".csv"),
+                                   "--png-dir", self.tmp)
+            self.assertEqual(rc, 0, out)
+        with open(os.path.join(self.tmp, "out.csv")) as f1, open(os.path.join(self.tmp, "records.csv")) as f2:
+            self.assertEqual(f1.read(), f2.read())
+
         # 4. A comment in a config changes nothing; a grid whose options differ is refused for
         # the runs it touches, named.
         with open(os.path.join(self.tmp, "tiny_mspr.yaml"), "a") as f:
