@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Fails if any file under a ROS-free library (default msspr_core/; also used
-# for msspr_sim/eval/) includes a ROS header: those libraries build with plain
-# CMake, without catkin (see docs/style.md).
+# for msspr_sim/env/ and msspr_sim/eval/) includes a ROS header: those
+# libraries build with plain CMake, without catkin, so that they train and
+# simulate on machines without ROS (a GPU machine, say).
 set -u
 dir=${1:-$(dirname "$0")/../msspr_core}
 name=$(basename "$(cd "$dir" && pwd)")
-[ "$name" = eval ] && name=msspr_sim/eval
-pattern='#[[:space:]]*include[[:space:]]*[<"](ros/|rosbag/|roscpp/|std_msgs/|sensor_msgs/|geometry_msgs/|diagnostic_msgs/|tf2_ros/|tf2/|image_transport/|cv_bridge/|msspr/|actionlib/|nodelet/|rosgraph_msgs/)'
+case $name in eval | env) name=msspr_sim/$name ;; esac
+pattern='#[[:space:]]*include[[:space:]]*[<"](ros/|rosbag/|roscpp/|roslz4/|std_msgs/|sensor_msgs/|geometry_msgs/|nav_msgs/|trajectory_msgs/|diagnostic_msgs/|visualization_msgs/|tf2_ros/|tf2/|tf2_msgs/|tf2_eigen/|image_transport/|cv_bridge/|msspr/|actionlib/|nodelet/|rosgraph_msgs/)'
 hits=$(grep -rnE "$pattern" "$dir" --include='*.h' --include='*.hpp' --include='*.cc' --include='*.cpp' 2>/dev/null)
 if [ -n "$hits" ]; then
   echo "$name must stay ROS-free; these lines include ROS headers:" >&2

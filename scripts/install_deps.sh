@@ -5,7 +5,8 @@ set -euo pipefail
 PKGS=(
   ros-core-dev python3-rostest rosbash
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev
-  libcv-bridge-dev libimage-transport-dev libvisualization-msgs-dev
+  libimage-transport-dev libvisualization-msgs-dev libnav-msgs-dev libtrajectory-msgs-dev
+  libtf2-dev libtf2-msgs-dev libroslz4-dev
   python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs
   libmujoco-dev libqhull-dev
   libtorch-dev libopenblas0-openmp libgloo-dev
