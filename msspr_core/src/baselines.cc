@@ -210,6 +210,25 @@ torch::Tensor GaussianActorImpl::LogProb(const torch::Tensor& x, const torch::Te
   return StdNormalLogProb(a, Mean(x));
 }
 
+PairEncoderImpl::PairEncoderImpl(const NetworkOptions& n, int64_t out_dim)
+    : downsample(std::max(1, n.image_downsample)) {
+  const int64_t channels = 2 * int64_t{n.image_channels} * n.frame_stack;
+  const int64_t side = n.image_height / downsample;
+  if (n.cnn == "light") {
+    light_cnn = register_module(
+        "light_cnn", LightCnn(channels, side, out_dim, n.layer_norm_eps, n.cnn_feature_norm));
+  } else {
+    cnn = register_module("cnn",
+                          ImpalaCnn(channels, out_dim, n.layer_norm_eps, side, n.cnn_feature_norm));
+  }
+}
+
+torch::Tensor PairEncoderImpl::forward(const torch::Tensor& obs, const torch::Tensor& goal) {
+  const torch::Tensor x =
+      torch::cat({ImagesToInput(obs, downsample), ImagesToInput(goal, downsample)}, 1);
+  return light_cnn ? light_cnn->forward(x) : cnn->forward(x);
+}
+
 torch::Tensor StdNormalLogProb(const torch::Tensor& a, const torch::Tensor& mean) {
   const double d = static_cast<double>(a.size(-1));
   return -0.5 * (a - mean).pow(2).sum(-1) - 0.5 * d * kLog2Pi;
@@ -247,13 +266,23 @@ torch::Tensor IqeDistance(const torch::Tensor& x, const torch::Tensor& y, int64_
 // --- OgbenchAgent -------------------------------------------------------------
 
 OgbenchAgent::OgbenchAgent(const MsprOptions& options)
-    : GcAgent(options), obs_dim_(options.network.obs_dim), action_dim_(options.network.action_dim) {
-  if (options.network.obs_mode != "state") {
-    throw OptionsError("baseline agent '" + options.baseline.agent +
-                       "': only state observations (network.obs_mode 'state') are supported");
+    : GcAgent(options),
+      obs_dim_(options.network.obs_dim),
+      action_dim_(options.network.action_dim),
+      pixels_(options.network.obs_mode == "pixels"),
+      pair_dim_(pixels_ ? options.baseline.hidden : 2 * options.network.obs_dim) {
+  const std::string& agent = options.baseline.agent;
+  if (pixels_ && agent != "gcbc" && agent != "gcivl" && agent != "gciql") {
+    throw OptionsError("baseline agent '" + agent +
+                       "': image observations (network.obs_mode 'pixels') are supported by "
+                       "gcbc, gcivl and gciql; this agent takes states only");
   }
-  if (obs_dim_ <= 0 || action_dim_ <= 0) {
-    throw OptionsError("baseline agent '" + options.baseline.agent +
+  if (!pixels_ && options.network.obs_mode != "state") {
+    throw OptionsError("baseline agent '" + agent + "': unknown network.obs_mode '" +
+                       options.network.obs_mode + "'");
+  }
+  if ((!pixels_ && obs_dim_ <= 0) || action_dim_ <= 0) {
+    throw OptionsError("baseline agent '" + agent +
                        "': network.obs_dim and action_dim must be set");
   }
 }
@@ -389,6 +418,16 @@ torch::Tensor OgbenchAgent::Cat(const torch::Tensor& a, const torch::Tensor& b) 
   return torch::cat({a, b}, -1);
 }
 
+torch::Tensor OgbenchAgent::Pair(PairEncoder& encoder, const torch::Tensor& obs,
+                                 const torch::Tensor& goal) {
+  return encoder ? encoder(obs, goal) : Cat(obs, goal);
+}
+
+PairEncoder OgbenchAgent::RegisterPairEncoder(const std::string& name) {
+  if (!pixels_) return PairEncoder(nullptr);
+  return register_module(name, PairEncoder(options_.network, options_.baseline.hidden));
+}
+
 std::vector<int64_t> OgbenchAgent::Sizes(int64_t in, int64_t out) const {
   std::vector<int64_t> sizes{in};
   for (int i = 0; i < options_.baseline.layers; ++i) sizes.push_back(options_.baseline.hidden);
@@ -413,11 +452,12 @@ torch::Tensor OgbenchAgent::DdpgBcLoss(const torch::Tensor& q, const torch::Tens
 
 void GcActorAgent::RegisterActor() {
   const BaselineOptions& b = options_.baseline;
-  actor = register_module("actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, action_dim_));
+  actor_enc = RegisterPairEncoder("actor_enc");
+  actor = register_module("actor", GaussianActor(pair_dim_, b.hidden, b.layers, action_dim_));
 }
 
 torch::Tensor GcActorAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return ForActing(actor)->Mean(Cat(obs, goal)).clamp(-1.0, 1.0);
+  return ForActing(actor)->Mean(Pair(actor_enc, obs, goal)).clamp(-1.0, 1.0);
 }
 
 // --- GCBC ---------------------------------------------------------------------
@@ -425,7 +465,7 @@ torch::Tensor GcActorAgent::Act(const torch::Tensor& obs, const torch::Tensor& g
 GcbcAgent::GcbcAgent(const MsprOptions& o) : GcActorAgent(o) { RegisterActor(); }
 
 torch::Tensor GcbcAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
-  const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
+  const torch::Tensor x = Pair(actor_enc, batch.obs, batch.actor_goal);
   const torch::Tensor mean = actor->Mean(x);
   const torch::Tensor loss = -StdNormalLogProb(batch.action, mean).mean();
   if (info) {
@@ -438,32 +478,45 @@ torch::Tensor GcbcAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
 // --- GCIVL --------------------------------------------------------------------
 
 GcivlAgent::GcivlAgent(const MsprOptions& o) : GcActorAgent(o) {
-  v1 = register_module("v1", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
-  v2 = register_module("v2", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
-  target_v1 = register_module("target_v1", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
-  target_v2 = register_module("target_v2", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
+  value_enc = RegisterPairEncoder("value_enc");
+  v1 = register_module("v1", OgMlp(Sizes(pair_dim_, 1), false, true));
+  v2 = register_module("v2", OgMlp(Sizes(pair_dim_, 1), false, true));
+  target_value_enc = RegisterPairEncoder("target_value_enc");
+  target_v1 = register_module("target_v1", OgMlp(Sizes(pair_dim_, 1), false, true));
+  target_v2 = register_module("target_v2", OgMlp(Sizes(pair_dim_, 1), false, true));
+  if (value_enc) InitTarget(*target_value_enc, *value_enc);
   InitTarget(*target_v1, *v1);
   InitTarget(*target_v2, *v2);
   RegisterActor();
 }
 
+std::vector<torch::nn::Module*> GcivlAgent::Targets() {
+  std::vector<torch::nn::Module*> t{target_v1.get(), target_v2.get()};
+  if (target_value_enc) t.push_back(target_value_enc.get());
+  return t;
+}
+
 torch::Tensor GcivlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
-  const torch::Tensor s_g = Cat(batch.obs, batch.value_goal);
+  const torch::Tensor s_g = Pair(value_enc, batch.obs, batch.value_goal);
   torch::Tensor next_target, target;
   {
     torch::NoGradGuard no_grad;
-    next_target = Twin(target_v1, target_v2, Cat(batch.next_obs, batch.value_goal));
-    target = Twin(target_v1, target_v2, s_g);
+    next_target =
+        Twin(target_v1, target_v2, Pair(target_value_enc, batch.next_obs, batch.value_goal));
+    target = Twin(target_v1, target_v2,
+                  value_enc ? Pair(target_value_enc, batch.obs, batch.value_goal) : s_g);
   }
   const torch::Tensor v = Twin(v1, v2, s_g);
   const torch::Tensor value_loss =
       TwinExpectileValueLoss(batch, next_target, target, v, options_.baseline.expectile);
 
-  const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
+  const torch::Tensor x = Pair(actor_enc, batch.obs, batch.actor_goal);
   torch::Tensor a_adv;
   {
     torch::NoGradGuard no_grad;
-    a_adv = Twin(v1, v2, Cat(batch.next_obs, batch.actor_goal)).mean(-1) - Twin(v1, v2, x).mean(-1);
+    const torch::Tensor v_x = value_enc ? Pair(value_enc, batch.obs, batch.actor_goal) : x;
+    a_adv = Twin(v1, v2, Pair(value_enc, batch.next_obs, batch.actor_goal)).mean(-1) -
+            Twin(v1, v2, v_x).mean(-1);
   }
   const torch::Tensor actor_loss =
       -(AwrWeight(a_adv, options_.baseline.alpha) * actor->LogProb(x, batch.action)).mean();
@@ -477,42 +530,62 @@ torch::Tensor GcivlAgent::Loss(const TransitionBatch& batch, NamedValues* info) 
 }
 
 void GcivlAgent::UpdateTargets() {
+  if (value_enc) Polyak(*target_value_enc, *value_enc);
   Polyak(*target_v1, *v1);
   Polyak(*target_v2, *v2);
 }
 
 torch::Tensor GcivlAgent::Value(const torch::Tensor& obs, const torch::Tensor&,
                                 const torch::Tensor& goal) {
-  return Twin(v1, v2, Cat(obs, goal));
+  return Twin(v1, v2, Pair(value_enc, obs, goal));
 }
 
 // --- GCIQL --------------------------------------------------------------------
 
 GciqlAgent::GciqlAgent(const MsprOptions& o) : GcActorAgent(o) {
-  const int64_t in_q = 2 * obs_dim_ + action_dim_;
-  v = register_module("v", OgMlp(Sizes(2 * obs_dim_, 1), false, true));
+  const int64_t in_q = pair_dim_ + action_dim_;
+  value_enc = RegisterPairEncoder("value_enc");
+  v = register_module("v", OgMlp(Sizes(pair_dim_, 1), false, true));
+  critic_enc = RegisterPairEncoder("critic_enc");
   q1 = register_module("q1", OgMlp(Sizes(in_q, 1), false, true));
   q2 = register_module("q2", OgMlp(Sizes(in_q, 1), false, true));
+  target_critic_enc = RegisterPairEncoder("target_critic_enc");
   target_q1 = register_module("target_q1", OgMlp(Sizes(in_q, 1), false, true));
   target_q2 = register_module("target_q2", OgMlp(Sizes(in_q, 1), false, true));
+  if (critic_enc) InitTarget(*target_critic_enc, *critic_enc);
   InitTarget(*target_q1, *q1);
   InitTarget(*target_q2, *q2);
   RegisterActor();
 }
 
+std::vector<torch::nn::Module*> GciqlAgent::Targets() {
+  std::vector<torch::nn::Module*> t{target_q1.get(), target_q2.get()};
+  if (target_critic_enc) t.push_back(target_critic_enc.get());
+  return t;
+}
+
+torch::Tensor GciqlAgent::QOf(bool target, const torch::Tensor& obs, const torch::Tensor& goal,
+                              const torch::Tensor& action) {
+  // States: [s, g, a], one concatenation (as before encoders existed).
+  const torch::Tensor x =
+      critic_enc ? Cat(Pair(target ? target_critic_enc : critic_enc, obs, goal), action)
+                 : torch::cat({obs, goal, action}, -1);
+  return target ? Twin(target_q1, target_q2, x) : Twin(q1, q2, x);
+}
+
 torch::Tensor GciqlAgent::Q(const torch::Tensor& obs, const torch::Tensor& goal,
                             const torch::Tensor& action) {
-  return Twin(q1, q2, torch::cat({obs, goal, action}, -1));
+  return QOf(false, obs, goal, action);
 }
 
 torch::Tensor GciqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
-  const torch::Tensor s_g = Cat(batch.obs, batch.value_goal);
+  const torch::Tensor s_g = Pair(value_enc, batch.obs, batch.value_goal);
   torch::Tensor tq, y;
   {
     torch::NoGradGuard no_grad;
-    const torch::Tensor x = torch::cat({batch.obs, batch.value_goal, batch.action}, -1);
-    tq = torch::min(target_q1(x), target_q2(x)).squeeze(-1);
-    y = batch.ret + batch.discount * v(Cat(batch.next_obs, batch.value_goal)).squeeze(-1);
+    tq = std::get<0>(QOf(true, batch.obs, batch.value_goal, batch.action).min(-1));
+    y = batch.ret +
+        batch.discount * v(Pair(value_enc, batch.next_obs, batch.value_goal)).squeeze(-1);
   }
   const torch::Tensor v_s = v(s_g).squeeze(-1);
   const torch::Tensor diff = tq - v_s;
@@ -522,11 +595,12 @@ torch::Tensor GciqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) 
   const torch::Tensor critic_loss =
       ((q.select(-1, 0) - y).pow(2) + (q.select(-1, 1) - y).pow(2)).mean();
 
-  const torch::Tensor x = Cat(batch.obs, batch.actor_goal);
+  const torch::Tensor x = Pair(actor_enc, batch.obs, batch.actor_goal);
   const torch::Tensor mean = actor->Mean(x);
   torch::Tensor q_pi;
   {
-    const Frozen frozen(ParamsOf({q1.get(), q2.get()}));
+    const Frozen frozen(critic_enc ? ParamsOf({q1.get(), q2.get(), critic_enc.get()})
+                                   : ParamsOf({q1.get(), q2.get()}));
     q_pi = std::get<0>(Q(batch.obs, batch.actor_goal, mean.clamp(-1.0, 1.0)).min(-1));
   }
   if (info) {
@@ -539,6 +613,7 @@ torch::Tensor GciqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) 
 }
 
 void GciqlAgent::UpdateTargets() {
+  if (critic_enc) Polyak(*target_critic_enc, *critic_enc);
   Polyak(*target_q1, *q1);
   Polyak(*target_q2, *q2);
 }

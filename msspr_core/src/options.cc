@@ -261,12 +261,24 @@ void ValidateOptions(const MsprOptions& o) {
           "network.obs_mode must be 'state' or 'pixels', got '" + n.obs_mode + "'");
   Require(n.obs_mode != "state" || n.obs_dim > 0, "network.obs_dim must be > 0 in state mode");
   Require(n.action_dim > 0, "network.action_dim must be > 0");
-  Require(n.obs_mode != "pixels" || (n.image_height == 64 && n.image_width == 64),
-          "network.image_height/width must be 64 (Impala CNN small)");
   Require(n.cnn == "impala" || n.cnn == "light",
           "network.cnn must be 'impala' or 'light', got '" + n.cnn + "'");
   Require(n.image_downsample == 1 || n.image_downsample == 2 || n.image_downsample == 4,
           "network.image_downsample must be 1, 2 or 4");
+  // The Impala CNN small is built for 64 x 64; the light CNN for any square
+  // image whose side, after downsampling, its three stride-2 layers divide.
+  Require(
+      n.obs_mode != "pixels" || n.cnn != "impala" || (n.image_height == 64 && n.image_width == 64),
+      "network.image_height/width must be 64 for the Impala CNN small (network.cnn: "
+      "impala), got " +
+          std::to_string(n.image_height) + "x" + std::to_string(n.image_width));
+  Require(n.obs_mode != "pixels" || n.cnn != "light" ||
+              (n.image_height == n.image_width && n.image_height > 0 &&
+               n.image_height % (8 * n.image_downsample) == 0),
+          "network.cnn 'light' needs square images whose side is a multiple of 8 x "
+          "network.image_downsample, got " +
+              std::to_string(n.image_height) + "x" + std::to_string(n.image_width) +
+              " with image_downsample " + std::to_string(n.image_downsample));
   Require(n.image_channels > 0 && n.frame_stack > 0,
           "network.image_channels/frame_stack must be > 0");
   Require(n.encoder_hidden > 0 && n.encoder_layers >= 0 && n.zs_dim > 0 && n.za_dim > 0 &&
@@ -321,11 +333,14 @@ void ValidateOptions(const MsprOptions& o) {
           "baseline.agent must be one of mspr, gcbc, gcivl, gciql, qrl, crl, hiql; got '" +
               b.agent + "'");
   if (b.agent != "mspr") {
-    Require(n.obs_mode == "state",
+    const bool image_agent = b.agent == "gcbc" || b.agent == "gcivl" || b.agent == "gciql";
+    Require(n.obs_mode == "state" || (n.obs_mode == "pixels" && image_agent),
+            "baseline.agent '" + b.agent + "': network.obs_mode '" + n.obs_mode +
+                "' is not supported (images: gcbc, gcivl and gciql; states: every agent)");
+    Require(n.obs_mode == "state" || o.trainer.policy_ema == 0,
             "baseline.agent '" + b.agent +
-                "': the baselines take state observations only (network.obs_mode "
-                "'state'), got '" +
-                n.obs_mode + "'");
+                "': trainer.policy_ema is for state observations (the average would leave out "
+                "the actor's image encoder)");
     Require(b.hidden > 0 && b.layers >= 1, "baseline.hidden must be > 0 and baseline.layers >= 1");
     Require(b.lr > 0, "baseline.lr must be > 0");
     Require(b.tau > 0 && b.tau <= 1, "baseline.tau must be in (0, 1]");

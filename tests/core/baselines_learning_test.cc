@@ -22,11 +22,12 @@ struct Case {
   double min_success;  // untrained: 0
   std::string precision = "fp32";
   double policy_ema = 0;
+  bool images = false;  // from 16 x 16 images of the point and the goal (the light CNN)
 };
 
 void PrintTo(const Case& c, std::ostream* os) {
   *os << c.agent << " (" << c.steps << " steps, " << c.precision << ", policy_ema " << c.policy_ema
-      << ")";
+      << (c.images ? ", images" : "") << ")";
 }
 
 class BaselineLearningTest : public testing::TestWithParam<Case> {};
@@ -46,24 +47,33 @@ TEST_P(BaselineLearningTest, PointInSquareReachesGoals) {
   o.trainer.log_every = 500;
   o.trainer.precision = c.precision;
   o.trainer.policy_ema = c.policy_ema;
+  if (c.images) {
+    o.network.obs_mode = "pixels";
+    o.network.cnn = "light";
+  }
   if (const char* s = std::getenv("MSSPR_LEARNING_STEPS")) o.trainer.steps = std::atoll(s);
   if (const char* s = std::getenv("MSSPR_LEARNING_SEED"))
     o.trainer.seed = std::strtoull(s, nullptr, 10);
-  Trainer trainer(o, point_square::ExpertDataset(300, 40, 1));
+  Trainer trainer(o, c.images ? point_square::ExpertImageDataset(300, 40, 1)
+                              : point_square::ExpertDataset(300, 40, 1));
   Policy policy = trainer.MakePolicy();
-  const double untrained = point_square::SuccessRate(policy, 100, 123);
+  auto success = [&](int episodes, uint64_t seed) {
+    return c.images ? point_square::ImageSuccessRate(policy, episodes, seed)
+                    : point_square::SuccessRate(policy, episodes, seed);
+  };
+  const double untrained = success(100, 123);
   const auto start = std::chrono::steady_clock::now();
   TrainLoopOptions loop;
   loop.quiet = std::getenv("MSSPR_LEARNING_VERBOSE") == nullptr;
   trainer.Train(loop);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const double trained = point_square::SuccessRate(policy, 100, 123);
+  const double trained = success(100, 123);
   std::printf(
-      "baseline learning test (%s, %s, policy_ema %g): %lld steps in %.1f s; success untrained "
+      "baseline learning test (%s, %s, policy_ema %g%s): %lld steps in %.1f s; success untrained "
       "%.2f, trained %.2f\n",
-      c.agent.c_str(), c.precision.c_str(), c.policy_ema, static_cast<long long>(o.trainer.steps),
-      seconds, untrained, trained);
+      c.agent.c_str(), c.precision.c_str(), c.policy_ema, c.images ? ", images" : "",
+      static_cast<long long>(o.trainer.steps), seconds, untrained, trained);
   RecordProperty("untrained_success", std::to_string(untrained));
   RecordProperty("trained_success", std::to_string(trained));
   EXPECT_LT(untrained, 0.5);
@@ -76,11 +86,14 @@ INSTANTIATE_TEST_SUITE_P(
     testing::Values(Case{"gcbc", 2000, 0.9}, Case{"gcivl", 2000, 0.9}, Case{"gciql", 4000, 0.9},
                     Case{"qrl", 2000, 0.9}, Case{"crl", 8000, 0.7}, Case{"hiql", 2000, 0.9},
                     // The policy (MakePolicy) acts with the average of the actor.
-                    Case{"gcivl", 2000, 0.9, "bf16", 0.99}),
+                    Case{"gcivl", 2000, 0.9, "bf16", 0.99},
+                    // From images of the point and the goal.
+                    Case{"gcivl", 2000, 0.9, "bf16", 0, true}),
     [](const testing::TestParamInfo<Case>& info) {
       std::string name = info.param.agent;
       if (info.param.precision != "fp32") name += "_" + info.param.precision;
       if (info.param.policy_ema > 0) name += "_ema";
+      if (info.param.images) name += "_images";
       return name;
     });
 

@@ -10,8 +10,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <random>
+#include <set>
 
 #include "msspr_core/batch_sampler.h"
 #include "msspr_core/checkpoint.h"
@@ -414,16 +416,28 @@ TEST(BaselineOptions, PresetsFollowOgbenchPointmazeSettings) {
   EXPECT_EQ(OptionsToYaml(back), OptionsToYaml(h));
 }
 
-TEST(BaselineOptions, PixelsAndUnknownAgentsAreRejected) {
-  MsprOptions o = SmallOptions("gcbc");
-  o.network.obs_mode = "pixels";
-  try {
-    ValidateOptions(o);
-    FAIL() << "pixels accepted";
-  } catch (const OptionsError& e) {
-    EXPECT_NE(std::string(e.what()).find("state observations only"), std::string::npos) << e.what();
+// Images are for the agents OGBench runs from pixels here (gcbc, gcivl,
+// gciql), without a policy average; unknown agents are refused.
+TEST(BaselineOptions, PixelsOnlyForImageAgentsAndUnknownAgentsAreRejected) {
+  for (const char* agent : {"gcbc", "gcivl", "gciql"}) {
+    MsprOptions o = SmallOptions(agent);
+    o.network.obs_mode = "pixels";
+    EXPECT_NO_THROW(ValidateOptions(o)) << agent;
+    o.trainer.policy_ema = 0.99;
+    EXPECT_THROW(ValidateOptions(o), OptionsError) << agent;
   }
-  o = SmallOptions("gcbc");
+  for (const char* agent : {"qrl", "crl", "hiql"}) {
+    MsprOptions o = SmallOptions(agent);
+    o.network.obs_mode = "pixels";
+    try {
+      ValidateOptions(o);
+      FAIL() << agent << ": pixels accepted";
+    } catch (const OptionsError& e) {
+      EXPECT_NE(std::string(e.what()).find("images: gcbc, gcivl and gciql"), std::string::npos)
+          << e.what();
+    }
+  }
+  MsprOptions o = SmallOptions("gcbc");
   o.baseline.agent = "sac";
   EXPECT_THROW(ValidateOptions(o), OptionsError);
   EXPECT_THROW(MakePreset("sac", "cpu"), OptionsError);
@@ -573,6 +587,66 @@ TEST_P(BaselineTrainer, ResumesExactlyWithBf16AndAPolicyAverage) {
     EXPECT_NE(std::string(e.what()).find("policy_ema"), std::string::npos) << e.what();
   }
 }
+
+// From images: each (observation, goal) network has its own encoder of the
+// two images, the targets copy theirs; an interrupted run ends with the
+// uninterrupted run's weights, and the export acts as the live agent.
+class BaselinePixels : public testing::TestWithParam<std::string> {};
+
+TEST_P(BaselinePixels, EncodersPerNetworkResumeExactlyAndExport) {
+  torch::set_num_threads(1);
+  MsprOptions o = SmallOptions(GetParam());
+  o.network.obs_mode = "pixels";
+  o.network.obs_dim = 0;
+  o.network.action_dim = 0;
+  o.network.cnn = "light";
+  o.trainer.steps = 6;
+  o.trainer.precision = "bf16";
+  auto data = point_square::ExpertImageDataset(10, 20, 1);
+  testing_util::TempDir dir;
+  Trainer straight(o, data);
+  // The encoders: the actor's, and per value network one, with a target copy.
+  std::set<std::string> encoders;
+  for (const auto& c : straight.agent()->named_children()) {
+    if (c.value()->as<PairEncoderImpl>()) encoders.insert(c.key());
+  }
+  const std::map<std::string, std::set<std::string>> expected{
+      {"gcbc", {"actor_enc"}},
+      {"gcivl", {"actor_enc", "value_enc", "target_value_enc"}},
+      {"gciql", {"actor_enc", "value_enc", "critic_enc", "target_critic_enc"}}};
+  EXPECT_EQ(encoders, expected.at(GetParam()));
+  for (torch::nn::Module* t : straight.agent()->Targets()) {
+    for (const auto& p : t->parameters()) EXPECT_FALSE(p.requires_grad());
+  }
+  for (int i = 0; i < 6; ++i) straight.Step(false);
+  Trainer first(o, data);
+  for (int i = 0; i < 3; ++i) first.Step(false);
+  first.SaveCheckpoint(dir.File("c.ckpt"));
+  Trainer resumed(o, data);
+  resumed.LoadCheckpoint(dir.File("c.ckpt"));
+  for (int i = 0; i < 3; ++i) resumed.Step(false);
+  const auto a = straight.agent()->named_parameters(), b = resumed.agent()->named_parameters();
+  ASSERT_EQ(a.size(), b.size());
+  for (const auto& p : a) EXPECT_TRUE(torch::equal(p.value(), b[p.key()])) << p.key();
+  const LossInfo info = resumed.Step(true);
+  for (const auto& [k, v] : info.Named()) EXPECT_TRUE(std::isfinite(v)) << k;
+
+  resumed.ExportPolicy(dir.File("p.pt"));
+  Policy live = resumed.MakePolicy(), loaded = Policy::Load(dir.File("p.pt"));
+  EXPECT_EQ(loaded.agent_name(), GetParam());
+  const float s0[2] = {0.3f, -0.2f}, g0[2] = {-0.6f, 0.5f};
+  auto image = [](const float* p) {
+    return torch::from_blob(point_square::Render(p).data(), {1, 16, 16, 3}, torch::kUInt8).clone();
+  };
+  const torch::Tensor act = loaded.Act(image(s0), image(g0));
+  EXPECT_EQ(act.sizes(), (std::vector<int64_t>{1, 2}));
+  EXPECT_TRUE(torch::equal(live.Act(image(s0), image(g0)), act));
+}
+
+INSTANTIATE_TEST_SUITE_P(Agents, BaselinePixels, testing::Values("gcbc", "gcivl", "gciql"),
+                         [](const testing::TestParamInfo<std::string>& info) {
+                           return info.param;
+                         });
 
 INSTANTIATE_TEST_SUITE_P(Agents, BaselineTrainer,
                          testing::Values("gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"),

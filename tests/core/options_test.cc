@@ -280,37 +280,43 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
   }
 }
 
-TEST(OptionsTest, EveryShippedConfigLoads) {
-  std::vector<std::string> files;
-  DIR* d = opendir(MSSPR_CONFIG_DIR);
-  ASSERT_NE(d, nullptr) << MSSPR_CONFIG_DIR;
-  while (dirent* e = readdir(d)) {
-    const std::string name = e->d_name;
-    if (name.size() > 5 && name.substr(name.size() - 5) == ".yaml") files.push_back(name);
-  }
-  closedir(d);
-  std::sort(files.begin(), files.end());
-  ASSERT_GE(files.size(), 4u);
-  int loaded = 0;
-  for (const std::string& f : files) {
-    SCOPED_TRACE(f);
-    // config/ also holds other components' files (e.g. evaluation task
-    // lists): a file is an options file when a top-level key is one of ours.
-    const YAML::Node root = YAML::LoadFile(std::string(MSSPR_CONFIG_DIR) + "/" + f);
-    bool ours = false;
-    for (const char* key :
-         {"preset", "scale", "network", "representation", "agent", "relabel", "trainer"}) {
-      ours |= root.IsMap() && root[key].IsDefined();
+// Every options file under config/ and config/agents/ (the baselines' layers)
+// loads and validates.
+TEST(OptionsTest, EveryShippedConfigAndAgentLayerLoads) {
+  for (const std::string sub : {"", "/agents"}) {
+    const std::string dir = std::string(MSSPR_CONFIG_DIR) + sub;
+    SCOPED_TRACE(dir);
+    std::vector<std::string> files;
+    DIR* d = opendir(dir.c_str());
+    ASSERT_NE(d, nullptr) << dir;
+    while (dirent* e = readdir(d)) {
+      const std::string name = e->d_name;
+      if (name.size() > 5 && name.substr(name.size() - 5) == ".yaml") files.push_back(name);
     }
-    if (!ours) continue;
-    ++loaded;
-    MsprOptions o;
-    ASSERT_NO_THROW(o = LoadOptionsFile(std::string(MSSPR_CONFIG_DIR) + "/" + f, MsprOptions()));
-    o.network.obs_dim = 4;  // from the data at training time
-    o.network.action_dim = 2;
-    EXPECT_NO_THROW(ValidateOptions(o));
+    closedir(d);
+    std::sort(files.begin(), files.end());
+    int loaded = 0;
+    for (const std::string& f : files) {
+      SCOPED_TRACE(f);
+      // config/ also holds other components' files (e.g. evaluation task
+      // lists): a file is an options file when a top-level key is one of ours.
+      const YAML::Node root = YAML::LoadFile(dir + "/" + f);
+      bool ours = false;
+      for (const char* key : {"preset", "scale", "network", "representation", "agent", "relabel",
+                              "trainer", "baseline"}) {
+        ours |= root.IsMap() && root[key].IsDefined();
+      }
+      if (!ours) continue;
+      ++loaded;
+      MsprOptions o;
+      ASSERT_NO_THROW(o = LoadOptionsFile(dir + "/" + f, MsprOptions()));
+      o.network.obs_dim = 4;  // from the data at training time
+      o.network.action_dim = 2;
+      EXPECT_NO_THROW(ValidateOptions(o));
+    }
+    // config/ has the presets and layers; config/agents/ the baselines' 8 layers.
+    EXPECT_GE(loaded, sub.empty() ? 20 : 8);
   }
-  EXPECT_GE(loaded, 4);
 }
 
 }  // namespace

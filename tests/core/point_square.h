@@ -1,6 +1,9 @@
 // The open-square task of the learning tests: a point in [-1, 1]^2 moved by
-// 0.2 a per step, a noisy straight-line expert dataset and a success rate.
+// 0.2 a per step, a noisy straight-line expert dataset and a success rate;
+// also seen as 16 x 16 images.
 #pragma once
+
+#include <torch/torch.h>
 
 #include <algorithm>
 #include <cmath>
@@ -74,6 +77,69 @@ inline double SuccessRate(Policy& policy, int episodes, uint64_t seed) {
     for (int t = 0; t < kEpisodeSteps; ++t) {
       const std::vector<float> a = policy.Act({s[0], s[1]}, {g[0], g[1]});
       EnvStep(s, a.data());
+      if (Distance(s, g) <= kGoalRadius) {
+        ++successes;
+        break;
+      }
+    }
+  }
+  return static_cast<double>(successes) / episodes;
+}
+
+// --- From images: the same task seen by a camera ---------------------------------
+
+constexpr int kImageSide = 16;
+
+// A kImageSide x kImageSide x 3 image of the point: a Gaussian blob (std
+// 1.5 pixels) at its position in the red channel; the other two stay black.
+inline std::vector<uint8_t> Render(const float* s) {
+  std::vector<uint8_t> img(kImageSide * kImageSide * 3, 0);
+  const float px = (s[0] + 1.f) * 0.5f * (kImageSide - 1);
+  const float py = (s[1] + 1.f) * 0.5f * (kImageSide - 1);
+  for (int y = 0; y < kImageSide; ++y) {
+    for (int x = 0; x < kImageSide; ++x) {
+      const float d2 = (x - px) * (x - px) + (y - py) * (y - py);
+      img[(y * kImageSide + x) * 3] = static_cast<uint8_t>(255.f * std::exp(-d2 / (2 * 2.25f)));
+    }
+  }
+  return img;
+}
+
+// ExpertDataset's episodes with an image per step (states kept too).
+inline std::shared_ptr<const Dataset> ExpertImageDataset(int episodes, int length, uint64_t seed) {
+  const Dataset states = *ExpertDataset(episodes, length, seed);
+  DatasetBuilder b(2, 2, ImageShape{kImageSide, kImageSide, 3});
+  const float* obs = states.state(0);
+  const float* act = states.action(0);
+  for (int e = 0; e < episodes; ++e) {
+    const int64_t first = int64_t{e} * length;
+    std::vector<uint8_t> images;
+    for (int t = 0; t < length; ++t) {
+      const std::vector<uint8_t> img = Render(obs + 2 * (first + t));
+      images.insert(images.end(), img.begin(), img.end());
+    }
+    b.AddEpisode(obs + 2 * first, act + 2 * first, length, images.data());
+  }
+  return std::make_shared<const Dataset>(b.Build());
+}
+
+// SuccessRate's episodes, the policy seeing the images of the point and of the goal.
+inline double ImageSuccessRate(Policy& policy, int episodes, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<float> pos(-0.9f, 0.9f);
+  auto image = [](const float* p) {
+    return torch::from_blob(Render(p).data(), {kImageSide, kImageSide, 3}, torch::kUInt8).clone();
+  };
+  int successes = 0;
+  for (int e = 0; e < episodes; ++e) {
+    float s[2], g[2];
+    do {
+      s[0] = pos(rng), s[1] = pos(rng), g[0] = pos(rng), g[1] = pos(rng);
+    } while (Distance(s, g) < 0.5f);
+    const torch::Tensor goal = image(g);
+    for (int t = 0; t < kEpisodeSteps; ++t) {
+      const torch::Tensor a = policy.Act(image(s), goal).to(torch::kCPU).contiguous();
+      EnvStep(s, a.data_ptr<float>());
       if (Distance(s, g) <= kGoalRadius) {
         ++successes;
         break;

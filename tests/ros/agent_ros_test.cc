@@ -566,6 +566,34 @@ TEST(TrainCli, EvalEnvEvaluatesNpzDataInTheAntMaze) {
   EXPECT_NE(ReadAll(out + ".bad").find("--eval-env: 'antmaze-huge'"), std::string::npos) << ReadAll(out + ".bad");
 }
 
+// A baseline from images, as a user trains it from the pixels sample bag: GCIVL
+// with the light CNN layer trains, evaluates in the rendered maze and exports a
+// pixels policy.
+TEST(TrainCli, GcivlTrainsFromImagesOfTheSampleBag) {
+  const std::string dir = Tmp("gcivl_pixels");
+  mkdir(dir.c_str(), 0755);
+  const std::string src = MSSPR_SOURCE_DIR, out = dir + "/run";
+  const std::vector<std::string> args = {
+      "--agent", "gcivl", "--obs-mode", "pixels", "--data",
+      src + "/rosbags/pointmaze-medium-navigate-pixels-sample.bag", "--config",
+      src + "/config/agents/pointmaze_cpu.yaml", "--config", src + "/config/agents/pixels_light.yaml",
+      "--steps", "20", "--batch", "16", "--eval-every", "10", "--eval-episodes", "1",
+      "--eval-max-steps", "10", "--eval-tasks", "1", "--threads", "1", "--seed", "2", "--quiet",
+      "--out", out};
+  ASSERT_EQ(Wait(StartTrain(args, out + ".log")), 0) << ReadAll(out + ".log");
+  const std::string eval = ReadAll(out + "/eval.csv");
+  for (const char* key : {"10,mean_success,", "20,mean_success,"})
+    EXPECT_NE(eval.find(key), std::string::npos) << key << "\n" << eval;
+  const std::string options = ReadAll(out + "/options.yaml");
+  EXPECT_NE(options.find("obs_mode: pixels"), std::string::npos) << options;
+  EXPECT_NE(options.find("agent: gcivl"), std::string::npos) << options;
+  core::Policy policy = core::Policy::Load(out + "/policy.pt");
+  EXPECT_EQ(policy.agent_name(), "gcivl");
+  const torch::Tensor img = torch::zeros({64, 64, 3}, torch::kUInt8);
+  EXPECT_EQ(policy.Act(img, img).sizes(), (std::vector<int64_t>{2}));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
   TinyRun tiny("resume_rules");
   const std::string out = tiny.dir + "/run";

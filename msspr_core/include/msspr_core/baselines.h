@@ -4,8 +4,15 @@
 // dataset, relabelling (BatchSampler::SampleOgbenchTransitions), trainer
 // loop, checkpoints, export and Policy through the GcAgent interface
 // (gc_agent.h); OgbenchAgent implements it once for all six, and each agent
-// here adds only its networks, its losses and its acting rule. State
-// observations only.
+// here adds only its networks, its losses and its acting rule.
+//
+// Observations: states for all six; images (network.obs_mode "pixels") for
+// GCBC, GCIVL and GCIQL, as OGBench's visual agents read them: each network
+// that takes an (observation, goal) pair has its own encoder of the two
+// images stacked on channels (OGBench's GCEncoder(concat_encoder=...)), a
+// CNN (network.cnn: the Impala CNN or the light CNN, network.image_downsample
+// and network.cnn_feature_norm as Ms.PR's) whose features (baseline.hidden
+// of them) replace [s, g]. Target networks copy their encoder too.
 //
 // Conventions, as OGBench:
 // - MLPs: Linear -> GELU (tanh approximation) -> LayerNorm (eps 1e-6) per
@@ -39,6 +46,7 @@
 
 #include "msspr_core/batches.h"
 #include "msspr_core/gc_agent.h"
+#include "msspr_core/networks.h"
 #include "msspr_core/options.h"
 
 namespace msspr {
@@ -78,6 +86,21 @@ class GaussianActorImpl : public torch::nn::Module {
   torch::nn::Linear head{nullptr};  // "head"
 };
 TORCH_MODULE(GaussianActor);
+
+// OGBench's GCEncoder(concat_encoder=CNN) for image observations: the
+// observation's and the goal's images stacked on channels, then a CNN
+// (network.cnn) with out_dim features. Pixels mode only.
+class PairEncoderImpl : public torch::nn::Module {
+ public:
+  PairEncoderImpl(const NetworkOptions& n, int64_t out_dim);
+  // obs, goal: [B, H, W, C] uint8 -> [B, out_dim] float32
+  torch::Tensor forward(const torch::Tensor& obs, const torch::Tensor& goal);
+
+  ImpalaCnn cnn{nullptr};       // "cnn" (network.cnn = impala)
+  LightCnn light_cnn{nullptr};  // "light_cnn" (network.cnn = light)
+  int64_t downsample = 1;
+};
+TORCH_MODULE(PairEncoder);
 
 // log N(a; mean, I) summed over the last dimension.
 torch::Tensor StdNormalLogProb(const torch::Tensor& a, const torch::Tensor& mean);
@@ -158,6 +181,12 @@ class OgbenchAgent : public GcAgent {
   static void InitTarget(torch::nn::Module& target, const torch::nn::Module& online);
   // concat[a, b] along the last dimension.
   static torch::Tensor Cat(const torch::Tensor& a, const torch::Tensor& b);
+  // What a network reads of an (observation, goal) pair: [s, g] (states;
+  // `encoder` is null), or encoder(s, g) (pixels): [B, pair_dim_].
+  static torch::Tensor Pair(PairEncoder& encoder, const torch::Tensor& obs,
+                            const torch::Tensor& goal);
+  // A new encoder registered as `name` in pixels mode; null for states.
+  PairEncoder RegisterPairEncoder(const std::string& name);
   // MLP sizes {in, hidden x layers, out}.
   std::vector<int64_t> Sizes(int64_t in, int64_t out) const;
   // The DDPG+BC actor loss shared by gciql, qrl and crl:
@@ -166,6 +195,9 @@ class OgbenchAgent : public GcAgent {
                            NamedValues* info);
 
   int64_t obs_dim_, action_dim_;
+  bool pixels_;
+  // The width of Pair(): 2 obs_dim (states) or baseline.hidden (pixels).
+  int64_t pair_dim_;
 
  private:
   bool bf16() const { return EffectivePrecision(options_.trainer) == "bf16"; }
@@ -190,7 +222,8 @@ class OgbenchAgent : public GcAgent {
 using GcAgentImpl = OgbenchAgent;
 
 // Builds the agent named by options.baseline.agent (not "mspr") on the CPU.
-// Throws OptionsError for an unknown name or a pixels configuration.
+// Throws OptionsError for an unknown name, or pixels for an agent that takes
+// states only (QRL, CRL, HIQL).
 std::shared_ptr<OgbenchAgent> MakeAgent(const MsprOptions& options);
 
 // --- The agents (public for tests) --------------------------------------------
@@ -205,11 +238,13 @@ class GcActorAgent : public OgbenchAgent {
     return {{"actor", actor}};
   }
 
-  GaussianActor actor{nullptr};  // "actor": pi(a | [s, g])
+  GaussianActor actor{nullptr};    // "actor": pi(a | [s, g])
+  PairEncoder actor_enc{nullptr};  // "actor_enc": the actor's encoder (pixels)
 
  protected:
-  // Builds and registers `actor`; each constructor calls it last, after the
-  // value networks (their initialisation draws come first).
+  // Builds and registers `actor` (and, for pixels, `actor_enc`); each
+  // constructor calls it last, after the value networks (their
+  // initialisation draws come first).
   void RegisterActor();
 };
 
@@ -229,10 +264,12 @@ class GcivlAgent : public GcActorAgent {
   void UpdateTargets() override;
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
-  std::vector<torch::nn::Module*> Targets() override { return {target_v1.get(), target_v2.get()}; }
+  std::vector<torch::nn::Module*> Targets() override;
 
   OgMlp v1{nullptr}, v2{nullptr};                // V_e([s, g])
   OgMlp target_v1{nullptr}, target_v2{nullptr};  // Polyak copies
+  // Pixels: the encoder both heads read, and its Polyak copy.
+  PairEncoder value_enc{nullptr}, target_value_enc{nullptr};
 };
 
 class GciqlAgent : public GcActorAgent {
@@ -245,13 +282,20 @@ class GciqlAgent : public GcActorAgent {
   void UpdateTargets() override;
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
-  std::vector<torch::nn::Module*> Targets() override { return {target_q1.get(), target_q2.get()}; }
+  std::vector<torch::nn::Module*> Targets() override;
   // [B, 2]: Q_1, Q_2 of ([s, g, a]).
   torch::Tensor Q(const torch::Tensor& obs, const torch::Tensor& goal, const torch::Tensor& action);
 
   OgMlp v{nullptr};                              // V([s, g])
   OgMlp q1{nullptr}, q2{nullptr};                // Q_e([s, g, a])
   OgMlp target_q1{nullptr}, target_q2{nullptr};  // Polyak copies
+  // Pixels: V's encoder; the critic's (both Q heads read it) and its Polyak copy.
+  PairEncoder value_enc{nullptr}, critic_enc{nullptr}, target_critic_enc{nullptr};
+
+ private:
+  // [B, 2] Q heads of (encoder or [s, g], a): online or target.
+  torch::Tensor QOf(bool target, const torch::Tensor& obs, const torch::Tensor& goal,
+                    const torch::Tensor& action);
 };
 
 class QrlAgent : public GcActorAgent {
