@@ -74,7 +74,7 @@ TEST(Cli, TrainRejectsBadFlags) {
       {{"--steps many --data x.npz --out /tmp/y", "--steps expects an integer, got 'many'"},
        {"--batch 0 --data x.npz --out /tmp/y", "--batch 0 is out of range"},
        {"--threads -1 --data x.npz --out /tmp/y", "--threads -1 is out of range"},
-       {"--precision fp16 --data x.npz --out /tmp/y", "--precision must be fp32 or bf16, got 'fp16'"},
+       {"--precision fp16 --data x.npz --out /tmp/y", "--precision must be fp32, bf16 or auto, got 'fp16'"},
        {"--bogus", "unknown argument '--bogus'"},
        {"--seed", "missing value after --seed"},
        {"--resume", "--resume needs --out DIR"},
