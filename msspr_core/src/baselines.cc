@@ -406,12 +406,7 @@ void OgbenchAgent::InitTarget(torch::nn::Module& target, const torch::nn::Module
 }
 
 void OgbenchAgent::Polyak(torch::nn::Module& target, const torch::nn::Module& online) {
-  torch::NoGradGuard no_grad;
-  const auto t = target.parameters();
-  const auto o = online.parameters();
-  TORCH_CHECK(t.size() == o.size(), "Polyak: modules differ");
-  const double tau = options_.baseline.tau;
-  for (size_t i = 0; i < t.size(); ++i) t[i].mul_(1.0 - tau).add_(o[i], tau);
+  SoftUpdate(target, online, options_.baseline.tau);
 }
 
 torch::Tensor OgbenchAgent::Cat(const torch::Tensor& a, const torch::Tensor& b) {

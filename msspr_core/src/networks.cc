@@ -416,6 +416,14 @@ void HardUpdate(torch::nn::Module& target, const torch::nn::Module& source) {
   for (size_t i = 0; i < src_b.size(); ++i) dst_b[i].copy_(src_b[i]);
 }
 
+void SoftUpdate(torch::nn::Module& target, const torch::nn::Module& source, double tau) {
+  torch::NoGradGuard no_grad;
+  auto dst = target.parameters();
+  const auto src = source.parameters();
+  TORCH_CHECK(src.size() == dst.size(), "SoftUpdate: parameter count mismatch");
+  for (size_t i = 0; i < dst.size(); ++i) dst[i].mul_(1.0 - tau).add_(src[i], tau);
+}
+
 void SetRequiresGrad(torch::nn::Module& module, bool requires_grad) {
   for (auto& p : module.parameters()) p.set_requires_grad(requires_grad);
 }

@@ -41,7 +41,7 @@ bool IsBaseline(const std::string& name) {
 }
 
 // OGBench's settings of a baseline agent for the point mazes
-// (docs/baselines.md sections 2-8: goal sampling, expectile, alpha).
+// (OGBench's impls/agents: goal sampling, expectile, alpha).
 void ApplyBaselinePreset(const std::string& name, MsprOptions& o) {
   BaselineOptions& b = o.baseline;
   RelabelOptions& l = o.relabel;

@@ -27,8 +27,10 @@ void Check(bool ok, const std::string& what) {
   if (!ok) throw OptionsError("invalid sac options: " + what);
 }
 
-// A distinct, reproducible seed per episode of a run.
-uint64_t EpisodeSeed(uint64_t seed, int64_t episode) {
+// A distinct, reproducible seed per SAC episode of a run. Not sim::EpisodeSeed
+// (the dataset collectors' mixing): the shipped locomotion expert was trained
+// with this formula, so it stays to keep that training reproducible.
+uint64_t SacEpisodeSeed(uint64_t seed, int64_t episode) {
   uint64_t z = seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(episode) + 1;
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
@@ -42,13 +44,6 @@ torch::Tensor Row(const std::vector<float>& v) {
 std::vector<float> ToVector(const torch::Tensor& t) {
   const torch::Tensor c = t.to(torch::kFloat32).contiguous().view(-1);
   return std::vector<float>(c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
-}
-
-void Polyak(torch::nn::Module& target, const torch::nn::Module& online, double tau) {
-  torch::NoGradGuard no_grad;
-  auto dst = target.parameters();
-  const auto src = online.parameters();
-  for (size_t i = 0; i < dst.size(); ++i) dst[i].mul_(1.0 - tau).add_(src[i], tau);
 }
 
 struct SacHeader {
@@ -324,8 +319,8 @@ NamedValues SacAgent::Update(const SacBatch& b) {
   actor_opt->step();
   alpha_loss.backward();
   alpha_opt->step();
-  Polyak(*target_q1, *q1, options_.tau);
-  Polyak(*target_q2, *q2, options_.tau);
+  SoftUpdate(*target_q1, *q1, options_.tau);
+  SoftUpdate(*target_q2, *q2, options_.tau);
   const torch::Tensor host = torch::stack({critic_loss.detach(), actor_loss.detach(),
                                            -logp.detach().mean(), q1v.detach().mean()})
                                  .to(torch::kFloat64);
@@ -494,7 +489,7 @@ double SacTrainer::Evaluate(int episodes, uint64_t seed) {
   std::unique_ptr<OnlineEnv> env = make_env_();
   double total = 0;
   for (int e = 0; e < episodes; ++e) {
-    std::vector<float> obs = env->Reset(EpisodeSeed(seed ^ 0x5EEDull, e));
+    std::vector<float> obs = env->Reset(SacEpisodeSeed(seed ^ 0x5EEDull, e));
     for (;;) {
       const OnlineEnv::StepResult r = env->Step(agent_->Act(obs, /*deterministic=*/true));
       total += r.reward;
@@ -527,7 +522,7 @@ int64_t SacTrainer::Train(const std::atomic<bool>* stop_requested) {
                       {"alpha", agent_->alpha()},
                       {"entropy", NAN},
                       {"q_mean", NAN}};
-  std::vector<float> obs = env_->Reset(EpisodeSeed(options_.seed, episode_));
+  std::vector<float> obs = env_->Reset(SacEpisodeSeed(options_.seed, episode_));
   int64_t last_saved = step_;
   while (step_ < options_.steps) {
     std::vector<float> action(env_->action_dim());
@@ -546,7 +541,7 @@ int64_t SacTrainer::Train(const std::atomic<bool>* stop_requested) {
       if (returns.size() > 10) returns.pop_front();
       ep_return = 0;
       ++episode_;
-      obs = env_->Reset(EpisodeSeed(options_.seed, episode_));
+      obs = env_->Reset(SacEpisodeSeed(options_.seed, episode_));
     }
     if (step_ > options_.random_steps && buffer_->size() >= options_.batch_size) {
       last = agent_->Update(buffer_->Sample(options_.batch_size, rng_));

@@ -1,5 +1,5 @@
 // Conversions between msspr messages and plain C++/Eigen types: the one place
-// where ROS types meet the ROS-free libraries (style.md, section 4).
+// where ROS types meet the ROS-free libraries (msspr_core stays ROS-free).
 #pragma once
 
 #include <cstdint>

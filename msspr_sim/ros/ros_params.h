@@ -1,4 +1,4 @@
-// Reading node parameters into options structs, logging every value (style.md:
+// Reading node parameters into options structs, logging every value (as
 // one Load...Options(ros::NodeHandle&) per node, as ros_controllers do).
 #pragma once
 

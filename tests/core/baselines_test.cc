@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <optional>
 #include <random>
 #include <set>
@@ -484,6 +485,26 @@ TEST(BaselineSampler, OgbenchTransitionsAndHiqlSubgoals) {
 
 class BaselineTrainer : public testing::TestWithParam<std::string> {};
 
+// Two runs of `o`: 6 steps straight, and 3 steps, a checkpoint at `ckpt`,
+// then 3 more steps in a trainer that loaded it.
+struct StraightAndResumed {
+  std::unique_ptr<Trainer> straight, resumed;
+};
+StraightAndResumed TrainStraightAndResumed(const MsprOptions& o,
+                                           std::shared_ptr<const Dataset> data,
+                                           const std::string& ckpt) {
+  StraightAndResumed r;
+  r.straight = std::make_unique<Trainer>(o, data);
+  for (int i = 0; i < 6; ++i) r.straight->Step(false);
+  Trainer first(o, data);
+  for (int i = 0; i < 3; ++i) first.Step(false);
+  first.SaveCheckpoint(ckpt);
+  r.resumed = std::make_unique<Trainer>(o, data);
+  r.resumed->LoadCheckpoint(ckpt);
+  for (int i = 0; i < 3; ++i) r.resumed->Step(false);
+  return r;
+}
+
 TEST_P(BaselineTrainer, ResumesExactlyAndExportsAPolicy) {
   torch::set_num_threads(1);
   MsprOptions o = SmallOptions(GetParam());
@@ -551,14 +572,8 @@ TEST_P(BaselineTrainer, ResumesExactlyWithBf16AndAPolicyAverage) {
   o.trainer.policy_ema = 0.9;
   auto data = point_square::ExpertDataset(10, 20, 1);
   testing_util::TempDir dir;
-  Trainer straight(o, data);
-  for (int i = 0; i < 6; ++i) straight.Step(false);
-  Trainer first(o, data);
-  for (int i = 0; i < 3; ++i) first.Step(false);
-  first.SaveCheckpoint(dir.File("c.ckpt"));
-  Trainer resumed(o, data);
-  resumed.LoadCheckpoint(dir.File("c.ckpt"));
-  for (int i = 0; i < 3; ++i) resumed.Step(false);
+  StraightAndResumed runs = TrainStraightAndResumed(o, data, dir.File("c.ckpt"));
+  Trainer &straight = *runs.straight, &resumed = *runs.resumed;
   const NamedModules a = straight.agent()->CheckpointModules(),
                      b = resumed.agent()->CheckpointModules();
   ASSERT_EQ(a.size(), b.size());
@@ -604,10 +619,10 @@ TEST_P(BaselinePixels, EncodersPerNetworkResumeExactlyAndExport) {
   o.trainer.precision = "bf16";
   auto data = point_square::ExpertImageDataset(10, 20, 1);
   testing_util::TempDir dir;
-  Trainer straight(o, data);
+  Trainer fresh(o, data);
   // The encoders: the actor's, and per value network one, with a target copy.
   std::set<std::string> encoders;
-  for (const auto& c : straight.agent()->named_children()) {
+  for (const auto& c : fresh.agent()->named_children()) {
     if (c.value()->as<PairEncoderImpl>()) encoders.insert(c.key());
   }
   const std::map<std::string, std::set<std::string>> expected{
@@ -615,16 +630,11 @@ TEST_P(BaselinePixels, EncodersPerNetworkResumeExactlyAndExport) {
       {"gcivl", {"actor_enc", "value_enc", "target_value_enc"}},
       {"gciql", {"actor_enc", "value_enc", "critic_enc", "target_critic_enc"}}};
   EXPECT_EQ(encoders, expected.at(GetParam()));
-  for (torch::nn::Module* t : straight.agent()->Targets()) {
+  for (torch::nn::Module* t : fresh.agent()->Targets()) {
     for (const auto& p : t->parameters()) EXPECT_FALSE(p.requires_grad());
   }
-  for (int i = 0; i < 6; ++i) straight.Step(false);
-  Trainer first(o, data);
-  for (int i = 0; i < 3; ++i) first.Step(false);
-  first.SaveCheckpoint(dir.File("c.ckpt"));
-  Trainer resumed(o, data);
-  resumed.LoadCheckpoint(dir.File("c.ckpt"));
-  for (int i = 0; i < 3; ++i) resumed.Step(false);
+  StraightAndResumed runs = TrainStraightAndResumed(o, data, dir.File("c.ckpt"));
+  Trainer &straight = *runs.straight, &resumed = *runs.resumed;
   const auto a = straight.agent()->named_parameters(), b = resumed.agent()->named_parameters();
   ASSERT_EQ(a.size(), b.size());
   for (const auto& p : a) EXPECT_TRUE(torch::equal(p.value(), b[p.key()])) << p.key();

@@ -64,8 +64,10 @@ inline std::shared_ptr<const Dataset> ExpertDataset(int episodes, int length, ui
   return std::make_shared<const Dataset>(b.Build());
 }
 
-// Success rate over `episodes` random start/goal pairs at least 0.5 apart.
-inline double SuccessRate(Policy& policy, int episodes, uint64_t seed) {
+// Success rate over `episodes` random start/goal pairs at least 0.5 apart,
+// acting with act(s, g, a): the action for point s and goal g into a[2].
+template <typename Act>
+double SuccessRateOf(int episodes, uint64_t seed, Act act) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<float> pos(-0.9f, 0.9f);
   int successes = 0;
@@ -75,8 +77,9 @@ inline double SuccessRate(Policy& policy, int episodes, uint64_t seed) {
       s[0] = pos(rng), s[1] = pos(rng), g[0] = pos(rng), g[1] = pos(rng);
     } while (Distance(s, g) < 0.5f);
     for (int t = 0; t < kEpisodeSteps; ++t) {
-      const std::vector<float> a = policy.Act({s[0], s[1]}, {g[0], g[1]});
-      EnvStep(s, a.data());
+      float a[2];
+      act(s, g, a);
+      EnvStep(s, a);
       if (Distance(s, g) <= kGoalRadius) {
         ++successes;
         break;
@@ -84,6 +87,14 @@ inline double SuccessRate(Policy& policy, int episodes, uint64_t seed) {
     }
   }
   return static_cast<double>(successes) / episodes;
+}
+
+// SuccessRateOf a state policy.
+inline double SuccessRate(Policy& policy, int episodes, uint64_t seed) {
+  return SuccessRateOf(episodes, seed, [&](const float* s, const float* g, float* a) {
+    const std::vector<float> out = policy.Act({s[0], s[1]}, {g[0], g[1]});
+    std::copy(out.begin(), out.end(), a);
+  });
 }
 
 // --- From images: the same task seen by a camera ---------------------------------
@@ -123,30 +134,15 @@ inline std::shared_ptr<const Dataset> ExpertImageDataset(int episodes, int lengt
   return std::make_shared<const Dataset>(b.Build());
 }
 
-// SuccessRate's episodes, the policy seeing the images of the point and of the goal.
+// SuccessRateOf a policy that sees the images of the point and of the goal.
 inline double ImageSuccessRate(Policy& policy, int episodes, uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<float> pos(-0.9f, 0.9f);
   auto image = [](const float* p) {
     return torch::from_blob(Render(p).data(), {kImageSide, kImageSide, 3}, torch::kUInt8).clone();
   };
-  int successes = 0;
-  for (int e = 0; e < episodes; ++e) {
-    float s[2], g[2];
-    do {
-      s[0] = pos(rng), s[1] = pos(rng), g[0] = pos(rng), g[1] = pos(rng);
-    } while (Distance(s, g) < 0.5f);
-    const torch::Tensor goal = image(g);
-    for (int t = 0; t < kEpisodeSteps; ++t) {
-      const torch::Tensor a = policy.Act(image(s), goal).to(torch::kCPU).contiguous();
-      EnvStep(s, a.data_ptr<float>());
-      if (Distance(s, g) <= kGoalRadius) {
-        ++successes;
-        break;
-      }
-    }
-  }
-  return static_cast<double>(successes) / episodes;
+  return SuccessRateOf(episodes, seed, [&](const float* s, const float* g, float* a) {
+    const torch::Tensor out = policy.Act(image(s), image(g)).to(torch::kCPU).contiguous();
+    std::copy(out.data_ptr<float>(), out.data_ptr<float>() + 2, a);
+  });
 }
 
 }  // namespace point_square

@@ -11,7 +11,7 @@
 namespace msspr::sim {
 namespace {
 
-// benchmark.md's maps, rows top to bottom.
+// OGBench's maps, rows top to bottom.
 const std::vector<std::string> kMedium = {"11111111", "10011001", "10010001", "11000111",
                                           "10010001", "10100101", "10001001", "11111111"};
 const std::vector<std::string> kLarge = {"111111111111", "100001000001", "101101010101",

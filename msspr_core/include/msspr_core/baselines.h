@@ -1,5 +1,5 @@
 // OGBench's goal-conditioned baseline agents in LibTorch: GCBC, GCIVL,
-// GCIQL, QRL, CRL and HIQL (docs/baselines.md, the facts of
+// GCIQL, QRL, CRL and HIQL (the facts of
 // github.com/seohongpark/ogbench impls/agents/*.py). They share Ms.PR's
 // dataset, relabelling (BatchSampler::SampleOgbenchTransitions), trainer
 // loop, checkpoints, export and Policy through the GcAgent interface

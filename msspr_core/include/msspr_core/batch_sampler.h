@@ -74,8 +74,8 @@ class BatchSampler {
   float MonteCarloReturn(int64_t t, int64_t g) const;
 
   TransitionIndices SampleTransitions(int batch, std::mt19937_64& rng) const;
-  // OGBench's 1-step transitions for the baseline agents (docs/baselines.md
-  // 1.2-1.3): next_idx = t + 1; ret = reward = 0 when the value goal is t
+  // OGBench's 1-step transitions for the baseline agents (its GCDataset):
+  // next_idx = t + 1; ret = reward = 0 when the value goal is t
   // itself, else -1; discount = gamma * mask, mask = 0 when the value goal is
   // t. With subgoal_steps > 0 also HIQL's low_goal, high_goal (random with
   // probability actor_p_randomgoal, else a uniform future state) and

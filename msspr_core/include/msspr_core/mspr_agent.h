@@ -1,4 +1,4 @@
-// Ms.PR as a GcAgent (Algorithm 1 of the paper, docs/method.md): online,
+// Ms.PR as a GcAgent (Algorithm 1 of the paper): online,
 // target and (trainer.policy_ema) moving-average networks, one AdamW each
 // for the representation, the critic and the actor, and the step schedules:
 // the sequential step, and the pipelined one whose actor-critic update runs

@@ -1,7 +1,7 @@
 // Ms.PR's losses as functions of the networks and a batch, callable without
 // a trainer: the representation loss (Eq. 1), the critic's n-step TD3 target
 // and Huber loss (Eq. 2) and the TD3+BC actor loss (Eq. 3) of
-// docs/method.md. Each loss returns a scalar tensor with its graph and, when
+// the paper. Each loss returns a scalar tensor with its graph and, when
 // `info` is not null, fills its fields of it with one device-to-host read.
 // Precision scopes, gradients and optimiser steps are the caller's
 // (MsprAgent).

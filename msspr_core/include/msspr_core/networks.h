@@ -1,4 +1,4 @@
-// Ms.PR networks (docs/method.md "Networks"; paper appendix A.2). Names
+// Ms.PR networks (the paper's appendix A.2). Names
 // given to register_module are checkpoint keys: keep them stable.
 // Shapes: B = batch, obs_dim / action_dim from NetworkOptions, images are
 // uint8 HWC with C = image_channels * frame_stack.
@@ -231,6 +231,9 @@ torch::Tensor TwoHotDecode(const torch::Tensor& logits, const torch::Tensor& bin
 
 // Copies parameters and buffers of `source` into `target` (same structure).
 void HardUpdate(torch::nn::Module& target, const torch::nn::Module& source);
+// The Polyak average of target networks: target <- tau source + (1 - tau)
+// target, parameter by parameter (same structure; buffers are left alone).
+void SoftUpdate(torch::nn::Module& target, const torch::nn::Module& source, double tau);
 // Sets requires_grad of all parameters.
 void SetRequiresGrad(torch::nn::Module& module, bool requires_grad);
 

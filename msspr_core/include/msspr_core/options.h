@@ -1,4 +1,4 @@
-// Options of every Ms.PR component, with the defaults of docs/method.md.
+// Options of every Ms.PR component, with the paper's defaults.
 // Each struct lists its fields once in a `Visit` function; the YAML loader,
 // the YAML writer and the checkpoint header all go through that list, so a
 // field added here is loadable, saved and restored without further code.
@@ -258,7 +258,7 @@ struct TrainerOptions {
   }
 };
 
-// OGBench's baseline agents (docs/baselines.md; msspr_core/README.md
+// OGBench's baseline agents (msspr_core/README.md
 // "Baselines"). agent "mspr" trains Ms.PR and ignores the rest of this
 // section. The baselines use agent.gamma, relabel.*, trainer.batch_size /
 // steps / seed / device, network.obs_dim / action_dim (state observations
@@ -325,7 +325,7 @@ std::vector<std::string> ScaleNames();  // {"paper", "cpu"}
 // paper's widths and batch; "cpu": widths 256, latent 256, goal 64, batch
 // 256). A baseline agent's preset ("gcbc", ..., "hiql") sets
 // baseline.agent, its relabelling and OGBench's pointmaze hyperparameters
-// (docs/baselines.md section 8); at the cpu scale its MLPs are 256 wide, its
+// (OGBench's settings for it); at the cpu scale its MLPs are 256 wide, its
 // latents 256 and its batch 256. Throws OptionsError on an unknown name.
 MsprOptions MakePreset(const std::string& preset, const std::string& scale);
 

@@ -31,7 +31,7 @@ namespace msspr {
 namespace core {
 
 // The learner's options; OGBench's main_sac.py defaults for the ant's
-// direction-following expert (locomotion.md), except `steps`.
+// direction-following expert (docs/ant_mazes.md), except `steps`.
 struct SacOptions {
   int hidden = 256;                  // width of every hidden layer (actor and critics)
   int layers = 2;                    // hidden layers

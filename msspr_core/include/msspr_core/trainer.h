@@ -1,5 +1,5 @@
 // The trainer of every agent (gc_agent.h): Ms.PR (Algorithm 1 of the paper,
-// docs/method.md; mspr_agent.h) or one of OGBench's baselines (baselines.h).
+// the paper; mspr_agent.h) or one of OGBench's baselines (baselines.h).
 // It owns the data, the batch builder and its random streams, the step
 // count, the data-parallel group, the training loop and checkpoints that
 // resume exactly; the agent owns its networks, optimisers and step schedule.

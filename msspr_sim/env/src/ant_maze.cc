@@ -3,7 +3,7 @@
 #include <stdexcept>
 
 #include "ant_physics.h"
-#include "random_util.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 
@@ -37,7 +37,7 @@ Eigen::VectorXd AntMaze::Reset(const Eigen::Vector2d& start_xy, const Eigen::Vec
   p.ResetNoisy(rng);
   Eigen::VectorXd action(kActionDim);
   for (int t = 0; t < kGoalRandomSteps; ++t) {
-    for (int k = 0; k < kActionDim; ++k) action[k] = internal::Uniform(rng, -1.0, 1.0);
+    for (int k = 0; k < kActionDim; ++k) action[k] = Uniform(rng, -1.0, 1.0);
     p.Step(action);
   }
   p.SetXY(goal_xy);
@@ -54,8 +54,8 @@ Eigen::VectorXd AntMaze::ResetToTask(int task_id, uint64_t seed) {
   std::mt19937_64 rng(seed);
   Eigen::Vector2d start = map_.CellCenter(task.start);
   Eigen::Vector2d goal = map_.CellCenter(task.goal);
-  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -kCellNoise, kCellNoise);
-  for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -kCellNoise, kCellNoise);
+  for (int k = 0; k < 2; ++k) start[k] += Uniform(rng, -kCellNoise, kCellNoise);
+  for (int k = 0; k < 2; ++k) goal[k] += Uniform(rng, -kCellNoise, kCellNoise);
   return Reset(start, goal, rng());
 }
 
@@ -63,12 +63,12 @@ Eigen::VectorXd AntMaze::ResetRandom(uint64_t seed) {
   std::mt19937_64 rng(seed);
   const std::vector<Cell> free = map_.FreeCells();
   const std::vector<Cell> vertices = map_.VertexCells();
-  const Cell start_cell = free[internal::UniformIndex(rng, free.size())];
-  const Cell goal_cell = vertices[internal::UniformIndex(rng, vertices.size())];
+  const Cell start_cell = free[UniformIndex(rng, free.size())];
+  const Cell goal_cell = vertices[UniformIndex(rng, vertices.size())];
   Eigen::Vector2d start = map_.CellCenter(start_cell);
   Eigen::Vector2d goal = map_.CellCenter(goal_cell);
-  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -kCellNoise, kCellNoise);
-  for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -kCellNoise, kCellNoise);
+  for (int k = 0; k < 2; ++k) start[k] += Uniform(rng, -kCellNoise, kCellNoise);
+  for (int k = 0; k < 2; ++k) goal[k] += Uniform(rng, -kCellNoise, kCellNoise);
   return Reset(start, goal, rng());
 }
 

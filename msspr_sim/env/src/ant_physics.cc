@@ -5,7 +5,7 @@
 #include <stdexcept>
 
 #include "msspr_sim/ant_model.h"
-#include "random_util.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::sim::internal {
 namespace {

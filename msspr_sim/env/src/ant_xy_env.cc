@@ -4,7 +4,7 @@
 #include <stdexcept>
 
 #include "ant_physics.h"
-#include "random_util.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 
@@ -28,7 +28,7 @@ AntXyEnv::~AntXyEnv() = default;
 void AntXyEnv::DrawDirection() {
   Eigen::Vector2d d;
   do {
-    d = {internal::StandardNormal(rng_), internal::StandardNormal(rng_)};
+    d = {StandardNormal(rng_), StandardNormal(rng_)};
   } while (d.norm() < 1e-12);
   direction_ = d.normalized();
 }

@@ -3,17 +3,10 @@
 #include <stdexcept>
 
 #include "msspr_sim/expert.h"
-#include "random_util.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 namespace {
-
-// A volatile round trip, for the reason given in dataset_gen.cc (GCC may
-// fold (double)(float)x back to x).
-float RoundToFloat(double x) {
-  volatile float f = static_cast<float>(x);
-  return f;
-}
 
 // Separates the oracle's random stream from the reset's.
 constexpr uint64_t kOracleSalt = 0x6F7261636C65ULL;  // "oracle"
@@ -30,7 +23,7 @@ CubeEpisode CollectCubeEpisode(CubeEnv& env, const CubeCollectOptions& options, 
   ep.seed = EpisodeSeed(options.seed, index);
   ep.length = options.episode_length;
   env.ResetForCollection(ep.seed);
-  CubePlayOracle oracle(internal::Mix64(ep.seed ^ kOracleSalt), options.oracle);
+  CubePlayOracle oracle(Mix64(ep.seed ^ kOracleSalt), options.oracle);
   const size_t n = static_cast<size_t>(ep.length);
   ep.observations.reserve(n * CubeEnv::kObservationSize);
   ep.actions.reserve(n * CubeEnv::kActionSize);

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "msspr_sim/random_util.h"
 #include "mujoco_util.h"
 #include "offscreen_renderer.h"
-#include "random_util.h"
 
 namespace msspr::sim {
 namespace {
@@ -282,9 +282,8 @@ bool CubeEnv::Step(const Action& action) {
 
 void CubeEnv::RandomizeArm(std::mt19937_64& rng) {
   Eigen::Vector3d p;
-  for (int i = 0; i < 3; ++i)
-    p[i] = internal::Uniform(rng, options_.init_low[i], options_.init_high[i]);
-  const double yaw = internal::Uniform(rng, -M_PI, M_PI);
+  for (int i = 0; i < 3; ++i) p[i] = Uniform(rng, options_.init_low[i], options_.init_high[i]);
+  const double yaw = Uniform(rng, -M_PI, M_PI);
   // Failing to converge in 20 iterations from home leaves a pose close to the
   // target; OGBench goes on with it too.
   PlacePinch(p, yaw);
@@ -298,7 +297,7 @@ CubeEnv::Observation CubeEnv::ResetToTask(int task, uint64_t seed) {
   const CubeTask& t = CubeSingleTasks()[task - 1];
   const mjModel* m = impl_->model.get();
   mjData* d = impl_->data.get();
-  std::mt19937_64 rng(internal::Mix64(seed));
+  std::mt19937_64 rng(Mix64(seed));
   mj_resetData(m, d);
   const Eigen::Vector3d goal(t.goal.x(), t.goal.y(), 0.02);
   SetGoal(goal);
@@ -313,7 +312,7 @@ CubeEnv::Observation CubeEnv::ResetToTask(int task, uint64_t seed) {
   const mjtNum time = d->time;
   for (int k = 0; k < 2; ++k) {
     Action a;
-    for (double& x : a) x = internal::Uniform(rng, -1.0, 1.0);
+    for (double& x : a) x = Uniform(rng, -1.0, 1.0);
     Step(a);
   }
   goal_observation_ = GetObservation();
@@ -325,9 +324,8 @@ CubeEnv::Observation CubeEnv::ResetToTask(int task, uint64_t seed) {
   d->time = time;
 
   RandomizeArm(rng);
-  const double dx = internal::Uniform(rng, -0.01, 0.01), dy = internal::Uniform(rng, -0.01, 0.01);
-  SetCube(Eigen::Vector3d(t.start.x() + dx, t.start.y() + dy, 0.02),
-          internal::Uniform(rng, 0.0, 2 * M_PI));
+  const double dx = Uniform(rng, -0.01, 0.01), dy = Uniform(rng, -0.01, 0.01);
+  SetCube(Eigen::Vector3d(t.start.x() + dx, t.start.y() + dy, 0.02), Uniform(rng, 0.0, 2 * M_PI));
   episode_steps_ = 0;
   return GetObservation();
 }
@@ -365,18 +363,17 @@ CubeEnv::Observation CubeEnv::GetObservation() const {
 namespace msspr::sim {
 
 CubeEnv::Observation CubeEnv::ResetForCollection(uint64_t seed) {
-  std::mt19937_64 rng(internal::Mix64(seed));
+  std::mt19937_64 rng(Mix64(seed));
   mj_resetData(impl_->model.get(), impl_->data.get());
   RandomizeArm(rng);
   const auto xy = [&] {
-    return Eigen::Vector3d(
-        internal::Uniform(rng, options_.object_low.x(), options_.object_high.x()),
-        internal::Uniform(rng, options_.object_low.y(), options_.object_high.y()), 0.02);
+    return Eigen::Vector3d(Uniform(rng, options_.object_low.x(), options_.object_high.x()),
+                           Uniform(rng, options_.object_low.y(), options_.object_high.y()), 0.02);
   };
   const Eigen::Vector3d cube = xy();
-  SetCube(cube, internal::Uniform(rng, 0.0, 2 * M_PI));
+  SetCube(cube, Uniform(rng, 0.0, 2 * M_PI));
   const Eigen::Vector3d goal = xy();
-  SetGoal(goal, internal::Uniform(rng, 0.0, 2 * M_PI));
+  SetGoal(goal, Uniform(rng, 0.0, 2 * M_PI));
   mj_forward(impl_->model.get(), impl_->data.get());  // pose the marker too
   goal_observation_ = Observation{};
   goal_image_.clear();

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "random_util.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 namespace {
@@ -65,11 +65,11 @@ std::vector<CubePlanSample> SmoothPlanNoise(const std::vector<CubePlanSample>& n
 }
 
 CubePlayOracle::CubePlayOracle(uint64_t seed, const CubePlayOracleOptions& options)
-    : options_(options), rng_(internal::Mix64(seed)) {}
+    : options_(options), rng_(Mix64(seed)) {}
 
 void CubePlayOracle::Plan(const CubeEnv& env) {
   const CubeEnvOptions& eo = env.options();
-  const auto u = [&](double lo, double hi) { return internal::Uniform(rng_, lo, hi); };
+  const auto u = [&](double lo, double hi) { return Uniform(rng_, lo, hi); };
   std::vector<Keyframe> k;
   // initial: the measured pinch pose, gripper open.
   const Eigen::Vector3d p0 = env.PinchPosition();
@@ -127,7 +127,7 @@ void CubePlayOracle::Plan(const CubeEnv& env) {
   std::vector<CubePlanSample> noise(plan_.size());
   for (auto& n : noise)
     for (int i = 0; i < 5; ++i)
-      n[i] = internal::StandardNormal(rng_) * options_.action_scale[i] * options_.noise_scale;
+      n[i] = StandardNormal(rng_) * options_.action_scale[i] * options_.noise_scale;
   const std::vector<CubePlanSample> smooth = SmoothPlanNoise(noise);
   for (size_t s = 0; s < plan_.size(); ++s) plan_[s] += smooth[s];
   step_ = 0;
@@ -140,10 +140,9 @@ CubeEnv::Action CubePlayOracle::Act(CubeEnv& env) {
   } else if (step_ >= plan_.size()) {
     // Cycle over: a new target in the object box, and a plan from here.
     const CubeEnvOptions& eo = env.options();
-    const Eigen::Vector3d target(internal::Uniform(rng_, eo.object_low.x(), eo.object_high.x()),
-                                 internal::Uniform(rng_, eo.object_low.y(), eo.object_high.y()),
-                                 0.02);
-    env.SetGoal(target, internal::Uniform(rng_, 0.0, 2 * M_PI));
+    const Eigen::Vector3d target(Uniform(rng_, eo.object_low.x(), eo.object_high.x()),
+                                 Uniform(rng_, eo.object_low.y(), eo.object_high.y()), 0.02);
+    env.SetGoal(target, Uniform(rng_, 0.0, 2 * M_PI));
     Plan(env);
   }
   const CubePlanSample& x = plan_[step_++];

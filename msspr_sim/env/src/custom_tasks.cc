@@ -10,7 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "random_util.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 
@@ -113,18 +113,18 @@ std::vector<CustomTask> RandomCustomTasks(const MazeMap& map, int n, uint64_t se
     throw std::invalid_argument("RandomCustomTasks: maze " + map.name() +
                                 " has no two free cells " + std::to_string(min_cells) +
                                 " or more moves apart");
-  std::mt19937_64 rng(internal::Mix64(seed ^ 0x7A5C5EEDULL));
+  std::mt19937_64 rng(Mix64(seed ^ 0x7A5C5EEDULL));
   // Keep the point off the walls: the agent's sphere has radius kAgentRadius.
   const double lim = std::min(noise, kCellSize / 2 - kAgentRadius);
   std::vector<CustomTask> out;
   for (int k = 0; k < n; ++k) {
-    const auto& [a, b] = pairs[internal::UniformIndex(rng, pairs.size())];
+    const auto& [a, b] = pairs[UniformIndex(rng, pairs.size())];
     CustomTask t;
     t.id = k + 1;
     t.start = map.CellCenter(a);
     t.goal = map.CellCenter(b);
-    for (int d = 0; d < 2; ++d) t.start[d] += internal::Uniform(rng, -lim, lim);
-    for (int d = 0; d < 2; ++d) t.goal[d] += internal::Uniform(rng, -lim, lim);
+    for (int d = 0; d < 2; ++d) t.start[d] += Uniform(rng, -lim, lim);
+    for (int d = 0; d < 2; ++d) t.goal[d] += Uniform(rng, -lim, lim);
     // Millimetres, as the YAML file keeps them: in process and from the file alike.
     for (int d = 0; d < 2; ++d) {
       t.start[d] = std::round(t.start[d] * 1000.0) / 1000.0;

@@ -3,18 +3,9 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "msspr_sim/random_util.h"  // RoundToFloat
+
 namespace msspr::sim {
-namespace {
-
-// double -> float32 rounding that the optimiser cannot drop: GCC 12 -O2 was
-// seen to fold (double)(float)x back to x in the loop below (no conversion
-// instruction emitted), which broke replay of the stored data.
-float RoundToFloat(double x) {
-  volatile float f = static_cast<float>(x);
-  return f;
-}
-
-}  // namespace
 
 Episode CollectEpisode(PointMaze& env, const CollectOptions& options, uint64_t index) {
   if (env.map().name() != options.maze) {

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "random_util.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 namespace {
@@ -20,7 +20,7 @@ constexpr uint64_t kExpertSalt = 0x5EED0E7BE27ULL;
 Eigen::Vector2d NoisyClipped(const Eigen::Vector2d& dir, double noise_std, std::mt19937_64& rng) {
   Eigen::Vector2d a = dir;
   if (noise_std > 0.0) {
-    for (int k = 0; k < 2; ++k) a[k] += noise_std * internal::StandardNormal(rng);
+    for (int k = 0; k < 2; ++k) a[k] += noise_std * StandardNormal(rng);
   }
   return a.cwiseMax(-1.0).cwiseMin(1.0);
 }
@@ -34,7 +34,7 @@ Eigen::Vector2d UnitToward(const Eigen::Vector2d& from, const Eigen::Vector2d& t
 }  // namespace
 
 uint64_t EpisodeSeed(uint64_t base_seed, uint64_t episode_index) {
-  return internal::Mix64(internal::Mix64(base_seed) ^ (episode_index * 0xD1B54A32D192ED03ULL));
+  return Mix64(Mix64(base_seed) ^ (episode_index * 0xD1B54A32D192ED03ULL));
 }
 
 Eigen::Vector2d BfsDirection(const MazeMap& map, const Eigen::Vector2d& state, Cell goal_cell,
@@ -68,17 +68,14 @@ std::string DatasetKindName(DatasetKind kind) {
 
 CollectionExpert::CollectionExpert(const MazeMap& map, DatasetKind kind, double noise_std,
                                    uint64_t episode_seed)
-    : map_(&map),
-      kind_(kind),
-      noise_std_(noise_std),
-      rng_(internal::Mix64(episode_seed ^ kExpertSalt)) {
+    : map_(&map), kind_(kind), noise_std_(noise_std), rng_(Mix64(episode_seed ^ kExpertSalt)) {
   if (!(noise_std >= 0.0)) throw std::invalid_argument("CollectionExpert: noise_std must be >= 0");
 }
 
 void CollectionExpert::DrawGoal(const Eigen::Vector2d& state) {
   if (kind_ == DatasetKind::kNavigate) {
     const std::vector<Cell> vertices = map_->VertexCells();
-    goal_cell_ = vertices[internal::UniformIndex(rng_, vertices.size())];
+    goal_cell_ = vertices[UniformIndex(rng_, vertices.size())];
   } else {
     const Cell here = map_->XYToCell(state);
     const std::vector<int> dist = map_->BfsDistances(here);
@@ -99,7 +96,7 @@ void CollectionExpert::DrawGoal(const Eigen::Vector2d& state) {
       }
       candidates.push_back(best);
     }
-    goal_cell_ = candidates[internal::UniformIndex(rng_, candidates.size())];
+    goal_cell_ = candidates[UniformIndex(rng_, candidates.size())];
   }
   has_goal_ = true;
   ++num_goals_;

@@ -33,7 +33,7 @@ void SaveTrajectoryPlot(const MazeMap& map,
   if (pixels_per_cell < 4) throw std::invalid_argument("SaveTrajectoryPlot: pixels_per_cell < 4");
   const int ppc = pixels_per_cell;
   const double scale = ppc / kCellSize;  // pixels per metre
-  // Image row 0 is the top of the map (row i = 0), as in benchmark.md's maps.
+  // Image row 0 is the top of the map (row i = 0), as OGBench draws its maps.
   cv::Mat img(map.rows() * ppc, map.cols() * ppc, CV_8UC3, cv::Scalar(235, 235, 235));
   for (int i = 0; i < map.rows(); ++i) {
     for (int j = 0; j < map.cols(); ++j) {

@@ -9,9 +9,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "msspr_sim/random_util.h"
 #include "mujoco_util.h"
 #include "offscreen_renderer.h"
-#include "random_util.h"
 
 namespace msspr::sim {
 
@@ -84,9 +84,9 @@ Eigen::Vector2d PointMaze::ResetToTask(int task_id, uint64_t seed) {
   std::mt19937_64 rng(seed);
   Eigen::Vector2d start = map_.CellCenter(task.start);
   Eigen::Vector2d goal = map_.CellCenter(task.goal);
-  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -1.0, 1.0);
-  for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -1.0, 1.0);
-  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -0.1, 0.1);  // qpos noise
+  for (int k = 0; k < 2; ++k) start[k] += Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) goal[k] += Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) start[k] += Uniform(rng, -0.1, 0.1);  // qpos noise
   return Reset(start, goal);
 }
 
@@ -94,13 +94,13 @@ Eigen::Vector2d PointMaze::ResetRandom(uint64_t seed) {
   std::mt19937_64 rng(seed);
   const std::vector<Cell> free = map_.FreeCells();
   const std::vector<Cell> vertices = map_.VertexCells();
-  const Cell start_cell = free[internal::UniformIndex(rng, free.size())];
-  const Cell goal_cell = vertices[internal::UniformIndex(rng, vertices.size())];
+  const Cell start_cell = free[UniformIndex(rng, free.size())];
+  const Cell goal_cell = vertices[UniformIndex(rng, vertices.size())];
   Eigen::Vector2d start = map_.CellCenter(start_cell);
   Eigen::Vector2d goal = map_.CellCenter(goal_cell);
-  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -1.0, 1.0);
-  for (int k = 0; k < 2; ++k) goal[k] += internal::Uniform(rng, -1.0, 1.0);
-  for (int k = 0; k < 2; ++k) start[k] += internal::Uniform(rng, -0.1, 0.1);  // qpos noise
+  for (int k = 0; k < 2; ++k) start[k] += Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) goal[k] += Uniform(rng, -1.0, 1.0);
+  for (int k = 0; k < 2; ++k) start[k] += Uniform(rng, -0.1, 0.1);  // qpos noise
   return Reset(start, goal);
 }
 

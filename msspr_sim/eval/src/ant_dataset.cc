@@ -10,26 +10,16 @@
 #include "msspr_core/dataset.h"
 #include "msspr_core/npz.h"
 #include "msspr_eval/ant_waypoint_expert.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::agent {
 namespace {
 
-// double -> float32 rounding that the optimiser cannot drop (dataset_gen.cc).
-float RoundToFloat(double x) {
-  volatile float f = static_cast<float>(x);
-  return f;
-}
+using sim::Mix64;
+using sim::RoundToFloat;
+using sim::Uniform01;
+using sim::UniformIndex;
 
-uint64_t Mix64(uint64_t z) {  // splitmix64 finaliser
-  z += 0x9E3779B97F4A7C15ULL;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
-double Uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
-size_t UniformIndex(std::mt19937_64& rng, size_t n) {
-  return static_cast<size_t>(Uniform01(rng) * static_cast<double>(n)) % n;
-}
 Eigen::Vector2d NoisyCentre(const sim::MazeMap& map, sim::Cell c, std::mt19937_64& rng) {
   Eigen::Vector2d xy = map.CellCenter(c);
   for (int k = 0; k < 2; ++k)

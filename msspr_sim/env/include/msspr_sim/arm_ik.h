@@ -1,6 +1,6 @@
 // Differential inverse kinematics for an ArmModel's arm joints, as OGBench's
 // cube tasks do it (ogbench/manipspace/controllers/diff_ik.py; facts in
-// ../shared/docs/manipulation.md section 3): damped least squares on the
+// OGBench's manipspace controller): damped least squares on the
 // 6-D pose error of one frame, a capped step, a few iterations.
 #pragma once
 

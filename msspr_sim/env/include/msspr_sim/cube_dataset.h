@@ -1,6 +1,6 @@
 // In-memory cube-single-play episode collection: the play oracle on a
 // collection reset, rows as OGBench's generate_manipspace.py stores them
-// (../shared/docs/manipulation.md section 6).
+// (OGBench's manipspace play data).
 #pragma once
 
 #include <cstdint>

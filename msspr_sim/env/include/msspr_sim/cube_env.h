@@ -1,6 +1,6 @@
 // OGBench's cube-single environment on the URDF arm: the 5-D action, the
 // IK-driven servo targets, 25 x 2 ms physics steps per action, the 28-D
-// state observation and the success rule (../shared/docs/manipulation.md,
+// state observation and the success rule (OGBench's cube-single,
 // sections 3 to 5), the five evaluation tasks and their seeded resets,
 // collection resets and headless camera images. The play oracle is in
 // cube_oracle.h, episode collection in cube_dataset.h.

@@ -1,6 +1,6 @@
 // OGBench's "play" oracle for cube-single data collection
 // (ogbench/manipspace/oracles/plan/cube_plan.py, plan_oracle.py; facts in
-// ../shared/docs/manipulation.md section 6): at each cycle start an
+// OGBench's manipspace oracle): at each cycle start an
 // open-loop pick-and-place plan of keyframes, sampled every 0.05 s, plus
 // smoothed Gaussian noise; each step's action drives the measured pinch
 // pose and opening toward the plan's sample. Deterministic by seed.

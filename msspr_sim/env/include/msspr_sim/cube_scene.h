@@ -1,6 +1,6 @@
 // The MuJoCo model (MJCF) of OGBench's cube-single scene, generated from the
 // arm's URDF (ArmModel) so that the robot has one source of truth. Values
-// follow ../shared/docs/manipulation.md sections 1 and 2.
+// follow OGBench's cube-single scene (manipspace).
 //
 // Model layout: qpos = 6 arm joints (ArmModel's dof order), the gripper
 // joints (the independent one, then its mimics, in ArmModel link order), the

@@ -1,4 +1,4 @@
-// Scripted experts of docs/benchmark.md: the BFS goal-reaching expert and the
+// OGBench's scripted point-maze experts: the BFS goal-reaching expert and the
 // navigate / stitch data-collection procedures.
 #ifndef MSSPR_SIM_EXPERT_H_
 #define MSSPR_SIM_EXPERT_H_
@@ -42,7 +42,7 @@ enum class DatasetKind { kNavigate, kStitch };
 DatasetKind ParseDatasetKind(const std::string& name);
 std::string DatasetKindName(DatasetKind kind);
 
-// The data-collection procedure of benchmark.md, one instance per episode.
+// OGBench's point-maze data-collection procedure, one instance per episode.
 // navigate: its own uniformly drawn vertex goal cell, redrawn when reached
 // (state within 1.0 of the goal cell centre). stitch: a goal cell exactly 4
 // BFS steps from the cell of the first state it sees, and it stays there

@@ -1,4 +1,4 @@
-// Point-maze maps of docs/benchmark.md: wall grids, cell geometry, BFS over
+// OGBench's point-maze maps (docs/datasets.md): wall grids, cell geometry, BFS over
 // the free-cell graph, the evaluation tasks, and the MJCF of the scene.
 #ifndef MSSPR_SIM_MAZE_MAP_H_
 #define MSSPR_SIM_MAZE_MAP_H_
@@ -60,7 +60,7 @@ class MazeMap {
     Cell start;
     Cell goal;
   };
-  // The 5 evaluation tasks, ids 1..5 (benchmark.md for medium, large, giant;
+  // The 5 evaluation tasks, ids 1..5 (OGBench's for medium, large, giant;
   // this project's own corner-to-corner tasks for arena).
   const std::vector<Task>& Tasks() const { return tasks_; }
   // The task of id `id`; throws std::invalid_argument "<caller>: no task <id>

@@ -1,4 +1,4 @@
-// The point-maze environment of docs/benchmark.md on MuJoCo 2.2.2, with
+// OGBench's point-maze environment (docs/datasets.md) on MuJoCo 2.2.2, with
 // optional headless 64x64 rendering (EGL surfaceless or OSMesa).
 //
 // Threading: a PointMaze is not thread-safe. A rendering PointMaze owns an

@@ -1,14 +1,15 @@
-// Internal: portable draws from std::mt19937_64 (the std:: distributions are
+// Portable draws from std::mt19937_64 (the std:: distributions are
 // implementation-defined, so the same seed could give different episodes on
-// different standard libraries).
-#ifndef MSSPR_SIM_SRC_RANDOM_UTIL_H_
-#define MSSPR_SIM_SRC_RANDOM_UTIL_H_
+// different standard libraries), seed mixing, and the float rounding the
+// datasets store. Shared by the environments and the dataset makers.
+#ifndef MSSPR_SIM_RANDOM_UTIL_H_
+#define MSSPR_SIM_RANDOM_UTIL_H_
 
 #include <cmath>
 #include <cstdint>
 #include <random>
 
-namespace msspr::sim::internal {
+namespace msspr::sim {
 
 // splitmix64 finaliser.
 inline uint64_t Mix64(uint64_t z) {
@@ -37,6 +38,14 @@ inline double StandardNormal(std::mt19937_64& rng) {
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
 }
 
-}  // namespace msspr::sim::internal
+// double -> float32 rounding that the optimiser cannot drop: GCC 12 -O2 was
+// seen to fold (double)(float)x back to x in a loop (no conversion
+// instruction emitted), which broke replay of stored data.
+inline float RoundToFloat(double x) {
+  volatile float f = static_cast<float>(x);
+  return f;
+}
 
-#endif  // MSSPR_SIM_SRC_RANDOM_UTIL_H_
+}  // namespace msspr::sim
+
+#endif  // MSSPR_SIM_RANDOM_UTIL_H_
