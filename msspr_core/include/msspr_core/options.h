@@ -19,7 +19,7 @@ class OptionsError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Sizes of the networks (method.md "Networks"). Dims of the data
+// Sizes of the networks (the paper's appendix A.2). Dims of the data
 // (obs_dim, action_dim, image sizes) are filled from the dataset.
 struct NetworkOptions {
   std::string obs_mode = "state";  // "state" (float vector) or "pixels" (uint8 HWC image)
