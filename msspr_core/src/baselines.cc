@@ -212,15 +212,9 @@ torch::Tensor GaussianActorImpl::LogProb(const torch::Tensor& x, const torch::Te
 
 PairEncoderImpl::PairEncoderImpl(const NetworkOptions& n, int64_t out_dim)
     : downsample(std::max(1, n.image_downsample)) {
-  const int64_t channels = 2 * int64_t{n.image_channels} * n.frame_stack;
-  const int64_t side = n.image_height / downsample;
-  if (n.cnn == "light") {
-    light_cnn = register_module(
-        "light_cnn", LightCnn(channels, side, out_dim, n.layer_norm_eps, n.cnn_feature_norm));
-  } else {
-    cnn = register_module("cnn",
-                          ImpalaCnn(channels, out_dim, n.layer_norm_eps, side, n.cnn_feature_norm));
-  }
+  // The observation's and the goal's images stacked on channels.
+  RegisterImageCnn(*this, n, 2 * int64_t{n.image_channels} * n.frame_stack, out_dim, &light_cnn,
+                   &cnn);
 }
 
 torch::Tensor PairEncoderImpl::forward(const torch::Tensor& obs, const torch::Tensor& goal) {
@@ -272,10 +266,10 @@ OgbenchAgent::OgbenchAgent(const MsprOptions& options)
       pixels_(options.network.obs_mode == "pixels"),
       pair_dim_(pixels_ ? options.baseline.hidden : 2 * options.network.obs_dim) {
   const std::string& agent = options.baseline.agent;
-  if (pixels_ && agent != "gcbc" && agent != "gcivl" && agent != "gciql") {
+  if (pixels_ && !AgentTakesImages(agent)) {
     throw OptionsError("baseline agent '" + agent +
-                       "': image observations (network.obs_mode 'pixels') are supported by "
-                       "gcbc, gcivl and gciql; this agent takes states only");
+                       "': image observations (network.obs_mode 'pixels') are supported by " +
+                       ImageBaselinesText() + "; this agent takes states only");
   }
   if (!pixels_ && options.network.obs_mode != "state") {
     throw OptionsError("baseline agent '" + agent + "': unknown network.obs_mode '" +

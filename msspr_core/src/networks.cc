@@ -178,18 +178,23 @@ std::vector<int64_t> Sizes(int64_t in, int64_t hidden, int64_t layers, int64_t o
 
 StateEncoderImpl::StateEncoderImpl(const NetworkOptions& o) : downsample(o.image_downsample) {
   if (o.obs_mode == "pixels") {
-    const int64_t channels = int64_t{o.image_channels} * o.frame_stack;
-    const int64_t side = o.image_height / std::max(1, o.image_downsample);
-    if (o.cnn == "light") {
-      light_cnn = register_module(
-          "light_cnn", LightCnn(channels, side, o.zs_dim, o.layer_norm_eps, o.cnn_feature_norm));
-    } else {
-      cnn = register_module(
-          "cnn", ImpalaCnn(channels, o.zs_dim, o.layer_norm_eps, side, o.cnn_feature_norm));
-    }
+    RegisterImageCnn(*this, o, int64_t{o.image_channels} * o.frame_stack, o.zs_dim, &light_cnn,
+                     &cnn);
   } else {
     mlp = register_module("mlp", Mlp(Sizes(o.obs_dim, o.encoder_hidden, o.encoder_layers, o.zs_dim),
                                      true, true, o.layer_norm_eps));
+  }
+}
+
+void RegisterImageCnn(torch::nn::Module& owner, const NetworkOptions& o, int64_t channels,
+                      int64_t out_dim, LightCnn* light_cnn, ImpalaCnn* cnn) {
+  const int64_t side = o.image_height / std::max(1, o.image_downsample);
+  if (o.cnn == "light") {
+    *light_cnn = owner.register_module(
+        "light_cnn", LightCnn(channels, side, out_dim, o.layer_norm_eps, o.cnn_feature_norm));
+  } else {
+    *cnn = owner.register_module(
+        "cnn", ImpalaCnn(channels, out_dim, o.layer_norm_eps, side, o.cnn_feature_norm));
   }
 }
 

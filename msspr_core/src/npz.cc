@@ -398,59 +398,80 @@ Dataset LoadNpzDataset(const std::string& path) {
   });
 }
 
-void SaveNpzDataset(const Dataset& data, const std::string& path, bool compress) {
+void SaveNpzArrays(const std::string& path, const std::vector<NpyArray>& arrays, bool compress) {
   const std::string tmp = path + ".tmp";
   std::remove(tmp.c_str());
   int err = 0;
   zip_t* z = zip_open(tmp.c_str(), ZIP_CREATE | ZIP_TRUNCATE, &err);
   if (!z) Fail(path, "", "cannot create file");
   ZipPtr guard(z);
-  const int64_t n = data.size();
-  std::vector<float> terminals(n);
-  {
-    const std::vector<uint8_t> t = data.terminals();
-    for (int64_t i = 0; i < n; ++i) terminals[i] = t[i];
-  }
   // Headers must stay alive until zip_close.
   std::vector<std::unique_ptr<std::string>> headers;
-  auto add = [&](const std::string& key, const std::string& descr,
-                 const std::vector<int64_t>& shape, const void* bytes, uint64_t nbytes) {
-    headers.push_back(std::make_unique<std::string>(NpyHeader(descr, shape)));
+  for (const NpyArray& a : arrays) {
+    int64_t numel = 1;
+    for (int64_t d : a.shape) numel *= d;
+    if (numel * ItemSize(a.descr) != static_cast<int64_t>(a.bytes))
+      Fail(path, a.key,
+           "holds " + std::to_string(a.bytes) + " bytes, not those of its shape " +
+               ShapeString(a.shape) + " of " + a.descr);
+    headers.push_back(std::make_unique<std::string>(NpyHeader(a.descr, a.shape)));
     zip_buffer_fragment_t frags[2];
     frags[0].data = reinterpret_cast<zip_uint8_t*>(headers.back()->data());
     frags[0].length = headers.back()->size();
-    frags[1].data = static_cast<zip_uint8_t*>(const_cast<void*>(bytes));
-    frags[1].length = nbytes;
-    zip_source_t* src = zip_source_buffer_fragment(z, frags, nbytes > 0 ? 2 : 1, 0);
-    if (!src) Fail(path, key, "cannot create zip source");
-    const zip_int64_t idx = zip_file_add(z, (key + ".npy").c_str(), src, ZIP_FL_OVERWRITE);
+    frags[1].data = static_cast<zip_uint8_t*>(const_cast<void*>(a.data));
+    frags[1].length = a.bytes;
+    zip_source_t* src = zip_source_buffer_fragment(z, frags, a.bytes > 0 ? 2 : 1, 0);
+    if (!src) Fail(path, a.key, "cannot create zip source");
+    const zip_int64_t idx = zip_file_add(z, (a.key + ".npy").c_str(), src, ZIP_FL_OVERWRITE);
     if (idx < 0) {
       zip_source_free(src);
-      Fail(path, key, std::string("cannot add: ") + zip_strerror(z));
+      Fail(path, a.key, std::string("cannot add: ") + zip_strerror(z));
     }
     zip_set_file_compression(z, idx, compress ? ZIP_CM_DEFLATE : ZIP_CM_STORE, 0);
-  };
-  const ImageShape& is = data.image_shape();
-  if (data.has_states()) {
-    add("observations", "<f4", {n, data.obs_dim()}, data.states().data(),
-        sizeof(float) * data.states().size());
-    if (data.has_images()) {
-      add("images", "|u1", {n, is.height, is.width, is.channels}, data.images().data(),
-          data.images().size());
-    }
-  } else {
-    add("observations", "|u1", {n, is.height, is.width, is.channels}, data.images().data(),
-        data.images().size());
   }
-  add("actions", "<f4", {n, data.action_dim()}, data.actions().data(),
-      sizeof(float) * data.actions().size());
-  add("terminals", "<f4", {n}, terminals.data(), sizeof(float) * terminals.size());
   if (zip_close(z) != 0) {
     const std::string msg = zip_strerror(z);
     Fail(path, "", "cannot write: " + msg);
   }
   guard.release();
   if (std::rename(tmp.c_str(), path.c_str()) != 0) Fail(path, "", "cannot rename temporary file");
+}
+
+void SaveNpzDataset(const Dataset& data, const std::string& path, bool compress) {
+  const int64_t n = data.size();
+  std::vector<float> terminals(n);
+  {
+    const std::vector<uint8_t> t = data.terminals();
+    for (int64_t i = 0; i < n; ++i) terminals[i] = t[i];
+  }
+  std::vector<NpyArray> arrays;
+  const ImageShape& is = data.image_shape();
+  if (data.has_states()) {
+    arrays.push_back({"observations",
+                      "<f4",
+                      {n, data.obs_dim()},
+                      data.states().data(),
+                      sizeof(float) * data.states().size()});
+    if (data.has_images())
+      arrays.push_back({"images",
+                        "|u1",
+                        {n, is.height, is.width, is.channels},
+                        data.images().data(),
+                        data.images().size()});
+  } else {
+    arrays.push_back({"observations",
+                      "|u1",
+                      {n, is.height, is.width, is.channels},
+                      data.images().data(),
+                      data.images().size()});
+  }
+  arrays.push_back({"actions",
+                    "<f4",
+                    {n, data.action_dim()},
+                    data.actions().data(),
+                    sizeof(float) * data.actions().size()});
+  arrays.push_back({"terminals", "<f4", {n}, terminals.data(), sizeof(float) * terminals.size()});
+  SaveNpzArrays(path, arrays, compress);
 }
 
 }  // namespace core

@@ -26,6 +26,12 @@ std::vector<std::string> AgentNames() {
   return {"mspr", "gcbc", "gcivl", "gciql", "qrl", "crl", "hiql"};
 }
 
+bool AgentTakesImages(const std::string& agent) {
+  return agent == "mspr" || agent == "gcbc" || agent == "gcivl" || agent == "gciql";
+}
+
+std::string ImageBaselinesText() { return "gcbc, gcivl and gciql"; }
+
 std::vector<std::string> PresetNames() {
   std::vector<std::string> names{"mspr", "D", "DI", "DIR"};
   const std::vector<std::string> agents = AgentNames();
@@ -333,10 +339,9 @@ void ValidateOptions(const MsprOptions& o) {
           "baseline.agent must be one of mspr, gcbc, gcivl, gciql, qrl, crl, hiql; got '" +
               b.agent + "'");
   if (b.agent != "mspr") {
-    const bool image_agent = b.agent == "gcbc" || b.agent == "gcivl" || b.agent == "gciql";
-    Require(n.obs_mode == "state" || (n.obs_mode == "pixels" && image_agent),
+    Require(n.obs_mode == "state" || (n.obs_mode == "pixels" && AgentTakesImages(b.agent)),
             "baseline.agent '" + b.agent + "': network.obs_mode '" + n.obs_mode +
-                "' is not supported (images: gcbc, gcivl and gciql; states: every agent)");
+                "' is not supported (images: " + ImageBaselinesText() + "; states: every agent)");
     Require(n.obs_mode == "state" || o.trainer.policy_ema == 0,
             "baseline.agent '" + b.agent +
                 "': trainer.policy_ema is for state observations (the average would leave out "
@@ -367,9 +372,9 @@ std::string EffectivePrecision(const TrainerOptions& t, std::string* why) {
     if (!cpu)
       *why = "auto: fp32 on " + t.device;
     else if (bf16)
-      *why = "auto: bf16, this CPU multiplies bfloat16 in hardware (" + host.Summary() + ")";
+      *why = "auto: bf16, this CPU multiplies bfloat16 in hardware";
     else
-      *why = "auto: fp32, this CPU has no bfloat16 arithmetic (" + host.Summary() + ")";
+      *why = "auto: fp32, this CPU has no bfloat16 arithmetic";
   }
   return bf16 ? "bf16" : "fp32";
 }

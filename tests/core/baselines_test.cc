@@ -438,6 +438,21 @@ TEST(BaselineOptions, PixelsOnlyForImageAgentsAndUnknownAgentsAreRejected) {
           << e.what();
     }
   }
+  // One list decides, for the options and for the agent: AgentTakesImages.
+  for (const std::string& agent : AgentNames()) {
+    if (agent == "mspr") continue;
+    MsprOptions o = SmallOptions(agent);
+    o.network.obs_mode = "pixels";
+    bool accepted = true;
+    try {
+      ValidateOptions(o);
+    } catch (const OptionsError&) {
+      accepted = false;
+    }
+    EXPECT_EQ(accepted, AgentTakesImages(agent)) << agent;
+  }
+  EXPECT_TRUE(AgentTakesImages("mspr"));
+  EXPECT_FALSE(AgentTakesImages("sac"));
   MsprOptions o = SmallOptions("gcbc");
   o.baseline.agent = "sac";
   EXPECT_THROW(ValidateOptions(o), OptionsError);

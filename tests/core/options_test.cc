@@ -60,7 +60,7 @@ std::string WithoutLossWeights(MsprOptions o) {
 TEST(OptionsTest, AblationPresetsDifferOnlyInLossWeights) {
   for (const std::string& scale : ScaleNames()) {
     const MsprOptions full = MakePreset("mspr", scale);
-    for (const std::string& name : {"mspr", "D", "DI", "DIR"}) {
+    for (const char* name : {"mspr", "D", "DI", "DIR"}) {
       const MsprOptions p = MakePreset(name, scale);
       EXPECT_EQ(WithoutLossWeights(p), WithoutLossWeights(full)) << name << " " << scale;
     }

@@ -622,9 +622,10 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
                                      (through ? " critic_grad_to_encoder" : "") + " " +
                                      critic_target;
             EXPECT_TRUE(torch::equal(AllWeights(sequential), AllWeights(pipelined))) << what;
-            if (std::string(critic_target) == "expectile")
+            if (std::string(critic_target) == "expectile") {
               EXPECT_TRUE(torch::equal(Flat(*sequential.value()), Flat(*pipelined.value())))
                   << what;
+            }
             if (through) {
               // The moving average took in the same weights at the same points.
               EXPECT_TRUE(torch::equal(Flat(*sequential.ema_actor()), Flat(*pipelined.ema_actor())))

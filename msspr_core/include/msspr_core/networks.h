@@ -93,6 +93,13 @@ TORCH_MODULE(StateEncoder);
 // block averaged (d = 1: a plain conversion).
 torch::Tensor ImagesToInput(const torch::Tensor& images, int64_t d);
 
+// Registers on `owner` the image CNN that o.cnn names: "light_cnn" (LightCnn) when it is
+// "light", else "cnn" (OGBench's Impala CNN), over `channels` input channels of images
+// o.image_height / o.image_downsample on a side, with out_dim features. Sets the one it
+// registers; the other stays empty. Shared by the state encoder and the baselines' pair encoder.
+void RegisterImageCnn(torch::nn::Module& owner, const NetworkOptions& o, int64_t channels,
+                      int64_t out_dim, LightCnn* light_cnn, ImpalaCnn* cnn);
+
 // psi: [z_s, z_g] -> g_rep, length-normalised to norm sqrt(goal_dim).
 class GoalHeadImpl : public torch::nn::Module {
  public:

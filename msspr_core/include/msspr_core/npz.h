@@ -54,5 +54,20 @@ Dataset LoadNpzDataset(const std::string& path);
 // (np.savez). Written to a temporary file and renamed. Throws NpzError.
 void SaveNpzDataset(const Dataset& data, const std::string& path, bool compress = false);
 
+// One array to write: numpy dtype descr ("<f4", "<f8", "|u1", ...), C-order shape,
+// and its bytes (not copied; alive until SaveNpzArrays returns).
+struct NpyArray {
+  std::string key;
+  std::string descr;
+  std::vector<int64_t> shape;
+  const void* data = nullptr;
+  uint64_t bytes = 0;
+};
+// Writes the arrays as an .npz (np.savez layout; compress: np.savez_compressed),
+// to a temporary file renamed into place. Throws NpzError naming the file and the
+// key, also when an array's bytes do not match its shape and dtype.
+void SaveNpzArrays(const std::string& path, const std::vector<NpyArray>& arrays,
+                   bool compress = false);
+
 }  // namespace core
 }  // namespace msspr

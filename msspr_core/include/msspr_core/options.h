@@ -314,6 +314,11 @@ struct MsprOptions {
 // The agents of BaselineOptions::agent: {"mspr", "gcbc", "gcivl", "gciql",
 // "qrl", "crl", "hiql"}.
 std::vector<std::string> AgentNames();
+// The agents that train from images (network.obs_mode: pixels): Ms.PR and the baselines
+// with a pair encoder {"gcbc", "gcivl", "gciql"}; QRL, CRL and HIQL take states only.
+bool AgentTakesImages(const std::string& agent);
+// "gcbc, gcivl and gciql": the baselines of AgentTakesImages, for messages.
+std::string ImageBaselinesText();
 
 // Names accepted by MakePreset: the Ms.PR presets {"mspr", "D", "DI",
 // "DIR"} and every baseline agent of AgentNames().
