@@ -6,6 +6,10 @@
 // ~observation_mode says (or --pixels). Writes JSON to --out.
 //
 //   rosrun msspr msspr_bench_policy __ns:=msspr --node policy --out policy_state.json
+#include <ros/callback_queue.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Image.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -16,14 +20,10 @@
 #include <string>
 #include <vector>
 
-#include <ros/callback_queue.h>
-#include <ros/ros.h>
-#include <sensor_msgs/Image.h>
-
-#include "cli_args.h"
-#include "msg_conversion.h"
 #include "msspr/Action.h"
 #include "msspr/Observation.h"
+#include "msspr_bridge/cli_args.h"
+#include "msspr_bridge/msg_conversion.h"
 
 namespace {
 
@@ -54,7 +54,8 @@ std::string Num(double v) {
 
 class Bench {
  public:
-  Bench(bool pixels, int obs_dim, int image_size) : pixels_(pixels), obs_dim_(obs_dim), image_size_(image_size) {
+  Bench(bool pixels, int obs_dim, int image_size)
+      : pixels_(pixels), obs_dim_(obs_dim), image_size_(image_size) {
     sub_ = nh_.subscribe<msspr::Action>(
         "action", 1000,
         [this](const msspr::Action::ConstPtr& a) {
@@ -81,11 +82,13 @@ class Bench {
   bool Connect(double timeout_s) {
     const auto end = ros::WallTime::now() + ros::WallDuration(timeout_s);
     while (ros::ok() && ros::WallTime::now() < end) {
-      const bool ok = obs_pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
-                      (!pixels_ || (image_pub_.getNumSubscribers() > 0 && goal_pub_.getNumSubscribers() > 0));
+      const bool ok =
+          obs_pub_.getNumSubscribers() > 0 && sub_.getNumPublishers() > 0 &&
+          (!pixels_ || (image_pub_.getNumSubscribers() > 0 && goal_pub_.getNumSubscribers() > 0));
       if (ok) {
         if (pixels_)
-          goal_pub_.publish(msspr::ros_bridge::ToImageMsg(frames_[0].data(), image_size_, ros::Time(0.1), "camera"));
+          goal_pub_.publish(msspr::ros_bridge::ToImageMsg(frames_[0].data(), image_size_,
+                                                          ros::Time(0.1), "camera"));
         ros::WallDuration(0.5).sleep();  // let the first messages of new connections through
         return true;
       }
@@ -102,20 +105,27 @@ class Bench {
     o.episode_id = episode;
     o.step = step;
     o.state.assign(static_cast<size_t>(obs_dim_), 0.f);
-    for (int i = 0; i < obs_dim_; ++i) o.state[i] = 0.01f * static_cast<float>((step + 7 * i) % 100);
+    for (int i = 0; i < obs_dim_; ++i)
+      o.state[i] = 0.01f * static_cast<float>((step + 7 * i) % 100);
     o.goal.assign(static_cast<size_t>(obs_dim_), 4.f);
     sent_[Key(episode, step)] = ros::WallTime::now();
     if (pixels_)
-      image_pub_.publish(msspr::ros_bridge::ToImageMsg(frames_[step % frames_.size()].data(), image_size_, stamp,
-                                                       "camera"));
+      image_pub_.publish(msspr::ros_bridge::ToImageMsg(frames_[step % frames_.size()].data(),
+                                                       image_size_, stamp, "camera"));
     obs_pub_.publish(o);
   }
 
   // Processes callbacks for up to `s` seconds (returns early when one arrives).
-  void Spin(double s) { ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(std::max(0.0, s))); }
+  void Spin(double s) {
+    ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(std::max(0.0, s)));
+  }
 
-  bool Answered(uint32_t episode, uint32_t step) const { return answered_.count(Key(episode, step)) > 0; }
-  double LatencyUs(uint32_t episode, uint32_t step) const { return answered_.at(Key(episode, step)); }
+  bool Answered(uint32_t episode, uint32_t step) const {
+    return answered_.count(Key(episode, step)) > 0;
+  }
+  double LatencyUs(uint32_t episode, uint32_t step) const {
+    return answered_.at(Key(episode, step));
+  }
   std::vector<double> Latencies(uint32_t episode) const {
     std::vector<double> v;
     for (const auto& [k, us] : answered_)
@@ -141,9 +151,10 @@ class Bench {
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_bench_policy", ros::init_options::AnonymousName);
   try {
-    msspr::ros_bridge::CliArgs args(argc, argv, {"pixels"},
-                                    {"node", "samples", "warmup", "out", "label", "obs-dim", "image-size", "rates",
-                                     "rate-seconds", "max-p99-ms", "timeout"});
+    msspr::ros_bridge::CliArgs args(
+        argc, argv, {"pixels"},
+        {"node", "samples", "warmup", "out", "label", "obs-dim", "image-size", "rates",
+         "rate-seconds", "max-p99-ms", "timeout"});
     // Flags first (a bad one: exit 2 before any ROS traffic).
     const int samples = static_cast<int>(args.GetInt("samples", 2000, 1, 100000000));
     const int warmup = static_cast<int>(args.GetInt("warmup", 100, 0, 100000000));
@@ -155,7 +166,8 @@ int main(int argc, char** argv) {
     std::vector<double> rates;
     {
       std::stringstream ss(args.Get("rates", "50,100,200,400,800,1600,3200"));
-      for (std::string r; std::getline(ss, r, ',');) rates.push_back(msspr::cli::ParseDouble("rates", r, 1e-3, 1e7));
+      for (std::string r; std::getline(ss, r, ',');)
+        rates.push_back(msspr::cli::ParseDouble("rates", r, 1e-3, 1e7));
     }
     ros::NodeHandle nh;
     const std::string node = args.Get("node", "policy");
@@ -165,7 +177,8 @@ int main(int argc, char** argv) {
 
     Bench bench(pixels, obs_dim, image_size);
     if (!bench.Connect(30.0)) {
-      std::fprintf(stderr, "msspr_bench_policy: no policy node on %s (observation / action) within 30 s\n",
+      std::fprintf(stderr,
+                   "msspr_bench_policy: no policy node on %s (observation / action) within 30 s\n",
                    ros::this_node::getNamespace().c_str());
       return 1;
     }
@@ -180,7 +193,8 @@ int main(int argc, char** argv) {
       bench.Send(kLatencyEpisode, step);
       while (ros::ok() && !bench.Answered(kLatencyEpisode, step)) {
         if ((ros::WallTime::now() - t0).toSec() > timeout) {
-          std::fprintf(stderr, "msspr_bench_policy: no action for step %u within %.1f s\n", step, timeout);
+          std::fprintf(stderr, "msspr_bench_policy: no action for step %u within %.1f s\n", step,
+                       timeout);
           return 1;
         }
         bench.Spin(0.005);
@@ -211,25 +225,29 @@ int main(int argc, char** argv) {
       const double achieved = v.size() / std::max(1e-9, (sent_end - begin).toSec());
       const bool ok = answered >= 0.99 && s.p99 <= max_p99_ms * 1e3;
       char row[256];
-      std::snprintf(row, sizeof row,
-                    "%s{\"target_hz\": %.0f, \"achieved_hz\": %.1f, \"answered\": %.4f, \"p50_us\": %s, "
-                    "\"p99_us\": %s, \"sustained\": %s}",
-                    rate_rows.empty() ? "" : ", ", rates[i], achieved, answered, Num(s.p50).c_str(),
-                    Num(s.p99).c_str(), ok ? "true" : "false");
+      std::snprintf(
+          row, sizeof row,
+          "%s{\"target_hz\": %.0f, \"achieved_hz\": %.1f, \"answered\": %.4f, \"p50_us\": %s, "
+          "\"p99_us\": %s, \"sustained\": %s}",
+          rate_rows.empty() ? "" : ", ", rates[i], achieved, answered, Num(s.p50).c_str(),
+          Num(s.p99).c_str(), ok ? "true" : "false");
       rate_rows += row;
-      std::fprintf(stderr, "rate %.0f Hz: answered %.1f%%, p50 %s us, p99 %s us%s\n", rates[i], 100 * answered,
-                   Num(s.p50).c_str(), Num(s.p99).c_str(), ok ? "" : " (not sustained)");
+      std::fprintf(stderr, "rate %.0f Hz: answered %.1f%%, p50 %s us, p99 %s us%s\n", rates[i],
+                   100 * answered, Num(s.p50).c_str(), Num(s.p99).c_str(),
+                   ok ? "" : " (not sustained)");
       if (!ok) break;
       max_sustained = rates[i];
     }
 
     std::ostringstream json;
-    json << "{\"policy_latency_us\": {\"label\": \"" << args.Get("label", pixels ? "pixels" : "state")
-         << "\", \"observation_mode\": \"" << (pixels ? "pixels" : "state") << "\", \"samples\": " << us.size()
-         << ", \"p50\": " << Num(lat.p50) << ", \"p90\": " << Num(lat.p90) << ", \"p99\": " << Num(lat.p99)
-         << ", \"max\": " << Num(lat.max) << ", \"mean\": " << Num(lat.mean)
-         << ", \"closed_loop_hz\": " << Num(closed_loop_hz) << ", \"max_sustained_hz\": " << Num(max_sustained)
-         << ", \"max_p99_ms\": " << max_p99_ms << ", \"rates\": [" << rate_rows << "]}}\n";
+    json << "{\"policy_latency_us\": {\"label\": \""
+         << args.Get("label", pixels ? "pixels" : "state") << "\", \"observation_mode\": \""
+         << (pixels ? "pixels" : "state") << "\", \"samples\": " << us.size()
+         << ", \"p50\": " << Num(lat.p50) << ", \"p90\": " << Num(lat.p90)
+         << ", \"p99\": " << Num(lat.p99) << ", \"max\": " << Num(lat.max)
+         << ", \"mean\": " << Num(lat.mean) << ", \"closed_loop_hz\": " << Num(closed_loop_hz)
+         << ", \"max_sustained_hz\": " << Num(max_sustained) << ", \"max_p99_ms\": " << max_p99_ms
+         << ", \"rates\": [" << rate_rows << "]}}\n";
     std::printf("%s", json.str().c_str());
     if (args.Has("out")) {
       std::ofstream f(args.Get("out", ""));

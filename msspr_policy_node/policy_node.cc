@@ -1,21 +1,21 @@
 #include "policy_node.h"
 
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <torch/torch.h>
+#include <visualization_msgs/MarkerArray.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 
-#include <diagnostic_msgs/DiagnosticArray.h>
-#include <visualization_msgs/MarkerArray.h>
-#include <torch/torch.h>
-
-#include "msg_conversion.h"
-#include "ros_params.h"
-#include "value_markers.h"
 #include "msspr/Action.h"
+#include "msspr_bridge/msg_conversion.h"
+#include "msspr_bridge/ros_params.h"
 #include "msspr_core/policy.h"
 #include "msspr_sim/maze_map.h"
+#include "value_markers.h"
 
 namespace msspr::ros_bridge {
 
@@ -32,7 +32,8 @@ T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
 // Percentile q in [0, 1] of the values (nearest rank); NaN when empty.
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(std::ceil(q * v.size())) - (q > 0 ? 1 : 0));
+  const size_t k =
+      std::min(v.size() - 1, static_cast<size_t>(std::ceil(q * v.size())) - (q > 0 ? 1 : 0));
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
   return v[k];
 }
@@ -50,11 +51,16 @@ std::string Fixed(double v, int digits = 3) {
 
 const char* RejectKey(RejectReason reason) {
   switch (reason) {
-    case RejectReason::kWrongDim: return "rejected_wrong_dim";
-    case RejectReason::kNonFinite: return "rejected_nonfinite";
-    case RejectReason::kNoGoal: return "rejected_no_goal";
-    case RejectReason::kBadImage: return "rejected_bad_image";
-    case RejectReason::kCount: break;
+    case RejectReason::kWrongDim:
+      return "rejected_wrong_dim";
+    case RejectReason::kNonFinite:
+      return "rejected_nonfinite";
+    case RejectReason::kNoGoal:
+      return "rejected_no_goal";
+    case RejectReason::kBadImage:
+      return "rejected_bad_image";
+    case RejectReason::kCount:
+      break;
   }
   return "rejected_unknown";
 }
@@ -76,15 +82,18 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   o.value_marker_period = Param(pnh, "value_marker_period", o.value_marker_period);
   o.value_marker_per_cell = Param(pnh, "value_marker_per_cell", o.value_marker_per_cell);
   if (o.checkpoint.empty())
-    throw std::invalid_argument("~checkpoint is required (a policy.pt from Trainer::ExportPolicy "
-                                "or a trainer checkpoint)");
+    throw std::invalid_argument(
+        "~checkpoint is required (a policy.pt from Trainer::ExportPolicy "
+        "or a trainer checkpoint)");
   if (o.observation_mode != "state" && o.observation_mode != "pixels")
-    throw std::invalid_argument("~observation_mode must be state or pixels, got '" + o.observation_mode + "'");
+    throw std::invalid_argument("~observation_mode must be state or pixels, got '" +
+                                o.observation_mode + "'");
   if (o.mode != "lockstep" && o.mode != "rate")
     throw std::invalid_argument("~mode must be lockstep or rate, got '" + o.mode + "'");
   auto positive = [](const char* name, double v) {
     if (!(v > 0) || !std::isfinite(v))
-      throw std::invalid_argument(std::string("~") + name + " must be a finite number > 0, got " + std::to_string(v));
+      throw std::invalid_argument(std::string("~") + name + " must be a finite number > 0, got " +
+                                  std::to_string(v));
   };
   positive("rate", o.rate);
   positive("observation_timeout", o.observation_timeout);
@@ -103,7 +112,8 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   if (o.threads < 1 || o.threads > 1024)
     throw std::invalid_argument("~threads must be in 1..1024, got " + std::to_string(o.threads));
   if (o.latency_window < 1 || o.latency_window > 10000000)
-    throw std::invalid_argument("~latency_window must be in 1..10000000, got " + std::to_string(o.latency_window));
+    throw std::invalid_argument("~latency_window must be in 1..10000000, got " +
+                                std::to_string(o.latency_window));
   return o;
 }
 
@@ -119,16 +129,16 @@ std::shared_ptr<core::Policy> LoadPolicyForNode(const PolicyNodeOptions& options
   }
   auto policy = std::make_shared<core::Policy>(core::Policy::Load(options.checkpoint, device));
   const auto& n = policy->options().network;
-  ROS_INFO_STREAM_NAMED(kLog, "loaded " << options.checkpoint << ": agent " << policy->agent_name()
-                                        << ", obs_mode " << n.obs_mode
-                                        << ", obs_dim " << n.obs_dim << ", action_dim " << n.action_dim
-                                        << (policy->pixels() ? ", image " + std::to_string(n.image_height) +
-                                                                   "x" + std::to_string(n.image_width) + "x" +
-                                                                   std::to_string(n.image_channels) +
-                                                                   " frame_stack " + std::to_string(n.frame_stack)
-                                                             : std::string())
-                                        << ", torch threads " << torch::get_num_threads() << ", device "
-                                        << device.str());
+  ROS_INFO_STREAM_NAMED(
+      kLog, "loaded " << options.checkpoint << ": agent " << policy->agent_name() << ", obs_mode "
+                      << n.obs_mode << ", obs_dim " << n.obs_dim << ", action_dim " << n.action_dim
+                      << (policy->pixels() ? ", image " + std::to_string(n.image_height) + "x" +
+                                                 std::to_string(n.image_width) + "x" +
+                                                 std::to_string(n.image_channels) +
+                                                 " frame_stack " + std::to_string(n.frame_stack)
+                                           : std::string())
+                      << ", torch threads " << torch::get_num_threads() << ", device "
+                      << device.str());
   return policy;
 }
 
@@ -141,8 +151,9 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
   if (options_.observation_mode != ckpt_mode)
     throw std::invalid_argument("~observation_mode is '" + options_.observation_mode + "' but " +
                                 options_.checkpoint + " holds a " + ckpt_mode +
-                                " policy (network.obs_mode '" + n.obs_mode + "'); set ~observation_mode:=" +
-                                ckpt_mode + " or load a " + options_.observation_mode + " checkpoint");
+                                " policy (network.obs_mode '" + n.obs_mode +
+                                "'); set ~observation_mode:=" + ckpt_mode + " or load a " +
+                                options_.observation_mode + " checkpoint");
   obs_dim_ = policy_->obs_dim();
   action_dim_ = policy_->action_dim();
   image_h_ = n.image_height;
@@ -150,12 +161,13 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
   image_c_ = n.image_channels;
   frame_stack_ = std::max(1, n.frame_stack);
   if (pixels_ && (image_c_ != 3 || image_h_ != image_w_))
-    throw std::invalid_argument(options_.checkpoint + ": the node takes square rgb8 images, the policy expects " +
-                                std::to_string(image_h_) + "x" + std::to_string(image_w_) + "x" +
-                                std::to_string(image_c_));
+    throw std::invalid_argument(
+        options_.checkpoint + ": the node takes square rgb8 images, the policy expects " +
+        std::to_string(image_h_) + "x" + std::to_string(image_w_) + "x" + std::to_string(image_c_));
   if (pixels_) frames_.emplace(image_h_, image_w_, image_c_, frame_stack_);
   if (!pixels_ && obs_dim_ < 1)
-    throw std::invalid_argument(options_.checkpoint + ": state policy with obs_dim " + std::to_string(obs_dim_));
+    throw std::invalid_argument(options_.checkpoint + ": state policy with obs_dim " +
+                                std::to_string(obs_dim_));
 
   const bool lockstep = options_.mode == "lockstep";
   const uint32_t queue = lockstep ? 10 : 1;
@@ -173,27 +185,34 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
   }
   set_goal_srv_ = pnh_.advertiseService("set_goal", &PolicyNode::OnSetGoal, this);
   if (!lockstep)
-    rate_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / options_.rate), &PolicyNode::OnRateTick, this);
-  diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period), &PolicyNode::OnDiagnostics,
-                                    this);
+    rate_timer_ =
+        nh_.createWallTimer(ros::WallDuration(1.0 / options_.rate), &PolicyNode::OnRateTick, this);
+  diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period),
+                                    &PolicyNode::OnDiagnostics, this);
   last_diag_time_ = ros::WallTime::now();
   if (!options_.value_marker_maze.empty()) {
     if (!policy_->has_value()) {
-      ROS_WARN_STREAM_NAMED(kLog, "~value_marker_maze: the " << policy_->agent_name()
-                                  << " agent has no value function; no value markers will be published");
+      ROS_WARN_STREAM_NAMED(
+          kLog, "~value_marker_maze: the "
+                    << policy_->agent_name()
+                    << " agent has no value function; no value markers will be published");
     } else if (pixels_ || obs_dim_ != 2) {
-      ROS_WARN_STREAM_NAMED(kLog, "~value_marker_maze: value markers need a state policy of the point maze "
-                                  "(obs_dim 2); none will be published");
+      ROS_WARN_STREAM_NAMED(
+          kLog,
+          "~value_marker_maze: value markers need a state policy of the point maze "
+          "(obs_dim 2); none will be published");
     } else {
-      value_markers_ =
-          std::make_unique<ValueMarkers>(options_.value_marker_maze, options_.value_marker_per_cell);
-      value_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("value_markers", 1, /*latch=*/true);
+      value_markers_ = std::make_unique<ValueMarkers>(options_.value_marker_maze,
+                                                      options_.value_marker_per_cell);
+      value_pub_ =
+          nh_.advertise<visualization_msgs::MarkerArray>("value_markers", 1, /*latch=*/true);
       value_timer_ = nh_.createWallTimer(ros::WallDuration(options_.value_marker_period),
                                          &PolicyNode::OnValueMarkers, this);
     }
   }
-  ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " (" << options_.mode << ", "
-                                                           << ckpt_mode << ")");
+  ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " ("
+                                                           << options_.mode << ", " << ckpt_mode
+                                                           << ")");
 }
 
 PolicyNode::~PolicyNode() = default;
@@ -204,13 +223,15 @@ void PolicyNode::Reject(RejectReason reason, const std::string& what) {
   if (!said_[r]) {  // once, unthrottled: what the checkpoint expects and what came
     said_[r] = true;
     const auto& n = policy_->options().network;
-    ROS_ERROR_STREAM_NAMED(kLog, "first rejected input (" << RejectKey(reason) << "): " << what << "; "
-                                 << options_.checkpoint << " expects "
-                                 << (pixels_ ? std::to_string(n.image_height) + "x" + std::to_string(n.image_width) +
-                                                   " rgb8 images"
-                                             : "obs_dim " + std::to_string(obs_dim_))
-                                 << " and gives action_dim " << action_dim_
-                                 << "; further rejections are counted in /diagnostics");
+    ROS_ERROR_STREAM_NAMED(kLog,
+                           "first rejected input ("
+                               << RejectKey(reason) << "): " << what << "; " << options_.checkpoint
+                               << " expects "
+                               << (pixels_ ? std::to_string(n.image_height) + "x" +
+                                                 std::to_string(n.image_width) + " rgb8 images"
+                                           : "obs_dim " + std::to_string(obs_dim_))
+                               << " and gives action_dim " << action_dim_
+                               << "; further rejections are counted in /diagnostics");
     return;
   }
   ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, RejectKey(reason) << ": " << what);
@@ -230,8 +251,9 @@ bool PolicyNode::MakeStateInput(const msspr::Observation& msg, Input* in) {
   if (goal_override_.empty()) {
     goal = &msg.goal;
     if (msg.goal.empty()) {
-      Reject(RejectReason::kNoGoal, "no goal: the observation's goal field is empty and no goal was set "
-                                    "(~set_goal or goal_state)");
+      Reject(RejectReason::kNoGoal,
+             "no goal: the observation's goal field is empty and no goal was set "
+             "(~set_goal or goal_state)");
       return false;
     }
     if (msg.goal.size() != static_cast<size_t>(obs_dim_)) {
@@ -315,7 +337,8 @@ void PolicyNode::TryPair() {
   }
 }
 
-bool PolicyNode::MakePixelInput(const msspr::Observation& obs, const sensor_msgs::Image& img, Input* in) {
+bool PolicyNode::MakePixelInput(const msspr::Observation& obs, const sensor_msgs::Image& img,
+                                Input* in) {
   if (goal_image_.empty()) {
     Reject(RejectReason::kNoGoal, "no goal image received yet on " + goal_image_sub_.getTopic());
     return false;
@@ -360,8 +383,8 @@ void PolicyNode::OnGoalState(const msspr::Observation::ConstPtr& msg) {
     return;
   }
   if (msg->state.size() != static_cast<size_t>(obs_dim_)) {
-    Reject(RejectReason::kWrongDim, "goal_state has " + std::to_string(msg->state.size()) + " values, expected " +
-                                        std::to_string(obs_dim_));
+    Reject(RejectReason::kWrongDim, "goal_state has " + std::to_string(msg->state.size()) +
+                                        " values, expected " + std::to_string(obs_dim_));
     return;
   }
   if (!AllFinite(msg->state)) {
@@ -397,8 +420,8 @@ void PolicyNode::OnRateTick(const ros::WallTimerEvent&) {
   if (!latest_) return;
   const ros::WallTime now = ros::WallTime::now();
   if ((now - latest_->received).toSec() > options_.observation_timeout) {
-    ROS_WARN_STREAM_THROTTLE_NAMED(5.0, kLog, "no observation for " << options_.observation_timeout
-                                                                    << " s: not acting");
+    ROS_WARN_STREAM_THROTTLE_NAMED(
+        5.0, kLog, "no observation for " << options_.observation_timeout << " s: not acting");
     return;
   }
   Act(*latest_, now);
@@ -426,8 +449,9 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
   out.action.assign(a.data_ptr<float>(), a.data_ptr<float>() + a.numel());
   if (out.action.size() != static_cast<size_t>(action_dim_) || !AllFinite(out.action)) {
     ++counters_.inference_errors;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, "the policy returned " << out.action.size()
-                                                                      << " values or NaN / Inf: not published");
+    ROS_ERROR_STREAM_THROTTLE_NAMED(
+        1.0, kLog,
+        "the policy returned " << out.action.size() << " values or NaN / Inf: not published");
     return;
   }
   if (!pixels_) last_goal_ = in.goal;
@@ -437,7 +461,8 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
   action_pub_.publish(out);
   ++counters_.actions;
   latencies_ms_.push_back((ros::WallTime::now() - start).toSec() * 1e3);
-  while (latencies_ms_.size() > static_cast<size_t>(options_.latency_window)) latencies_ms_.pop_front();
+  while (latencies_ms_.size() > static_cast<size_t>(options_.latency_window))
+    latencies_ms_.pop_front();
   // The value estimate costs a second forward pass: once per diagnostics
   // period, after the action has gone out.
   if (value_due_ && policy_->has_value()) {
@@ -445,19 +470,22 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
     try {
       value_ = policy_->Q(obs, a, goal).min().item<double>();
     } catch (const c10::Error& e) {
-      ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, "value estimate failed: " << e.what_without_backtrace());
+      ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog,
+                                      "value estimate failed: " << e.what_without_backtrace());
     }
   }
 }
 
 void PolicyNode::OnValueMarkers(const ros::WallTimerEvent&) {
-  if (last_goal_.size() != 2 || !value_markers_ || value_markers_->empty()) return;  // no goal served yet
+  if (last_goal_.size() != 2 || !value_markers_ || value_markers_->empty())
+    return;  // no goal served yet
   visualization_msgs::MarkerArray arr;
   try {
     arr = value_markers_->Make(*policy_, last_goal_);
   } catch (const c10::Error& e) {
     ++counters_.inference_errors;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(10.0, kLog, "value markers: inference failed: " << e.what_without_backtrace());
+    ROS_ERROR_STREAM_THROTTLE_NAMED(
+        10.0, kLog, "value markers: inference failed: " << e.what_without_backtrace());
     return;
   }
   value_pub_.publish(arr);
@@ -482,7 +510,8 @@ void PolicyNode::OnDiagnostics(const ros::WallTimerEvent&) {
   st.hardware_id = options_.checkpoint;
   if (new_rejected > 0 || counters_.inference_errors > 0) {
     st.level = diagnostic_msgs::DiagnosticStatus::WARN;
-    st.message = std::to_string(new_rejected) + " inputs rejected in the last " + Fixed(dt, 1) + " s";
+    st.message =
+        std::to_string(new_rejected) + " inputs rejected in the last " + Fixed(dt, 1) + " s";
   } else {
     st.level = diagnostic_msgs::DiagnosticStatus::OK;
     st.message = "ok";

@@ -5,6 +5,10 @@
 // observation) or at a fixed rate. This header does not include torch.
 #pragma once
 
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <sensor_msgs/Image.h>
+
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -12,10 +16,6 @@
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <image_transport/image_transport.h>
-#include <ros/ros.h>
-#include <sensor_msgs/Image.h>
 
 #include "msspr/Observation.h"
 #include "msspr/SetGoal.h"
@@ -30,7 +30,7 @@ namespace msspr::ros_bridge {
 class ValueMarkers;
 
 struct PolicyNodeOptions {
-  std::string checkpoint;                  // required: Trainer::ExportPolicy file or full checkpoint
+  std::string checkpoint;  // required: Trainer::ExportPolicy file or full checkpoint
   // A robot interface spec (config/robots/*.yaml): serve over the robot's
   // standard topics through it (robot_server.h) instead of msspr/Observation and Action.
   std::string robot;
@@ -46,7 +46,7 @@ struct PolicyNodeOptions {
   // (state policies; "": off). Refreshed every value_marker_period s.
   std::string value_marker_maze;
   double value_marker_period = 2.0;
-  int value_marker_per_cell = 2;           // points per cell per axis
+  int value_marker_per_cell = 2;  // points per cell per axis
 };
 
 // Reads ~params into PolicyNodeOptions and logs every value; throws
@@ -87,9 +87,9 @@ class PolicyNode {
   struct Input {
     uint32_t episode_id = 0, step = 0;
     std_msgs::Header header;
-    std::vector<float> state;    // [obs_dim] state mode
-    std::vector<float> goal;     // [obs_dim] state mode
-    std::vector<uint8_t> image;  // [H, W, C * frame_stack] pixels mode
+    std::vector<float> state;         // [obs_dim] state mode
+    std::vector<float> goal;          // [obs_dim] state mode
+    std::vector<uint8_t> image;       // [H, W, C * frame_stack] pixels mode
     std::vector<uint8_t> goal_image;  // [H, W, C * frame_stack] pixels mode
     ros::WallTime received;
   };

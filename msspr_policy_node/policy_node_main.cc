@@ -1,6 +1,6 @@
-#include <exception>
-
 #include <ros/ros.h>
+
+#include <exception>
 
 #include "policy_node.h"
 #include "robot_server.h"
@@ -18,7 +18,8 @@ int main(int argc, char** argv) {
       ros::spin();
       return 0;
     }
-    msspr::ros_bridge::PolicyNode node(nh, pnh, options, msspr::ros_bridge::LoadPolicyForNode(options));
+    msspr::ros_bridge::PolicyNode node(nh, pnh, options,
+                                       msspr::ros_bridge::LoadPolicyForNode(options));
     ros::spin();
   } catch (const std::exception& e) {
     ROS_FATAL_STREAM("msspr_policy_node: " << e.what());

@@ -1,12 +1,12 @@
 #include "robot_server.h"
 
-#include <algorithm>
-#include <cmath>
-#include <sstream>
-
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/callback_queue.h>
 #include <torch/torch.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
 
 #include "msspr_core/checkpoint.h"
 #include "msspr_core/policy.h"
@@ -18,8 +18,8 @@ constexpr char kLog[] = "msspr_policy";
 
 }  // namespace
 
-std::string CheckCheckpointAgainstSpec(const std::string& checkpoint, const RobotSpec& spec, int obs_dim,
-                                       int action_dim, bool* stored_spec) {
+std::string CheckCheckpointAgainstSpec(const std::string& checkpoint, const RobotSpec& spec,
+                                       int obs_dim, int action_dim, bool* stored_spec) {
   const core::CheckpointFile file = core::ReadCheckpointFile(checkpoint);
   const core::CheckpointHeader header = core::ParseCheckpointHeader(file.header, checkpoint);
   auto it = header.metadata.find(kRobotSpecCheckpointKey);
@@ -33,76 +33,97 @@ std::string CheckCheckpointAgainstSpec(const std::string& checkpoint, const Robo
     }
     const std::string diff = CompareRobotSpecs(stored, spec);
     if (!diff.empty())
-      return checkpoint + " was trained through robot spec '" + stored.name + "', which differs from " +
-             spec.source + ": " + diff;
+      return checkpoint + " was trained through robot spec '" + stored.name +
+             "', which differs from " + spec.source + ": " + diff;
   }
   if (spec.obs_dim() != obs_dim || spec.action_dim() != action_dim)
-    return spec.source + " assembles observations of " + std::to_string(spec.obs_dim()) + " and actions of " +
-           std::to_string(spec.action_dim()) + " numbers, " + checkpoint + " takes " + std::to_string(obs_dim) +
-           " and gives " + std::to_string(action_dim);
+    return spec.source + " assembles observations of " + std::to_string(spec.obs_dim()) +
+           " and actions of " + std::to_string(spec.action_dim()) + " numbers, " + checkpoint +
+           " takes " + std::to_string(obs_dim) + " and gives " + std::to_string(action_dim);
   return "";
 }
 
-RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNodeOptions& options, RobotSpec spec,
-                         std::shared_ptr<core::Policy> policy)
-    : options_(options), spec_(std::move(spec)), layout_(spec_), nh_(nh), pnh_(pnh), policy_(std::move(policy)) {
+RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNodeOptions& options,
+                         RobotSpec spec, std::shared_ptr<core::Policy> policy)
+    : options_(options),
+      spec_(std::move(spec)),
+      layout_(spec_),
+      nh_(nh),
+      pnh_(pnh),
+      policy_(std::move(policy)) {
   pixels_ = policy_->pixels();
   const auto& net = policy_->options().network;
   if (pixels_ && spec_.images.empty())
-    throw std::invalid_argument("~robot: " + options_.checkpoint + " holds a pixels policy, but " + spec_.source +
-                                " names no camera (images:)");
+    throw std::invalid_argument("~robot: " + options_.checkpoint + " holds a pixels policy, but " +
+                                spec_.source + " names no camera (images:)");
   if (!pixels_ && !spec_.images.empty())
-    throw std::invalid_argument("~robot: " + spec_.source + " names a camera (image '" + spec_.images[0].name +
-                                "'), but " + options_.checkpoint + " holds a state policy");
+    throw std::invalid_argument("~robot: " + spec_.source + " names a camera (image '" +
+                                spec_.images[0].name + "'), but " + options_.checkpoint +
+                                " holds a state policy");
   if (pixels_) {
     const SpecImage& cam = spec_.images[0];
     if (net.image_height != cam.size || net.image_width != cam.size || net.image_channels != 3)
-      throw std::invalid_argument("~robot: " + spec_.source + ": image '" + cam.name + "' (topic " + cam.topic +
-                                  ") gives " + std::to_string(cam.size) + "x" + std::to_string(cam.size) +
-                                  " rgb8 images, " + options_.checkpoint + " takes " +
-                                  std::to_string(net.image_height) + "x" + std::to_string(net.image_width) + "x" +
-                                  std::to_string(net.image_channels));
+      throw std::invalid_argument(
+          "~robot: " + spec_.source + ": image '" + cam.name + "' (topic " + cam.topic +
+          ") gives " + std::to_string(cam.size) + "x" + std::to_string(cam.size) +
+          " rgb8 images, " + options_.checkpoint + " takes " + std::to_string(net.image_height) +
+          "x" + std::to_string(net.image_width) + "x" + std::to_string(net.image_channels));
     frames_.emplace(cam.size, cam.size, 3, std::max(1, net.frame_stack));
   }
   bool stored = false;
-  // A pixels network reads no state: the spec's state fields are checked against the stored spec only.
+  // A pixels network reads no state: the spec's state fields are checked against the stored spec
+  // only.
   const std::string bad = CheckCheckpointAgainstSpec(options_.checkpoint, spec_,
                                                      pixels_ ? spec_.obs_dim() : policy_->obs_dim(),
                                                      policy_->action_dim(), &stored);
   if (!bad.empty()) throw std::invalid_argument("~robot: " + bad);
   if (!stored)
-    ROS_WARN_STREAM_NAMED(kLog, options_.checkpoint << " stores no robot spec (trained on msspr's own topics): "
-                                                    << "serving it through " << spec_.source
-                                                    << " on the sizes alone");
+    ROS_WARN_STREAM_NAMED(kLog, options_.checkpoint
+                                    << " stores no robot spec (trained on msspr's own topics): "
+                                    << "serving it through " << spec_.source
+                                    << " on the sizes alone");
   histories_.resize(layout_.topics.size());
   last_receipt_.resize(layout_.topics.size());
+  rejected_since_accepted_.assign(layout_.topics.size(), 0);
+  last_rejection_.assign(layout_.topics.size(), "");
   for (size_t k = 0; k < layout_.topics.size(); ++k) {
     const std::string& type = layout_.topics[k].type;
     const int i = static_cast<int>(k);
     if (type == kTf2Type) {
       tf_topic_ = i;
       tf_buffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(10.0));
-      tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, /*spin_thread=*/true);
-    } else if (type == kOdometryType) SubscribeObservation<nav_msgs::Odometry>(i);
-    else if (type == kPoseStampedType) SubscribeObservation<geometry_msgs::PoseStamped>(i);
-    else if (type == kTwistType) SubscribeObservation<geometry_msgs::Twist>(i);
-    else if (type == kTwistStampedType) SubscribeObservation<geometry_msgs::TwistStamped>(i);
-    else if (type == kJointStateType) SubscribeObservation<sensor_msgs::JointState>(i);
-    else if (type == kFloat64MultiArrayType) SubscribeObservation<std_msgs::Float64MultiArray>(i);
-    else if (type == kJointTrajectoryType) SubscribeObservation<trajectory_msgs::JointTrajectory>(i);
+      tf_listener_ =
+          std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, /*spin_thread=*/true);
+    } else if (type == kOdometryType)
+      SubscribeObservation<nav_msgs::Odometry>(i);
+    else if (type == kPoseStampedType)
+      SubscribeObservation<geometry_msgs::PoseStamped>(i);
+    else if (type == kTwistType)
+      SubscribeObservation<geometry_msgs::Twist>(i);
+    else if (type == kTwistStampedType)
+      SubscribeObservation<geometry_msgs::TwistStamped>(i);
+    else if (type == kJointStateType)
+      SubscribeObservation<sensor_msgs::JointState>(i);
+    else if (type == kFloat64MultiArrayType)
+      SubscribeObservation<std_msgs::Float64MultiArray>(i);
+    else if (type == kJointTrajectoryType)
+      SubscribeObservation<trajectory_msgs::JointTrajectory>(i);
   }
   if (spec_.goal.source == "pose")
     goal_sub_ = nh_.subscribe<geometry_msgs::PoseStamped>(
-        spec_.goal.topic, 1, [this](const geometry_msgs::PoseStamped::ConstPtr& m) { OnGoalMessage(*m); });
+        spec_.goal.topic, 1,
+        [this](const geometry_msgs::PoseStamped::ConstPtr& m) { OnGoalMessage(*m); });
   else if (spec_.goal.source == "observation")
     goal_sub_ = nh_.subscribe<std_msgs::Float64MultiArray>(
-        spec_.goal.topic, 1, [this](const std_msgs::Float64MultiArray::ConstPtr& m) { OnGoalMessage(*m); });
+        spec_.goal.topic, 1,
+        [this](const std_msgs::Float64MultiArray::ConstPtr& m) { OnGoalMessage(*m); });
   else if (spec_.goal.source == "image" && spec_.goal.type == kImageType)
-    goal_sub_ = nh_.subscribe<sensor_msgs::Image>(spec_.goal.topic, 1,
-                                                  [this](const sensor_msgs::Image::ConstPtr& m) { OnGoalImage(*m); });
+    goal_sub_ = nh_.subscribe<sensor_msgs::Image>(
+        spec_.goal.topic, 1, [this](const sensor_msgs::Image::ConstPtr& m) { OnGoalImage(*m); });
   else if (spec_.goal.source == "image")
     goal_sub_ = nh_.subscribe<sensor_msgs::CompressedImage>(
-        spec_.goal.topic, 1, [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnGoalImage(*m); });
+        spec_.goal.topic, 1,
+        [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnGoalImage(*m); });
   if (pixels_) {
     const SpecImage& cam = spec_.images[0];
     const uint32_t queue = options_.mode == "lockstep" ? 10 : 1;
@@ -112,13 +133,16 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
           ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
     else
       image_sub_ = nh_.subscribe<sensor_msgs::CompressedImage>(
-          cam.topic, queue, [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnImageMessage(*m); },
+          cam.topic, queue,
+          [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnImageMessage(*m); },
           ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
   cmd_topics_ = spec_.CommandTopics();
   for (const auto& c : cmd_topics_) {
-    if (c.type == kTwistType) cmd_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(c.topic, 10));
-    else if (c.type == kTwistStampedType) cmd_pubs_.push_back(nh_.advertise<geometry_msgs::TwistStamped>(c.topic, 10));
+    if (c.type == kTwistType)
+      cmd_pubs_.push_back(nh_.advertise<geometry_msgs::Twist>(c.topic, 10));
+    else if (c.type == kTwistStampedType)
+      cmd_pubs_.push_back(nh_.advertise<geometry_msgs::TwistStamped>(c.topic, 10));
     else if (c.type == kFloat64MultiArrayType)
       cmd_pubs_.push_back(nh_.advertise<std_msgs::Float64MultiArray>(c.topic, 10));
     else
@@ -126,22 +150,27 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   }
   diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   const ros::WallDuration period(1.0 / spec_.control_rate);
-  if (options_.mode == "rate") rate_timer_ = nh_.createWallTimer(period, &RobotServer::OnRateTick, this);
+  if (options_.mode == "rate")
+    rate_timer_ = nh_.createWallTimer(period, &RobotServer::OnRateTick, this);
   watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(std::min(0.05, spec_.stale_after / 4)),
                                         &RobotServer::OnWatchdog, this);
-  diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period), &RobotServer::OnDiagnostics, this);
+  diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period),
+                                    &RobotServer::OnDiagnostics, this);
   std::ostringstream s;
   for (const auto& t : layout_.topics) s << " " << t.name << " (" << t.type << ")";
   if (pixels_)
-    s << " and camera " << spec_.images[0].topic << " (" << spec_.images[0].type << " -> " << spec_.images[0].size
-      << "x" << spec_.images[0].size << " rgb8, frame_stack " << frames_->stack() << ")";
+    s << " and camera " << spec_.images[0].topic << " (" << spec_.images[0].type << " -> "
+      << spec_.images[0].size << "x" << spec_.images[0].size << " rgb8, frame_stack "
+      << frames_->stack() << ")";
   std::string commands;
-  for (const auto& c : cmd_topics_) commands += (commands.empty() ? "" : ", ") + c.type + " on " + c.topic;
-  ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " through robot spec '"
-                                                           << spec_.name << "' (" << spec_.source << ", "
-                                                           << options_.mode << "): observation from" << s.str()
-                                                           << ", goal from " << spec_.goal.topic << ", "
-                                                           << commands << " at " << spec_.control_rate << " Hz");
+  for (const auto& c : cmd_topics_)
+    commands += (commands.empty() ? "" : ", ") + c.type + " on " + c.topic;
+  ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving "
+                                  << options_.checkpoint << " through robot spec '" << spec_.name
+                                  << "' (" << spec_.source << ", " << options_.mode
+                                  << "): observation from" << s.str() << ", goal from "
+                                  << spec_.goal.topic << ", " << commands << " at "
+                                  << spec_.control_rate << " Hz");
 }
 
 RobotServer::~RobotServer() = default;
@@ -151,8 +180,8 @@ void RobotServer::SubscribeObservation(int k) {
   const bool lockstep = options_.mode == "lockstep";
   subs_.push_back(nh_.subscribe<M>(
       layout_.topics[k].name, lockstep ? 10 : 1,
-      [this, k](const boost::shared_ptr<const M>& m) { OnObservationMessage(k, *m); }, ros::VoidConstPtr(),
-      ros::TransportHints().tcpNoDelay()));
+      [this, k](const boost::shared_ptr<const M>& m) { OnObservationMessage(k, *m); },
+      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
 }
 
 template <class M>
@@ -163,9 +192,12 @@ void RobotServer::OnObservationMessage(int k, const M& msg) {
   bool nonfinite = false;
   if (!DecodeObservation(spec_, layout_.topics[k], msg, ros::Time::now(), &s, &why, &nonfinite)) {
     ++counters_.rejected;
+    ++rejected_since_accepted_[k];
+    last_rejection_[k] = why;
     ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected message: " << why);
     return;
   }
+  rejected_since_accepted_[k] = 0;
   TopicHistory& h = histories_[k];
   if (!h.samples().empty() && s.stamp < h.samples().back().stamp) {
     // Stamps going back: a restarted driver or a new episode's clock. Start over.
@@ -208,8 +240,9 @@ void RobotServer::OnGoalImage(const M& msg) {
   if (!DecodeImage(msg, spec_.images[0].size, &rgb, &why)) {
     ++counters_.rejected;
     ++counters_.bad_images;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog,
-                                    spec_.source << ": rejected goal image (topic " << spec_.goal.topic << "): " << why);
+    ROS_ERROR_STREAM_THROTTLE_NAMED(
+        1.0, kLog,
+        spec_.source << ": rejected goal image (topic " << spec_.goal.topic << "): " << why);
     return;
   }
   // A goal is one image, repeated frame_stack times; a new goal starts a new frame history.
@@ -222,7 +255,8 @@ void RobotServer::PollTf() {
   TopicSample s;
   std::string why;
   bool nonfinite = false;
-  if (!DecodeTf(spec_, layout_.topics[tf_topic_], *tf_buffer_, ros::Time::now(), &s, &why, &nonfinite)) {
+  if (!DecodeTf(spec_, layout_.topics[tf_topic_], *tf_buffer_, ros::Time::now(), &s, &why,
+                &nonfinite)) {
     if (nonfinite) {
       ++counters_.rejected;
       ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected transform: " << why);
@@ -231,8 +265,10 @@ void RobotServer::PollTf() {
   }
   TopicHistory& h = histories_[tf_topic_];
   if (!h.samples().empty() && s.stamp <= h.samples().back().stamp) {
-    if (s.stamp < h.samples().back().stamp) h.Clear();  // time went back
-    else return;
+    if (s.stamp < h.samples().back().stamp)
+      h.Clear();  // time went back
+    else
+      return;
   }
   ++counters_.messages;
   h.Add(std::move(s));
@@ -249,7 +285,8 @@ void RobotServer::TryActLockstep() {
   ros::getGlobalCallbackQueue()->callAvailable();
   draining_ = false;
   if (histories_[0].samples().empty()) return;
-  if (acted_messages_ >= first_topic_messages_) return;  // acted on the first topic's newest message
+  if (acted_messages_ >= first_topic_messages_)
+    return;  // acted on the first topic's newest message
   const ros::Time t = histories_[0].samples().back().stamp;
   const ros::Time ready = Before(t, ros::Duration(spec_.tolerance));
   auto caught_up = [&](size_t k) {
@@ -258,7 +295,8 @@ void RobotServer::TryActLockstep() {
   for (size_t k = 1; k < layout_.topics.size(); ++k) {
     if (static_cast<int>(k) == tf_topic_) {
       // The listener fills the buffer on its own thread: wait for it briefly.
-      const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(std::min(0.2, spec_.stale_after));
+      const ros::WallTime until =
+          ros::WallTime::now() + ros::WallDuration(std::min(0.2, spec_.stale_after));
       PollTf();
       while (!caught_up(k) && ros::WallTime::now() < until && ros::ok()) {
         ros::WallDuration(0.0005).sleep();
@@ -267,7 +305,8 @@ void RobotServer::TryActLockstep() {
     }
     if (!caught_up(k)) return;  // its message for t comes later and calls again
   }
-  if (pixels_ && (image_history_.samples().empty() || image_history_.samples().back().stamp < ready))
+  if (pixels_ &&
+      (image_history_.samples().empty() || image_history_.samples().back().stamp < ready))
     return;  // the camera's image for t comes later and calls again
   acted_messages_ = first_topic_messages_;
   ActAt(t);
@@ -298,12 +337,19 @@ void RobotServer::OnWatchdog(const ros::WallTimerEvent&) {
   std::string why;
   for (size_t k = 0; k < layout_.topics.size() && why.empty(); ++k) {
     const SpecField& f = spec_.observation[layout_.topics[k].fields[0]];
+    const std::string who = "topic " + layout_.topics[k].name + " (field '" + f.name + "'): ";
+    // Messages that arrive and are rejected are the cause, not silence.
+    const std::string rejected = rejected_since_accepted_[k] == 0
+                                     ? std::string()
+                                     : std::to_string(rejected_since_accepted_[k]) +
+                                           " message(s) received and rejected" +
+                                           " (last: " + last_rejection_[k] + ")";
     if (histories_[k].samples().empty())
-      why = "topic " + layout_.topics[k].name + " (field '" + f.name + "'): no message yet";
+      why = who + (rejected.empty() ? "no message yet" : "no usable message: " + rejected);
     else if ((now - last_receipt_[k]).toSec() > spec_.stale_after)
-      why = "topic " + layout_.topics[k].name + " (field '" + f.name + "'): silent for " +
-            std::to_string((now - last_receipt_[k]).toSec()) + " s (stale_after " +
-            std::to_string(spec_.stale_after) + " s)";
+      why = who + "no usable message for " + std::to_string((now - last_receipt_[k]).toSec()) +
+            " s (stale_after " + std::to_string(spec_.stale_after) + " s)" +
+            (rejected.empty() ? ": silent" : ": " + rejected);
   }
   if (why.empty() && pixels_) {
     const SpecImage& cam = spec_.images[0];
@@ -311,11 +357,12 @@ void RobotServer::OnWatchdog(const ros::WallTimerEvent&) {
       why = "topic " + cam.topic + " (image '" + cam.name + "'): no image yet";
     else if ((now - image_receipt_).toSec() > spec_.stale_after)
       why = "topic " + cam.topic + " (image '" + cam.name + "'): silent for " +
-            std::to_string((now - image_receipt_).toSec()) + " s (stale_after " + std::to_string(spec_.stale_after) +
-            " s)";
+            std::to_string((now - image_receipt_).toSec()) + " s (stale_after " +
+            std::to_string(spec_.stale_after) + " s)";
   }
   const bool no_goal = pixels_ ? goal_image_.empty() : goal_.empty();
-  if (why.empty() && no_goal && !spec_.goal.topic.empty()) why = "no goal yet on " + spec_.goal.topic;
+  if (why.empty() && no_goal && !spec_.goal.topic.empty())
+    why = "no goal yet on " + spec_.goal.topic;
   if (!why.empty()) {
     // Rate mode: a stop every control period while stale. Lockstep: one stop when
     // inputs go stale (every command steps a lockstep simulator once).
@@ -337,7 +384,8 @@ void RobotServer::ActAt(const ros::Time& t) {
   std::vector<uint8_t> stacked;
   if (pixels_) {
     const TopicSample* img = nullptr;
-    const std::string iwhy = SampleImage(spec_, spec_.images[0], image_history_, t, ros::Time(0, 0), &img);
+    const std::string iwhy =
+        SampleImage(spec_, spec_.images[0], image_history_, t, ros::Time(0, 0), &img);
     if (!iwhy.empty()) {
       PublishStop(iwhy);
       return;
@@ -373,8 +421,9 @@ void RobotServer::ActAt(const ros::Time& t) {
       a = policy_->Act(torch::from_blob(stacked.data(), shape, torch::kUInt8),
                        torch::from_blob(goal_image_.data(), shape, torch::kUInt8));
     } else {
-      a = policy_->Act(torch::from_blob(obs.data(), {static_cast<int64_t>(obs.size())}, torch::kFloat32),
-                       torch::from_blob(goal_.data(), {static_cast<int64_t>(goal_.size())}, torch::kFloat32));
+      a = policy_->Act(
+          torch::from_blob(obs.data(), {static_cast<int64_t>(obs.size())}, torch::kFloat32),
+          torch::from_blob(goal_.data(), {static_cast<int64_t>(goal_.size())}, torch::kFloat32));
     }
     a = a.to(torch::kCPU).contiguous();
   } catch (const c10::Error& e) {
@@ -448,7 +497,8 @@ void RobotServer::PublishStop(const std::string& why) {
       trajectory_msgs::JointTrajectory m;
       m.header.stamp = CommandStamp();
       for (const auto& f : spec_.action)
-        if (f.topic == topic) m.joint_names.insert(m.joint_names.end(), f.joints.begin(), f.joints.end());
+        if (f.topic == topic)
+          m.joint_names.insert(m.joint_names.end(), f.joints.begin(), f.joints.end());
       cmd_pubs_[c].publish(m);
     }
   }
@@ -461,7 +511,8 @@ void RobotServer::OnDiagnostics(const ros::WallTimerEvent&) {
   diagnostic_msgs::DiagnosticStatus st;
   st.name = ros::this_node::getName() + ": robot " + spec_.name;
   st.hardware_id = spec_.name;
-  st.level = stale_ ? diagnostic_msgs::DiagnosticStatus::WARN : diagnostic_msgs::DiagnosticStatus::OK;
+  st.level =
+      stale_ ? diagnostic_msgs::DiagnosticStatus::WARN : diagnostic_msgs::DiagnosticStatus::OK;
   st.message = stale_ ? "inputs stale, stopping: " + stale_why_ : "serving";
   auto kv = [&](const std::string& k, const std::string& v) {
     diagnostic_msgs::KeyValue x;

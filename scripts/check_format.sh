@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Fails if a C++ file under the given directories (default: the ROS-free
-# libraries and their tests) differs from what clang-format makes of it with
+# Fails if a C++ file of the package (every folder with C++: msspr_core, msspr_sim,
+# msspr_policy_node, tests) differs from what clang-format makes of it with
 # the repository's .clang-format. `make format` reformats every C++ file;
 # `scripts/check_format.sh DIR...` checks other directories.
 set -u
@@ -11,7 +11,7 @@ if ! command -v clang-format >/dev/null 2>&1; then
   exit 1
 fi
 dirs=("$@")
-[ ${#dirs[@]} -eq 0 ] && dirs=(msspr_core msspr_sim/env msspr_sim/eval tests/core tests/sim tests/eval)
+[ ${#dirs[@]} -eq 0 ] && dirs=(msspr_core msspr_sim msspr_policy_node tests)
 bad=()
 n=0
 while IFS= read -r f; do

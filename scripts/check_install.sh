@@ -46,7 +46,7 @@ for f in setup.bash _setup_util.py \
   lib/msspr/msspr_eval_inprocess lib/msspr/msspr_value_map lib/msspr/msspr_collect_npz \
   lib/msspr/msspr_bench_core lib/msspr/msspr_average_policies lib/msspr/msspr_make_tasks lib/msspr/msspr_train_expert lib/msspr/msspr_eval_ant_expert \
   lib/msspr/msspr_compare share/msspr/config/grids/hard_tasks.yaml \
-  lib/libmsspr_core.so lib/libmsspr_env.so lib/libmsspr_eval_core.so lib/libmsspr_ros_bridge.so \
+  lib/libmsspr_core.so lib/libmsspr_env.so lib/libmsspr_eval_core.so lib/libmsspr_bridge.so lib/libmsspr_bags.so lib/libmsspr_robot_interface.so lib/libmsspr_sim_nodes.so lib/libmsspr_maze_map.so \
   include/msspr/Observation.h include/msspr/Reset.h include/msspr_core/policy.h \
   include/msspr_sim/point_maze.h include/msspr_eval/maze_evaluator.h \
   share/msspr/package.xml share/msspr/msgs/msg/Observation.msg share/msspr/msgs/srv/Reset.srv \

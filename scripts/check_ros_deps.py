@@ -23,7 +23,7 @@ HEADER_ALIASES = {"ros": "roscpp", "urdf_parser": "urdfdom", "urdf_model": "urdf
 NOT_A_HEADER = {"message_generation", "message_runtime", "catkin"}
 # Non-catkin libraries (found by CMake, not catkin): package.xml declares them, CMake
 # does not list them among catkin's components.
-SYSTEM_ONLY = {"urdfdom", "eigen", "yaml-cpp", "zlib", "libopencv-dev"}
+SYSTEM_ONLY = {"urdfdom", "eigen", "yaml-cpp", "zlib", "bzip2", "libopencv-dev"}
 INCLUDE = re.compile(r'^\s*#\s*include\s*[<"]([A-Za-z0-9_]+)/', re.M)
 
 

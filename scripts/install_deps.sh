@@ -13,7 +13,7 @@ PKGS=(
   libopencv-dev liburdfdom-dev libeigen3-dev
   libosmesa6-dev libegl-dev libegl-mesa0 libgl-dev
   googletest libgtest-dev
-  libyaml-cpp-dev libzip-dev zlib1g-dev libpng-dev python3-numpy python3-yaml python3-matplotlib
+  libyaml-cpp-dev libzip-dev zlib1g-dev libbz2-dev libpng-dev python3-numpy python3-yaml python3-matplotlib
   cmake make g++ clang-format
 )
 missing=()

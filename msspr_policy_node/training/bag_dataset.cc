@@ -3,8 +3,8 @@
 #include <memory>
 #include <sstream>
 
-#include "dataset_bag.h"
-#include "spec_bag.h"
+#include "msspr_bags/dataset_bag.h"
+#include "msspr_robot_interface/spec_bag.h"
 
 namespace msspr::agent {
 
@@ -16,8 +16,10 @@ std::string BagLoadReport::Summary() const {
   std::ostringstream s;
   s << bags << " bag(s): " << episodes << " episodes read -> " << trajectories << " trajectories, "
     << steps << " steps";
-  if (episodes_other_split) s << "; " << episodes_other_split << " episodes of another split skipped";
-  if (episodes_without_images) s << "; " << episodes_without_images << " episodes without images skipped";
+  if (episodes_other_split)
+    s << "; " << episodes_other_split << " episodes of another split skipped";
+  if (episodes_without_images)
+    s << "; " << episodes_without_images << " episodes without images skipped";
   if (incomplete_episodes)
     s << "; " << incomplete_episodes << " incomplete episodes (" << missing_observations
       << " missing observations, " << missing_actions << " missing actions, " << missing_images
@@ -40,18 +42,22 @@ core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoad
   std::vector<std::unique_ptr<ros_bridge::DatasetBagReader>> readers;
   std::vector<std::unique_ptr<ros_bridge::SpecBagReader>> spec_readers;
   uint64_t total_observations = 0;
+  if (options.robot) {
+    // A robot's bags are one recording (rosbag record --split files): one reader for all.
+    spec_readers.push_back(std::make_unique<ros_bridge::SpecBagReader>(*options.robot, bags));
+    if (!options.ns.empty()) spec_readers.back()->set_namespace(options.ns);
+    total_observations = spec_readers.back()->CountObservations();
+  }
   for (const std::string& path : bags) {
-    if (options.robot) {
-      spec_readers.push_back(std::make_unique<ros_bridge::SpecBagReader>(*options.robot, std::vector<std::string>{path}));
-      total_observations += spec_readers.back()->CountObservations();
-    } else {
+    if (!options.robot) {
       readers.push_back(std::make_unique<ros_bridge::DatasetBagReader>(path));
       total_observations += readers.back()->CountObservations();
     }
   }
   for (size_t bag_index = 0; bag_index < bags.size(); ++bag_index) {
+    if (options.robot && bag_index > 0) break;  // (the one reader read them all)
     const std::string& path = bags[bag_index];
-    ++r.bags;
+    r.bags += options.robot ? bags.size() : 1;
     auto add = [&](ros_bridge::BagEpisode&& ep) {
       ++r.episodes;
       if (options.robot) {  // ticks without fresh inputs (the dataset reader counts its own)
@@ -121,11 +127,12 @@ core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoad
       r.dropped_steps += static_cast<uint64_t>(ep.num_steps - kept);
     };
     if (options.robot) {
-      ros_bridge::SpecBagReader& reader = *spec_readers[bag_index];
+      ros_bridge::SpecBagReader& reader = *spec_readers[0];
       reader.ForEachEpisode(add);
       // Problems of whole topics (out of order, NaN / Inf) are not episode problems.
       for (const auto& p : reader.report().problems)
         if (p.find(": episode ") == std::string::npos) r.problems.push_back(p);
+      for (const auto& u : reader.report().usage) r.usage.push_back(u);
       continue;
     }
     ros_bridge::DatasetBagReader& reader = *readers[bag_index];
@@ -139,7 +146,8 @@ core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoad
   if (!builder || builder->size() == 0) {
     std::string list;
     for (const auto& b : bags) list += (list.empty() ? "" : ", ") + b;
-    throw core::DatasetError("no " + (options.split.empty() ? std::string("") : options.split + " ") +
+    throw core::DatasetError("no " +
+                             (options.split.empty() ? std::string("") : options.split + " ") +
                              "episodes" + (options.images ? " with images" : "") + " in " + list);
   }
   return builder->Build();

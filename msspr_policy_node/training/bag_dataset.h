@@ -20,6 +20,9 @@ struct BagLoadOptions {
   // Bags of a robot's standard messages read through this spec (spec_bag.h;
   // every episode is "train"); nullptr: msspr dataset bags.
   const ros_bridge::RobotSpec* robot = nullptr;
+  // With robot: the namespace its relative topics resolve under ("": the spec's
+  // `namespace:`, else the one the recording holds them in; topic_names.h).
+  std::string ns;
   std::string split = "train";  // "train", "val", or "" for every episode
   bool images = false;          // load camera images (episodes without them are skipped)
   int min_segment_steps = 2;    // shorter runs (no transition) are dropped
@@ -32,6 +35,8 @@ struct BagLoadReport {
   uint64_t incomplete_episodes = 0, dropped_steps = 0, short_segments = 0;
   uint64_t missing_observations = 0, missing_actions = 0, missing_images = 0, duplicates = 0;
   std::vector<std::string> problems;  // "BAG: episode 3: missing observations: 2 (steps 4-5)"
+  // A robot's bags: per bag, the ticks used and why the others are not (SpecBagReport::usage).
+  std::vector<std::string> usage;
   // One line per bag-level fact worth printing (counts), for the trainer's log.
   std::string Summary() const;
 };

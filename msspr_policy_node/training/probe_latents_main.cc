@@ -8,8 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <numeric>
 #include <random>
@@ -57,7 +57,8 @@ Probe FitProbe(const torch::Tensor& z, const torch::Tensor& xy, int64_t n_fit) {
 
 std::string Json(const Probe& p) {
   char buf[160];
-  std::snprintf(buf, sizeof buf, "{\"r2_x\": %.4f, \"r2_y\": %.4f, \"rmse_m\": %.3f}", p.r2_x, p.r2_y, p.rmse);
+  std::snprintf(buf, sizeof buf, "{\"r2_x\": %.4f, \"r2_y\": %.4f, \"rmse_m\": %.3f}", p.r2_x,
+                p.r2_y, p.rmse);
   return buf;
 }
 
@@ -66,7 +67,8 @@ std::string Json(const Probe& p) {
 int main(int argc, char** argv) {
   using msspr::cli::CliError;
   try {
-    msspr::cli::CliArgs args(argc, argv, {"help"}, {"policy", "data", "samples", "seed", "split", "threads"});
+    msspr::cli::CliArgs args(argc, argv, {"help"},
+                             {"policy", "data", "samples", "seed", "split", "threads"});
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
@@ -88,7 +90,8 @@ int main(int argc, char** argv) {
     for (std::string b; std::getline(list, b, ',');)
       if (!b.empty()) bags.push_back(b);
     const msspr::core::Dataset d = msspr::agent::LoadBagDataset(bags, lo, nullptr);
-    if (!d.has_states() || d.obs_dim() < 2) throw std::runtime_error(data + ": no (x, y) states to probe against");
+    if (!d.has_states() || d.obs_dim() < 2)
+      throw std::runtime_error(data + ": no (x, y) states to probe against");
 
     std::mt19937_64 rng(seed);
     std::vector<int64_t> idx(d.size());
@@ -127,8 +130,9 @@ int main(int argc, char** argv) {
     const int64_t n_fit = n * 4 / 5;
     const Probe trained = FitProbe(encode(policy.repr()->state_encoder), xy, n_fit);
     const Probe untrained = FitProbe(encode(fresh), xy, n_fit);
-    std::cout << "{\"policy\": \"" << policy_path << "\", \"samples\": " << n << ", \"split\": \"" << split
-              << "\", \"trained\": " << Json(trained) << ", \"fresh_encoder\": " << Json(untrained) << "}\n";
+    std::cout << "{\"policy\": \"" << policy_path << "\", \"samples\": " << n << ", \"split\": \""
+              << split << "\", \"trained\": " << Json(trained)
+              << ", \"fresh_encoder\": " << Json(untrained) << "}\n";
   } catch (const CliError& e) {
     std::cerr << "msspr_probe_latents: " << e.what() << "\n" << kUsage;
     return 2;

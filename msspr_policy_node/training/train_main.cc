@@ -8,20 +8,20 @@
 #include <iostream>
 #include <memory>
 #include <optional>
-#include <vector>
 #include <sstream>
+#include <vector>
 
 #include "bag_dataset.h"
 #include "msspr_core/checkpoint.h"
-#include "robot_spec.h"
-#include "msspr_eval/ant_evaluator.h"
-#include "msspr_eval/cube_evaluator.h"
-#include "msspr_eval/maze_evaluator.h"
-#include "msspr_sim/env_id.h"
-#include "msspr_sim/learning_curve.h"
 #include "msspr_core/cli_args.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/train_cli.h"
+#include "msspr_eval/ant_evaluator.h"
+#include "msspr_eval/cube_evaluator.h"
+#include "msspr_eval/maze_evaluator.h"
+#include "msspr_robot_interface/robot_spec.h"
+#include "msspr_sim/env_id.h"
+#include "msspr_sim/learning_curve.h"
 #include "msspr_sim/maze_map.h"
 
 namespace {
@@ -49,6 +49,8 @@ bool AllBags(const std::string& list) {
 std::string g_env;  // env of the training bags, for the default evaluation maze
 // --robot SPEC.yaml: the bags hold the robot's standard messages, read through this spec.
 std::unique_ptr<msspr::ros_bridge::RobotSpec> g_robot;
+// --ns NS: the namespace the spec's relative topics resolve under in the bags.
+std::string g_ns;
 
 // Reads --robot (before the core parses the rest) and joins "--data a.bag b.bag"
 // into the core's "--data a.bag,b.bag". Returns the arguments to parse; throws on a bad spec.
@@ -58,13 +60,16 @@ std::vector<std::string> PrepareArgs(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "--data") {
       std::string list;
-      while (i + 1 < argc && argv[i + 1][0] != '-') list += (list.empty() ? "" : ",") + std::string(argv[++i]);
+      while (i + 1 < argc && argv[i + 1][0] != '-')
+        list += (list.empty() ? "" : ",") + std::string(argv[++i]);
       out.push_back(a);
       if (!list.empty()) out.push_back(list);
       continue;
     }
+    if (a == "--ns" && i + 1 < argc) g_ns = argv[i + 1];
     if (a == "--robot" && i + 1 < argc) {
-      g_robot = std::make_unique<msspr::ros_bridge::RobotSpec>(msspr::ros_bridge::LoadRobotSpec(argv[i + 1]));
+      g_robot = std::make_unique<msspr::ros_bridge::RobotSpec>(
+          msspr::ros_bridge::LoadRobotSpec(argv[i + 1]));
       // Every checkpoint and policy export of this run carries the spec.
       msspr::core::SetCheckpointMetadata(msspr::ros_bridge::kRobotSpecCheckpointKey, g_robot->text);
     }
@@ -74,8 +79,8 @@ std::vector<std::string> PrepareArgs(int argc, char** argv) {
 }
 
 // An evaluation's eval.csv rows: success_<kind><id> per task and mean_success<suffix>.
-void AddSuccessRows(const msspr::agent::TaskSuccessResult& result, const std::string& kind, const std::string& suffix,
-                    msspr::core::EvalResult* r) {
+void AddSuccessRows(const msspr::agent::TaskSuccessResult& result, const std::string& kind,
+                    const std::string& suffix, msspr::core::EvalResult* r) {
   for (size_t i = 0; i < result.tasks.size(); ++i)
     r->emplace_back("success_" + kind + std::to_string(result.tasks[i]), result.success[i]);
   r->emplace_back("mean_success" + suffix, result.mean_success);
@@ -88,17 +93,23 @@ std::string StepJsonPath(const std::string& out_dir, int64_t step, const std::st
   return out_dir + name + suffix + ".json";
 }
 
-std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list, const std::string& split,
+std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list,
+                                                     const std::string& split,
                                                      const msspr::core::MsprOptions& options) {
   BagLoadOptions lo;
   lo.split = split;
   lo.images = options.network.obs_mode == "pixels";
   lo.robot = g_robot.get();
+  lo.ns = g_ns;
+  if (!g_ns.empty() && !g_robot)
+    throw msspr::core::DatasetError("--ns " + g_ns + ": a namespace is for --robot's topics");
   if (g_robot) {
     if (lo.images && g_robot->images.empty())
-      throw msspr::core::DatasetError("--robot: " + g_robot->source +
-                                      " names no camera (images:): a pixels policy needs one, or use --obs-mode state");
-    if (split != "train") throw msspr::core::DatasetError("--robot: a robot's bags have no \"val\" split");
+      throw msspr::core::DatasetError(
+          "--robot: " + g_robot->source +
+          " names no camera (images:): a pixels policy needs one, or use --obs-mode state");
+    if (split != "train")
+      throw msspr::core::DatasetError("--robot: a robot's bags have no \"val\" split");
   }
   BagLoadReport report;
   auto data = std::make_shared<const msspr::core::Dataset>(
@@ -108,6 +119,7 @@ std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list, co
     std::cerr << "msspr_train:   " << report.problems[i] << "\n";
   if (report.problems.size() > 10)
     std::cerr << "msspr_train:   ... and " << report.problems.size() - 10 << " more problems\n";
+  for (const auto& u : report.usage) std::cerr << "msspr_train:   " << u << "\n";
   if (g_env.empty()) g_env = report.env;
   return data;
 }
@@ -115,7 +127,8 @@ std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list, co
 }  // namespace
 
 int main(int argc, char** argv) {
-  msspr::core::ReexecWithPassiveOpenMpWait(argv);  // see process_env.h: spinning threads on shared cores
+  msspr::core::ReexecWithPassiveOpenMpWait(
+      argv);  // see process_env.h: spinning threads on shared cores
   msspr::core::TrainCliExtensions ext;
   ext.program = "msspr_train";
   std::vector<std::string> args;
@@ -126,15 +139,18 @@ int main(int argc, char** argv) {
     return 2;
   }
   ext.data_help =
-      "msspr dataset bags (a.bag[,b.bag...] or a.bag b.bag; the \"train\" split) or an OGBench .npz";
-  ext.extra_options = {"robot", "eval-env", "eval-maze", "eval-episodes", "eval-tasks", "eval-seed", "eval-max-steps",
+      "msspr dataset bags (a.bag[,b.bag...] or a.bag b.bag; the \"train\" split) or an OGBench "
+      ".npz";
+  ext.extra_options = {"robot",          "ns",         "eval-env",  "eval-maze",
+                       "eval-episodes",  "eval-tasks", "eval-seed", "eval-max-steps",
                        "eval-tasks-file"};
   ext.extra_usage =
       "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
       "maze, or the 5 tasks of cube-single or an ant maze for those envs' bags (state policies)\n"
       "  --eval-env ENV     env to evaluate in: pointmaze-NAME, cube-single, antmaze-medium,\n"
       "                     antmaze-large (default: the bags' env; give it for .npz data, e.g.\n"
-      "                     OGBench's antmaze-medium-navigate-v0.npz with --eval-env antmaze-medium)\n"
+      "                     OGBench's antmaze-medium-navigate-v0.npz with --eval-env "
+      "antmaze-medium)\n"
       "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
       "  --eval-episodes N  episodes per task (default 50)\n"
       "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
@@ -147,21 +163,27 @@ int main(int argc, char** argv) {
       "success_custom<id> and mean_success_custom, and DIR/eval/step_<N>_custom.json.\n"
       "\nA robot's own bags: --robot SPEC.yaml reads --data's bags of standard messages\n"
       "  (nav_msgs/Odometry, geometry_msgs/Twist, ...) through the robot interface spec (see\n"
-      "  docs/bring_your_own_robot.md); checkpoints and policy.pt store the spec.\n"
+      "  docs/bring_your_own_robot.md); checkpoints and policy.pt store the spec. The bags are\n"
+      "  one recording in time order (rosbag record --split files join). --ns NS resolves the\n"
+      "  spec's relative topics under NS (default: the spec's namespace:, else the one\n"
+      "  namespace of the recording that holds them all).\n"
       "Example: rosrun msspr msspr_train --data medium-navigate.bag --scale cpu --steps 20000 \\\n"
       "           --eval-every 2000 --out runs/medium\n";
-  ext.load_dataset = [](const std::string& path, bool validation, const msspr::core::MsprOptions& options)
-      -> std::shared_ptr<const msspr::core::Dataset> {
+  ext.load_dataset =
+      [](const std::string& path, bool validation,
+         const msspr::core::MsprOptions& options) -> std::shared_ptr<const msspr::core::Dataset> {
     if (!AllBags(path)) return nullptr;
     return LoadBags(path, validation ? "val" : "train", options);
   };
-  ext.default_validation = [](const std::string& data_path, const msspr::core::MsprOptions& options)
-      -> std::shared_ptr<const msspr::core::Dataset> {
+  ext.default_validation =
+      [](const std::string& data_path,
+         const msspr::core::MsprOptions& options) -> std::shared_ptr<const msspr::core::Dataset> {
     if (!AllBags(data_path) || g_robot) return nullptr;
     try {
       return LoadBags(data_path, "val", options);
     } catch (const msspr::core::DatasetError&) {
-      std::cerr << "msspr_train: no \"val\" episodes in " << data_path << ": no validation losses\n";
+      std::cerr << "msspr_train: no \"val\" episodes in " << data_path
+                << ": no validation losses\n";
       return nullptr;
     }
   };
@@ -170,7 +192,8 @@ int main(int argc, char** argv) {
     msspr::sim::SaveLearningCurvePlot(out_dir + "/eval.csv", out_dir + "/metrics.csv",
                                       out_dir + "/learning_curve.png");
   };
-  ext.make_evaluator = [](msspr::core::Trainer& trainer, const std::map<std::string, std::string>& extra,
+  ext.make_evaluator = [](msspr::core::Trainer& trainer,
+                          const std::map<std::string, std::string>& extra,
                           const std::string& out_dir) -> msspr::core::Evaluator {
     // The evaluation flags are checked even when no evaluation runs (CliError: exit 2).
     msspr::agent::MazeEvalOptions eo;
@@ -179,23 +202,27 @@ int main(int argc, char** argv) {
       return it == extra.end() ? def : it->second;
     };
     using msspr::cli::ParseInt;
-    eo.episodes = static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
+    eo.episodes =
+        static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
     eo.seed = static_cast<uint64_t>(ParseInt("eval-seed", get("eval-seed", "0"), 0));
     // The env to evaluate in: --eval-env, else the bags' env label ("pointmaze-medium",
-    // "cube-single", "antmaze-medium"); none for a robot's own bags or .npz data without --eval-env.
+    // "cube-single", "antmaze-medium"); none for a robot's own bags or .npz data without
+    // --eval-env.
     std::optional<msspr::sim::EnvLabelParts> bags = msspr::sim::ParseEnvLabel(g_env);
     if (extra.count("eval-env")) {
-      if (extra.count("eval-maze")) throw msspr::cli::CliError("give --eval-env or --eval-maze, not both");
+      if (extra.count("eval-maze"))
+        throw msspr::cli::CliError("give --eval-env or --eval-maze, not both");
       bags = msspr::sim::ParseEnvLabel(get("eval-env", ""));
       if (!bags)
-        throw msspr::cli::CliError("--eval-env: '" + get("eval-env", "") +
-                                   "' is not an env (pointmaze-arena|medium|large|giant, cube-single, "
-                                   "antmaze-medium, antmaze-large)");
+        throw msspr::cli::CliError(
+            "--eval-env: '" + get("eval-env", "") +
+            "' is not an env (pointmaze-arena|medium|large|giant, cube-single, "
+            "antmaze-medium, antmaze-large)");
     }
     const bool cube =
         get("eval-maze", "").empty() && bags && bags->id == msspr::sim::EnvId::kCubeSingle;
-    eo.max_steps =
-        static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", cube ? "200" : "1000"), 1, 100000000));
+    eo.max_steps = static_cast<int>(
+        ParseInt("eval-max-steps", get("eval-max-steps", cube ? "200" : "1000"), 1, 100000000));
     eo.tasks.clear();
     for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5")))
       eo.tasks.push_back(static_cast<int>(ParseInt("eval-tasks", t, 1, 5)));
@@ -211,8 +238,9 @@ int main(int argc, char** argv) {
     }
     const bool ant = get("eval-maze", "").empty() && bags && msspr::sim::IsAntMaze(bags->id);
     if ((cube || ant) && extra.count("eval-tasks-file"))
-      throw msspr::cli::CliError("--eval-tasks-file: custom tasks are point-maze tasks (these bags are " +
-                                 msspr::sim::EnvIdName(bags->id) + ")");
+      throw msspr::cli::CliError(
+          "--eval-tasks-file: custom tasks are point-maze tasks (these bags are " +
+          msspr::sim::EnvIdName(bags->id) + ")");
     if (trainer.options().trainer.eval_every <= 0) return nullptr;
     const auto start = std::chrono::steady_clock::now();
     // cube-single and the ant mazes: the env's 5 tasks (no custom tasks).
@@ -227,9 +255,12 @@ int main(int argc, char** argv) {
         msspr::core::EvalResult r;
         AddSuccessRows(result, "task", "", &r);
         r.emplace_back("eval_s", result.seconds);
-        r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        r.emplace_back(
+            "wall_s",
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         if (!out_dir.empty())
-          write(result, options, "msspr step " + std::to_string(step), StepJsonPath(out_dir, step, ""));
+          write(result, options, "msspr step " + std::to_string(step),
+                StepJsonPath(out_dir, step, ""));
         return r;
       };
     };
@@ -242,7 +273,8 @@ int main(int argc, char** argv) {
       return task_evaluator(ao, msspr::agent::EvaluateOnAntMaze, msspr::agent::WriteAntResultsJson);
     }
     if (maze.empty()) {
-      std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no success evaluation\n";
+      std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no "
+                   "success evaluation\n";
       return nullptr;
     }
     eo.maze = maze;
@@ -255,7 +287,8 @@ int main(int argc, char** argv) {
         throw msspr::cli::CliError("--eval-tasks-file: " + std::string(e.what()));
       }
     }
-    return [eo, custom, out_dir, start](msspr::core::Policy& policy, int64_t step) -> msspr::core::EvalResult {
+    return [eo, custom, out_dir, start](msspr::core::Policy& policy,
+                                        int64_t step) -> msspr::core::EvalResult {
       const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
       msspr::core::EvalResult r;
       AddSuccessRows(result, "task", "", &r);
@@ -269,9 +302,12 @@ int main(int argc, char** argv) {
                                          StepJsonPath(out_dir, step, "_custom"));
       }
       r.emplace_back("eval_s", eval_s);
-      r.emplace_back("wall_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      r.emplace_back(
+          "wall_s",
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
       if (!out_dir.empty())
-        msspr::agent::WriteResultsJson(result, eo, "msspr step " + std::to_string(step), StepJsonPath(out_dir, step, ""));
+        msspr::agent::WriteResultsJson(result, eo, "msspr step " + std::to_string(step),
+                                       StepJsonPath(out_dir, step, ""));
       return r;
     };
   };

@@ -1,6 +1,8 @@
 // The agent's ROS layer without a master: bags into the core dataset, the
 // in-process evaluator, and msspr_train killed mid-run and resumed.
 #include <fcntl.h>
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -23,29 +25,28 @@
 #include <utility>
 #include <vector>
 
-#include <gtest/gtest.h>
-#include <rosbag/bag.h>
-
 #include "bag_dataset.h"
-#include "dataset_bag.h"
-#include "msspr_eval/ant_evaluator.h"
-#include "msspr_eval/cube_evaluator.h"
-#include "msspr_eval/maze_evaluator.h"
 #include "msspr/Action.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
+#include "msspr_bags/dataset_bag.h"
+#include "msspr_core/checkpoint.h"
 #include "msspr_core/npz.h"
 #include "msspr_core/options.h"
 #include "msspr_core/policy.h"
-#include "msspr_core/checkpoint.h"
 #include "msspr_core/trainer.h"
+#include "msspr_eval/ant_evaluator.h"
+#include "msspr_eval/cube_evaluator.h"
+#include "msspr_eval/maze_evaluator.h"
 #include "test_util.h"
 #include "torch_test_util.h"
 
 namespace msspr::agent {
 namespace {
 
-std::string Tmp(const std::string& name) { return "/tmp/msspr_agent_test_" + std::to_string(getpid()) + "_" + name; }
+std::string Tmp(const std::string& name) {
+  return "/tmp/msspr_agent_test_" + std::to_string(getpid()) + "_" + name;
+}
 
 bool Exists(const std::string& p) {
   struct stat st;
@@ -53,8 +54,8 @@ bool Exists(const std::string& p) {
 }
 
 // Writes one episode with the given steps missing from the observations.
-void WriteEpisode(rosbag::Bag& bag, uint32_t id, const std::string& split, int n, const std::vector<int>& missing,
-                  int obs_dim = 2) {
+void WriteEpisode(rosbag::Bag& bag, uint32_t id, const std::string& split, int n,
+                  const std::vector<int>& missing, int obs_dim = 2) {
   msspr::EpisodeInfo info;
   info.episode_id = id;
   info.env = "pointmaze-medium";
@@ -67,7 +68,8 @@ void WriteEpisode(rosbag::Bag& bag, uint32_t id, const std::string& split, int n
     o.episode_id = id;
     o.step = static_cast<uint32_t>(t);
     o.state.assign(static_cast<size_t>(obs_dim), static_cast<float>(100 * id + t));
-    if (std::find(missing.begin(), missing.end(), t) == missing.end()) bag.write(ros_bridge::kObservationTopic, stamp, o);
+    if (std::find(missing.begin(), missing.end(), t) == missing.end())
+      bag.write(ros_bridge::kObservationTopic, stamp, o);
     msspr::Action a;
     a.episode_id = id;
     a.step = static_cast<uint32_t>(t);
@@ -82,9 +84,9 @@ TEST(BagDataset, SplitsAtGapsAndFiltersSplit) {
   {
     rosbag::Bag bag(path, rosbag::bagmode::Write);
     WriteEpisode(bag, 0, "train", 10, {});
-    WriteEpisode(bag, 1, "train", 12, {5});     // -> runs [0,5) and [6,12)
+    WriteEpisode(bag, 1, "train", 12, {5});  // -> runs [0,5) and [6,12)
     WriteEpisode(bag, 2, "val", 8, {});
-    WriteEpisode(bag, 3, "train", 6, {1});      // -> [0,1) is too short, [2,6)
+    WriteEpisode(bag, 3, "train", 6, {1});  // -> [0,1) is too short, [2,6)
   }
   BagLoadReport report;
   BagLoadOptions opt;
@@ -128,7 +130,8 @@ TEST(BagDataset, ErrorsNameTheBag) {
   }
   opt.images = true;  // no episode has images
   EXPECT_THROW(LoadBagDataset({a}, opt, nullptr), core::DatasetError);
-  EXPECT_THROW(LoadBagDataset({Tmp("missing.bag")}, BagLoadOptions{}, nullptr), ros_bridge::BagError);
+  EXPECT_THROW(LoadBagDataset({Tmp("missing.bag")}, BagLoadOptions{}, nullptr),
+               ros_bridge::BagError);
   std::remove(a.c_str());
   std::remove(b.c_str());
 }
@@ -138,9 +141,9 @@ TEST(BagDataset, SampleBagWithImages) {
   BagLoadOptions opt;
   opt.images = true;
   BagLoadReport report;
-  const core::Dataset d =
-      LoadBagDataset({std::string(MSSPR_SOURCE_DIR) + "/rosbags/pointmaze-medium-navigate-pixels-sample.bag"}, opt,
-                     &report);
+  const core::Dataset d = LoadBagDataset(
+      {std::string(MSSPR_SOURCE_DIR) + "/rosbags/pointmaze-medium-navigate-pixels-sample.bag"}, opt,
+      &report);
   EXPECT_TRUE(d.has_images());
   EXPECT_EQ(d.num_trajectories(), 4);
   EXPECT_EQ(d.size(), 4 * 201);
@@ -185,7 +188,8 @@ TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
   std::vector<float> obs(10 * 28, 0.1f), act(10 * 5, 0.2f);
   b.AddEpisode(obs, act);
   b.AddEpisode(obs, act);
-  core::Trainer trainer(core::testing_util::TinyOptions(), std::make_shared<const core::Dataset>(b.Build()));
+  core::Trainer trainer(core::testing_util::TinyOptions(),
+                        std::make_shared<const core::Dataset>(b.Build()));
   trainer.Step();
   core::Policy policy = trainer.MakePolicy();
   CubeEvalOptions opt;
@@ -225,7 +229,8 @@ TEST(AntEvaluator, DeterministicAndChecksThePolicy) {
   std::vector<float> obs(10 * 29, 0.1f), act(10 * 8, 0.2f);
   b.AddEpisode(obs, act);
   b.AddEpisode(obs, act);
-  core::Trainer trainer(core::testing_util::TinyOptions(), std::make_shared<const core::Dataset>(b.Build()));
+  core::Trainer trainer(core::testing_util::TinyOptions(),
+                        std::make_shared<const core::Dataset>(b.Build()));
   trainer.Step();
   core::Policy policy = trainer.MakePolicy();
   AntEvalOptions opt;
@@ -323,7 +328,8 @@ TEST(ValueMap, MatchesRolloutsAndTheCritic) {
     succ += ev.success[i] / r.points.size();
     torch::InferenceMode guard;
     const auto obs = torch::tensor({static_cast<float>(p.xy.x()), static_cast<float>(p.xy.y())});
-    const auto goal = torch::tensor({static_cast<float>(vo.goal.x()), static_cast<float>(vo.goal.y())});
+    const auto goal =
+        torch::tensor({static_cast<float>(vo.goal.x()), static_cast<float>(vo.goal.y())});
     const double q = policy.Q(obs, policy.Act(obs, goal), goal).min().item<double>();
     EXPECT_NEAR(p.predicted, q, 1e-4 * (1 + std::abs(q)));
   }
@@ -333,7 +339,8 @@ TEST(ValueMap, MatchesRolloutsAndTheCritic) {
   // Pictures and JSON.
   const std::string dir = ::testing::TempDir() + "/value_map_test";
   WriteValueMap(r, vo, "test", dir);
-  for (const char* f : {"value_predicted.png", "value_true.png", "value_error.png", "value_map.json"})
+  for (const char* f :
+       {"value_predicted.png", "value_true.png", "value_error.png", "value_map.json"})
     EXPECT_TRUE(std::ifstream(dir + "/" + f).good()) << f;
   std::ifstream js(dir + "/value_map.json");
   const std::string text((std::istreambuf_iterator<char>(js)), std::istreambuf_iterator<char>());
@@ -344,7 +351,8 @@ TEST(ValueMap, MatchesRolloutsAndTheCritic) {
 }
 
 // Runs msspr_train; returns the pid. fault: MSSPR_FAULT_KILL_IN_CHECKPOINT for the child.
-pid_t StartTrain(const std::vector<std::string>& args, const std::string& log, const char* fault = nullptr) {
+pid_t StartTrain(const std::vector<std::string>& args, const std::string& log,
+                 const char* fault = nullptr) {
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> argv;
@@ -413,14 +421,36 @@ struct TinyRun {
   ~TinyRun() { std::filesystem::remove_all(dir); }
   // The run's flags; `set` replaces the values of flags in that list (a flag
   // not in it is a test bug and throws).
-  std::vector<std::string> Args(const std::string& out,
-                                const std::vector<std::pair<std::string, std::string>>& set = {}) const {
-    std::vector<std::string> a = {"--data", data, "--val", data, "--config", config, "--steps", "40", "--batch", "16",
-                                  "--checkpoint-every", "3", "--log-every", "1", "--eval-every", "5", "--threads", "1",
-                                  "--seed", "3", "--quiet", "--out", out};
+  std::vector<std::string> Args(
+      const std::string& out,
+      const std::vector<std::pair<std::string, std::string>>& set = {}) const {
+    std::vector<std::string> a = {"--data",
+                                  data,
+                                  "--val",
+                                  data,
+                                  "--config",
+                                  config,
+                                  "--steps",
+                                  "40",
+                                  "--batch",
+                                  "16",
+                                  "--checkpoint-every",
+                                  "3",
+                                  "--log-every",
+                                  "1",
+                                  "--eval-every",
+                                  "5",
+                                  "--threads",
+                                  "1",
+                                  "--seed",
+                                  "3",
+                                  "--quiet",
+                                  "--out",
+                                  out};
     for (const auto& [flag, value] : set) {
       const auto it = std::find(a.begin(), a.end(), flag);
-      if (it == a.end() || it + 1 == a.end()) throw std::invalid_argument("TinyRun::Args: no flag " + flag);
+      if (it == a.end() || it + 1 == a.end())
+        throw std::invalid_argument("TinyRun::Args: no flag " + flag);
       *(it + 1) = value;
     }
     return a;
@@ -440,11 +470,12 @@ TEST(TrainCli, KilledAtRandomPointsResumesBitExact) {
   int kills = 0, attempts = 0, status = 0;
   for (; attempts < 12; ++attempts) {
     const bool fresh = !Exists(run + "/run.yaml");
-    const std::vector<std::string> args = fresh ? tiny.Args(run)
-                                                : std::vector<std::string>{"--resume", "--out", run, "--quiet"};
+    const std::vector<std::string> args =
+        fresh ? tiny.Args(run) : std::vector<std::string>{"--resume", "--out", run, "--quiet"};
     const pid_t pid = StartTrain(args, run + ".log", attempts == 0 ? "2" : nullptr);
     if (attempts > 0 && attempts < 8) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(300, 2500)(rng)));
+      std::this_thread::sleep_for(
+          std::chrono::milliseconds(std::uniform_int_distribution<int>(300, 2500)(rng)));
       kill(pid, SIGKILL);
     }
     status = Wait(pid);
@@ -469,7 +500,8 @@ TEST(TrainCli, KilledAtRandomPointsResumesBitExact) {
                                          {a.critic().get(), b.critic().get()}}) {
     const auto pa = m.first->parameters(), pb = m.second->parameters();
     ASSERT_EQ(pa.size(), pb.size());
-    for (size_t i = 0; i < pa.size(); ++i) EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "parameter " << i;
+    for (size_t i = 0; i < pa.size(); ++i)
+      EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "parameter " << i;
   }
   const auto ref_rows = LossRows(ref + "/metrics.csv"), run_rows = LossRows(run + "/metrics.csv");
   EXPECT_EQ(ref_rows.size(), 41u);  // header + 40 steps, no duplicates
@@ -485,7 +517,8 @@ TEST(TrainCli, SigtermStopsAtAStepAndResumesBitExact) {
   const std::string ref = tiny.dir + "/ref", run = tiny.dir + "/run";
   auto args = [&](const std::string& out) {
     // --checkpoint-every 1000: only at the end.
-    return tiny.Args(out, {{"--steps", "300"}, {"--checkpoint-every", "1000"}, {"--eval-every", "50"}});
+    return tiny.Args(out,
+                     {{"--steps", "300"}, {"--checkpoint-every", "1000"}, {"--eval-every", "50"}});
   };
   ASSERT_EQ(Wait(StartTrain(args(ref), ref + ".log")), 0) << ReadAll(ref + ".log");
 
@@ -507,13 +540,15 @@ TEST(TrainCli, SigtermStopsAtAStepAndResumesBitExact) {
   EXPECT_TRUE(Exists(run + "/policy.pt"));
   EXPECT_EQ(LossRows(run + "/metrics.csv").size(), static_cast<size_t>(stopped) + 1);
 
-  ASSERT_EQ(Wait(StartTrain({"--resume", "--out", run, "--quiet"}, run + ".resume")), 0) << ReadAll(run + ".resume");
+  ASSERT_EQ(Wait(StartTrain({"--resume", "--out", run, "--quiet"}, run + ".resume")), 0)
+      << ReadAll(run + ".resume");
   EXPECT_NE(ReadAll(run + ".resume").find("at step " + std::to_string(stopped)), std::string::npos)
       << ReadAll(run + ".resume");
   auto a = core::Policy::Load(ref + "/policy.pt"), b = core::Policy::Load(run + "/policy.pt");
   const auto pa = a.actor()->parameters(), pb = b.actor()->parameters();
   ASSERT_EQ(pa.size(), pb.size());
-  for (size_t i = 0; i < pa.size(); ++i) EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "actor parameter " << i;
+  for (size_t i = 0; i < pa.size(); ++i)
+    EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "actor parameter " << i;
   EXPECT_EQ(LossRows(run + "/metrics.csv"), LossRows(ref + "/metrics.csv"));
 }
 
@@ -523,17 +558,18 @@ TEST(TrainCli, EvaluatesCustomTasksBesideTheOfficialOnes) {
   const std::string tasks = std::string(MSSPR_SOURCE_DIR) + "/config/eval_tasks_medium_easy.yaml";
   std::vector<std::string> args = tiny.Args(out);
   for (const char* a : {"--eval-maze", "medium", "--eval-episodes", "1", "--eval-max-steps", "20",
-                               "--eval-tasks", "2", "--eval-tasks-file"})
+                        "--eval-tasks", "2", "--eval-tasks-file"})
     args.push_back(a);
   args.push_back(tasks);
   args[std::find(args.begin(), args.end(), "--steps") - args.begin() + 1] = "10";
   ASSERT_EQ(Wait(StartTrain(args, out + ".log")), 0) << ReadAll(out + ".log");
   const std::string eval = ReadAll(out + "/eval.csv");
-  for (const char* key : {"10,success_task2,", "10,success_custom1,", "10,success_custom3,", "10,mean_success,",
-                          "10,mean_success_custom,"})
+  for (const char* key : {"10,success_task2,", "10,success_custom1,", "10,success_custom3,",
+                          "10,mean_success,", "10,mean_success_custom,"})
     EXPECT_NE(eval.find(key), std::string::npos) << key << "\n" << eval;
   const std::string js = ReadAll(out + "/eval/step_00000010_custom.json");
-  EXPECT_NE(js.find("\"start\": [16.0000, 0.0000], \"goal\": [20.0000, 0.0000]"), std::string::npos) << js;
+  EXPECT_NE(js.find("\"start\": [16.0000, 0.0000], \"goal\": [20.0000, 0.0000]"), std::string::npos)
+      << js;
   // A tasks file with a goal in a wall: a usage error naming the file, before any training.
   const std::string bad = tiny.dir + "/bad_tasks.yaml";
   std::ofstream(bad) << "tasks:\n  - {id: 1, start: [0, 0], goal: [-4, 0]}\n";
@@ -541,7 +577,8 @@ TEST(TrainCli, EvaluatesCustomTasksBesideTheOfficialOnes) {
   args[std::find(args.begin(), args.end(), "--out") - args.begin() + 1] = tiny.dir + "/run2";
   const int st = Wait(StartTrain(args, out + ".bad"));
   EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << ReadAll(out + ".bad");
-  EXPECT_NE(ReadAll(out + ".bad").find(bad + ": task 1: goal"), std::string::npos) << ReadAll(out + ".bad");
+  EXPECT_NE(ReadAll(out + ".bad").find(bad + ": task 1: goal"), std::string::npos)
+      << ReadAll(out + ".bad");
 }
 
 // .npz data carries no env: --eval-env names the sim to evaluate in (here an
@@ -550,8 +587,8 @@ TEST(TrainCli, EvalEnvEvaluatesNpzDataInTheAntMaze) {
   TinyRun tiny("eval_env", 29, 8);
   const std::string out = tiny.dir + "/run";
   std::vector<std::string> args = tiny.Args(out, {{"--steps", "5"}});
-  for (const char* a : {"--eval-env", "antmaze-medium", "--eval-episodes", "1", "--eval-max-steps", "10",
-                        "--eval-tasks", "3"})
+  for (const char* a : {"--eval-env", "antmaze-medium", "--eval-episodes", "1", "--eval-max-steps",
+                        "10", "--eval-tasks", "3"})
     args.push_back(a);
   ASSERT_EQ(Wait(StartTrain(args, out + ".log")), 0) << ReadAll(out + ".log");
   const std::string eval = ReadAll(out + "/eval.csv");
@@ -563,7 +600,8 @@ TEST(TrainCli, EvalEnvEvaluatesNpzDataInTheAntMaze) {
   args[std::find(args.begin(), args.end(), "--out") - args.begin() + 1] = tiny.dir + "/run2";
   const int st = Wait(StartTrain(args, out + ".bad"));
   EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 2) << ReadAll(out + ".bad");
-  EXPECT_NE(ReadAll(out + ".bad").find("--eval-env: 'antmaze-huge'"), std::string::npos) << ReadAll(out + ".bad");
+  EXPECT_NE(ReadAll(out + ".bad").find("--eval-env: 'antmaze-huge'"), std::string::npos)
+      << ReadAll(out + ".bad");
 }
 
 // A baseline from images, as a user trains it from the pixels sample bag: GCIVL
@@ -574,12 +612,35 @@ TEST(TrainCli, GcivlTrainsFromImagesOfTheSampleBag) {
   mkdir(dir.c_str(), 0755);
   const std::string src = MSSPR_SOURCE_DIR, out = dir + "/run";
   const std::vector<std::string> args = {
-      "--agent", "gcivl", "--obs-mode", "pixels", "--data",
-      src + "/rosbags/pointmaze-medium-navigate-pixels-sample.bag", "--config",
-      src + "/config/agents/pointmaze_cpu.yaml", "--config", src + "/config/agents/pixels_light.yaml",
-      "--steps", "20", "--batch", "16", "--eval-every", "10", "--eval-episodes", "1",
-      "--eval-max-steps", "10", "--eval-tasks", "1", "--threads", "1", "--seed", "2", "--quiet",
-      "--out", out};
+      "--agent",
+      "gcivl",
+      "--obs-mode",
+      "pixels",
+      "--data",
+      src + "/rosbags/pointmaze-medium-navigate-pixels-sample.bag",
+      "--config",
+      src + "/config/agents/pointmaze_cpu.yaml",
+      "--config",
+      src + "/config/agents/pixels_light.yaml",
+      "--steps",
+      "20",
+      "--batch",
+      "16",
+      "--eval-every",
+      "10",
+      "--eval-episodes",
+      "1",
+      "--eval-max-steps",
+      "10",
+      "--eval-tasks",
+      "1",
+      "--threads",
+      "1",
+      "--seed",
+      "2",
+      "--quiet",
+      "--out",
+      out};
   ASSERT_EQ(Wait(StartTrain(args, out + ".log")), 0) << ReadAll(out + ".log");
   const std::string eval = ReadAll(out + "/eval.csv");
   for (const char* key : {"10,mean_success,", "20,mean_success,"})
@@ -604,7 +665,8 @@ TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
   };
   // A changed option: exit 2, naming it.
   EXPECT_EQ(exit_code({"--resume", "--out", out, "--batch", "32"}, out + ".batch"), 2);
-  EXPECT_NE(ReadAll(out + ".batch").find("--batch 32 differs"), std::string::npos) << ReadAll(out + ".batch");
+  EXPECT_NE(ReadAll(out + ".batch").find("--batch 32 differs"), std::string::npos)
+      << ReadAll(out + ".batch");
   EXPECT_EQ(exit_code({"--resume", "--out", out, "--data", tiny.config}, out + ".data"), 2);
   // A fresh run into a directory that holds one: exit 2.
   EXPECT_EQ(exit_code(tiny.Args(out), out + ".again"), 2);
@@ -614,17 +676,21 @@ TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
       << ReadAll(out + ".more");
   EXPECT_EQ(LossRows(out + "/metrics.csv").size(), 46u);
   // Another: bf16 from here on (recorded, so a plain --resume keeps it).
-  EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "48", "--precision", "bf16", "--quiet"}, out + ".bf16"), 0)
+  EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "48", "--precision", "bf16", "--quiet"},
+                      out + ".bf16"),
+            0)
       << ReadAll(out + ".bf16");
   EXPECT_EQ(LossRows(out + "/metrics.csv").size(), 49u);
-  EXPECT_NE(ReadAll(out + "/run.yaml").find("precision: \"bf16\""), std::string::npos) << ReadAll(out + "/run.yaml");
+  EXPECT_NE(ReadAll(out + "/run.yaml").find("precision: \"bf16\""), std::string::npos)
+      << ReadAll(out + "/run.yaml");
   EXPECT_NE(ReadAll(out + "/options.yaml").find("precision: bf16"), std::string::npos);
   // A second run while one holds the directory's lock.
   const int fd = open((out + "/.lock").c_str(), O_RDWR);
   ASSERT_GE(fd, 0);
   ASSERT_EQ(flock(fd, LOCK_EX | LOCK_NB), 0);
   EXPECT_EQ(exit_code({"--resume", "--out", out, "--steps", "50"}, out + ".locked"), 1);
-  EXPECT_NE(ReadAll(out + ".locked").find("another training run"), std::string::npos) << ReadAll(out + ".locked");
+  EXPECT_NE(ReadAll(out + ".locked").find("another training run"), std::string::npos)
+      << ReadAll(out + ".locked");
   close(fd);
 }
 
@@ -634,17 +700,30 @@ TEST(TrainCli, ResumeRefusesChangedOptionsAndASecondRun) {
 std::vector<std::string> RankArgs(const TinyRun& tiny, const std::string& out, int rank, int port,
                                   const std::string& steps) {
   std::vector<std::string> a = tiny.Args(out, {{"--steps", steps}});
-  for (const std::string& extra : {std::string("--world-size"), std::string("2"), std::string("--rank"),
-                                   std::to_string(rank), std::string("--master"),
-                                   "127.0.0.1:" + std::to_string(port), std::string("--dist-timeout"),
-                                   std::string("30")})
+  for (const std::string& extra :
+       {std::string("--world-size"), std::string("2"), std::string("--rank"), std::to_string(rank),
+        std::string("--master"), "127.0.0.1:" + std::to_string(port), std::string("--dist-timeout"),
+        std::string("30")})
     a.push_back(extra);
   return a;
 }
 
-std::vector<std::string> ResumeArgs(const std::string& out, int rank, int port, const std::string& steps) {
-  return {"--resume", "--out", out, "--quiet", "--steps", steps, "--world-size", "2", "--rank",
-          std::to_string(rank), "--master", "127.0.0.1:" + std::to_string(port), "--dist-timeout", "30"};
+std::vector<std::string> ResumeArgs(const std::string& out, int rank, int port,
+                                    const std::string& steps) {
+  return {"--resume",
+          "--out",
+          out,
+          "--quiet",
+          "--steps",
+          steps,
+          "--world-size",
+          "2",
+          "--rank",
+          std::to_string(rank),
+          "--master",
+          "127.0.0.1:" + std::to_string(port),
+          "--dist-timeout",
+          "30"};
 }
 
 // Starts both ranks, waits for both; returns their exit statuses.
@@ -663,9 +742,12 @@ TEST(TrainCli, TwoRanksTrainCheckpointResumeAndExportAsOne) {
   // 20 steps, then resumed to 30, against 30 straight.
   int port = core::testing_util::FreePort();
   auto st = RunRanks(RankArgs(tiny, run, 0, port, "20"), RankArgs(tiny, run, 1, port, "20"), run);
-  ASSERT_TRUE(ExitedOk(st.first) && ExitedOk(st.second)) << ReadAll(run + ".rank0") << ReadAll(run + ".rank1");
-  EXPECT_NE(ReadAll(run + ".rank1").find("rank 1 of 2 (gloo"), std::string::npos) << ReadAll(run + ".rank1");
-  EXPECT_NE(ReadAll(run + ".rank0").find("batch 8 of 16"), std::string::npos) << ReadAll(run + ".rank0");
+  ASSERT_TRUE(ExitedOk(st.first) && ExitedOk(st.second))
+      << ReadAll(run + ".rank0") << ReadAll(run + ".rank1");
+  EXPECT_NE(ReadAll(run + ".rank1").find("rank 1 of 2 (gloo"), std::string::npos)
+      << ReadAll(run + ".rank1");
+  EXPECT_NE(ReadAll(run + ".rank0").find("batch 8 of 16"), std::string::npos)
+      << ReadAll(run + ".rank0");
   const core::CheckpointFile file = core::ReadCheckpointFile(run + "/checkpoint.ckpt");
   const core::CheckpointHeader h = core::ParseCheckpointHeader(file.header, run);
   EXPECT_EQ(h.step, 20);
@@ -679,13 +761,17 @@ TEST(TrainCli, TwoRanksTrainCheckpointResumeAndExportAsOne) {
       << ReadAll(run + ".resumed.rank0") << ReadAll(run + ".resumed.rank1");
   port = core::testing_util::FreePort();
   st = RunRanks(RankArgs(tiny, ref, 0, port, "30"), RankArgs(tiny, ref, 1, port, "30"), ref);
-  ASSERT_TRUE(ExitedOk(st.first) && ExitedOk(st.second)) << ReadAll(ref + ".rank0") << ReadAll(ref + ".rank1");
+  ASSERT_TRUE(ExitedOk(st.first) && ExitedOk(st.second))
+      << ReadAll(ref + ".rank0") << ReadAll(ref + ".rank1");
   auto a = core::Policy::Load(ref + "/policy.pt"), b = core::Policy::Load(run + "/policy.pt");
   for (const auto& pair : std::vector<std::pair<torch::nn::Module*, torch::nn::Module*>>{
-           {a.repr().get(), b.repr().get()}, {a.actor().get(), b.actor().get()}, {a.critic().get(), b.critic().get()}}) {
+           {a.repr().get(), b.repr().get()},
+           {a.actor().get(), b.actor().get()},
+           {a.critic().get(), b.critic().get()}}) {
     const auto pa = pair.first->parameters(), pb = pair.second->parameters();
     ASSERT_EQ(pa.size(), pb.size());
-    for (size_t i = 0; i < pa.size(); ++i) EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "parameter " << i;
+    for (size_t i = 0; i < pa.size(); ++i)
+      EXPECT_TRUE(torch::equal(pa[i], pb[i])) << "parameter " << i;
   }
   EXPECT_EQ(LossRows(run + "/metrics.csv"), LossRows(ref + "/metrics.csv"));
   // The export serves actions like any other.
@@ -693,7 +779,8 @@ TEST(TrainCli, TwoRanksTrainCheckpointResumeAndExportAsOne) {
   // Resuming with another world size is refused, naming the group's.
   const int s = Wait(StartTrain({"--resume", "--out", run, "--steps", "35"}, run + ".single"));
   EXPECT_TRUE(WIFEXITED(s) && WEXITSTATUS(s) != 0);
-  EXPECT_NE(ReadAll(run + ".single").find("world-size"), std::string::npos) << ReadAll(run + ".single");
+  EXPECT_NE(ReadAll(run + ".single").find("world-size"), std::string::npos)
+      << ReadAll(run + ".single");
 }
 
 TEST(TrainCli, AKilledRankIsAClearErrorOnTheOtherAndTheCheckpointStaysGood) {
@@ -713,7 +800,8 @@ TEST(TrainCli, AKilledRankIsAClearErrorOnTheOtherAndTheCheckpointStaysGood) {
   Wait(p1);
   const auto t0 = std::chrono::steady_clock::now();
   const int s0 = Wait(p0);
-  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double waited =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_TRUE(WIFEXITED(s0) && WEXITSTATUS(s0) == 1) << "status " << s0;
   const std::string log = ReadAll(run + ".rank0");
   EXPECT_NE(log.find("rank 0/2"), std::string::npos) << log;

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "../eval/ant_test_policy.h"
-#include "dataset_bag.h"
+#include "msspr_bags/dataset_bag.h"
 #include "msspr_eval/ant_dataset.h"
 #include "msspr_sim/ant_maze.h"
 #include "msspr_sim/ant_planner.h"

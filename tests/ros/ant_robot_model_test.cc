@@ -1,11 +1,11 @@
 // The ant's URDF (msspr_sim/urdf/ant.urdf) against the MuJoCo model (no master needed).
-#include "ant_robot_model.h"
+#include "msspr_sim_nodes/ant_robot_model.h"
 
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "robot_model.h"
+#include "msspr_sim_nodes/robot_model.h"
 
 namespace msspr::ros_bridge {
 namespace {

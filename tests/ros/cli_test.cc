@@ -74,7 +74,8 @@ TEST(Cli, TrainRejectsBadFlags) {
       {{"--steps many --data x.npz --out /tmp/y", "--steps expects an integer, got 'many'"},
        {"--batch 0 --data x.npz --out /tmp/y", "--batch 0 is out of range"},
        {"--threads -1 --data x.npz --out /tmp/y", "--threads -1 is out of range"},
-       {"--precision fp16 --data x.npz --out /tmp/y", "--precision must be fp32, bf16 or auto, got 'fp16'"},
+       {"--precision fp16 --data x.npz --out /tmp/y",
+        "--precision must be fp32, bf16 or auto, got 'fp16'"},
        {"--bogus", "unknown argument '--bogus'"},
        {"--seed", "missing value after --seed"},
        {"--resume", "--resume needs --out DIR"},
@@ -90,10 +91,9 @@ TEST(Cli, ValueMapAndMakeTasksRejectBadFlags) {
                      {"--policy p.pt --goal-task 6", "--goal-task 6 is out of range"},
                      {"--policy p.pt --goal 0,0 --goal-task 1", "not both"},
                      {"--policy p.pt --rollouts 0", "--rollouts 0 is out of range"}});
-  ExpectUsageErrors(MSSPR_MAKE_TASKS_EXE,
-                    {{"--maze nowhere", "--maze 'nowhere' is not one of"},
-                     {"--n 0", "--n 0 is out of range"},
-                     {"--noise 3", "--noise 3 is out of range"}});
+  ExpectUsageErrors(MSSPR_MAKE_TASKS_EXE, {{"--maze nowhere", "--maze 'nowhere' is not one of"},
+                                           {"--n 0", "--n 0 is out of range"},
+                                           {"--noise 3", "--noise 3 is out of range"}});
 }
 
 TEST(Cli, EvalInprocessRejectsBadFlagsAndWritesResults) {
@@ -104,8 +104,9 @@ TEST(Cli, EvalInprocessRejectsBadFlagsAndWritesResults) {
                      {"--policy p.pt --tasks-file /nonexistent/t.yaml", "/nonexistent/t.yaml"}});
   const std::string out = ::testing::TempDir() + "/eval_inprocess.json";
   std::remove(out.c_str());
-  const Result r = ::Run(MSSPR_EVAL_INPROCESS_EXE, std::string("--policy ") + MSSPR_TEST_CHECKPOINT +
-                                                     " --tasks 1,2 --episodes 2 --max-steps 600 --threads 1 --out " + out);
+  const Result r = ::Run(MSSPR_EVAL_INPROCESS_EXE,
+                         std::string("--policy ") + MSSPR_TEST_CHECKPOINT +
+                             " --tasks 1,2 --episodes 2 --max-steps 600 --threads 1 --out " + out);
   ASSERT_EQ(r.status, 0) << r.text;
   EXPECT_NE(r.text.find("mean success"), std::string::npos) << r.text;
   FILE* f = std::fopen(out.c_str(), "r");

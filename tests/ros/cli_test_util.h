@@ -18,8 +18,8 @@ struct ToolOutput {
 // tried to reach a master would fail, not hang.
 inline ToolOutput RunTool(const std::string& cmd, int timeout_s) {
   ToolOutput r;
-  const std::string line =
-      "ROS_MASTER_URI=http://127.0.0.1:1 timeout " + std::to_string(timeout_s) + " " + cmd + " 2>&1";
+  const std::string line = "ROS_MASTER_URI=http://127.0.0.1:1 timeout " +
+                           std::to_string(timeout_s) + " " + cmd + " 2>&1";
   FILE* p = popen(line.c_str(), "r");
   if (!p) return r;
   char buf[4096];

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "dataset_bag.h"
+#include "msspr_bags/dataset_bag.h"
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/package_files.h"
 
@@ -39,7 +39,10 @@ int RunCollect(const std::string& args, std::string* output = nullptr) {
 TEST(CubeCollect, WritesPlayDatasetThatReplays) {
   const std::string bag = TempPath("play.bag");
   std::string out;
-  ASSERT_EQ(RunCollect("--env cube-single --episodes 2 --val-episodes 1 --length 60 --seed 3 --out " + bag, &out), 0)
+  ASSERT_EQ(RunCollect(
+                "--env cube-single --episodes 2 --val-episodes 1 --length 60 --seed 3 --out " + bag,
+                &out),
+            0)
       << out;
   EXPECT_NE(out.find("2 train + 1 val episodes of 60 steps"), std::string::npos) << out;
   EXPECT_NE(out.find("steps/s"), std::string::npos) << out;
@@ -66,7 +69,8 @@ TEST(CubeCollect, WritesPlayDatasetThatReplays) {
     for (int t = 0; t < ep.num_steps; ++t) {
       const sim::CubeEnv::Observation o = env.GetObservation();
       for (int i = 0; i < D; ++i)
-        ASSERT_EQ(o[i], ep.observations[t * D + i]) << "episode " << ep.meta.episode_id << " step " << t;
+        ASSERT_EQ(o[i], ep.observations[t * D + i])
+            << "episode " << ep.meta.episode_id << " step " << t;
       sim::CubeEnv::Action a;
       for (int i = 0; i < A; ++i) {
         const float v = ep.actions[t * A + i];
@@ -87,8 +91,12 @@ TEST(CubeCollect, WritesPlayDatasetThatReplays) {
 TEST(CubeCollect, Images) {
   const std::string bag = TempPath("img.bag");
   std::string out;
-  ASSERT_EQ(RunCollect("--env cube-single --episodes 2 --val-episodes 0 --length 5 --image-episodes 1 --quiet --out " +
-                    bag, &out), 0) << out;
+  ASSERT_EQ(RunCollect("--env cube-single --episodes 2 --val-episodes 0 --length 5 "
+                       "--image-episodes 1 --quiet --out " +
+                           bag,
+                       &out),
+            0)
+      << out;
   DatasetBagReader reader(bag);
   std::vector<int> sizes;
   reader.ForEachEpisode([&](BagEpisode&& ep) {
@@ -111,7 +119,10 @@ TEST(CubeCollect, UsageErrors) {
   EXPECT_NE(out.find("--maze does not apply"), std::string::npos) << out;
   EXPECT_EQ(RunCollect("--env cube-double --out /tmp/x.bag", &out), 2);
   EXPECT_EQ(RunCollect("--urdf a.urdf --out /tmp/x.bag", &out), 2);
-  EXPECT_EQ(RunCollect("--env cube-single --urdf /nonexistent.urdf --episodes 1 --quiet --out /tmp/x.bag", &out), 1);
+  EXPECT_EQ(
+      RunCollect("--env cube-single --urdf /nonexistent.urdf --episodes 1 --quiet --out /tmp/x.bag",
+                 &out),
+      1);
   EXPECT_FALSE(std::filesystem::exists("/tmp/x.bag"));
 }
 

@@ -4,7 +4,13 @@
 // serves robot_description, joint_states and tf2 for every URDF link, the
 // cube and the goal, consistent with the observations; reset / set_goal /
 // pause and malformed actions.
+#include <gtest/gtest.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/JointState.h>
 #include <sys/wait.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,32 +20,28 @@
 #include <iterator>
 #include <set>
 
-#include <gtest/gtest.h>
-#include <sensor_msgs/Image.h>
-#include <sensor_msgs/JointState.h>
-#include <tf2_eigen/tf2_eigen.h>
-#include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
-
-#include "cube_goal_oracle.h"
-#include "cube_sim_node.h"
+#include "cli_test_util.h"
 #include "msspr/Pause.h"
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
-#include "dataset_bag.h"
+#include "msspr_bags/dataset_bag.h"
 #include "msspr_sim/arm_model.h"
 #include "msspr_sim/cube_dataset.h"
 #include "msspr_sim/package_files.h"
+#include "msspr_sim_nodes/cube_goal_oracle.h"
+#include "msspr_sim_nodes/cube_sim_node.h"
 #include "ros_test_helper.h"
 
 namespace msspr::testing {
 namespace {
 
-std::vector<float> ToVec(const sim::CubeEnv::Action& a) { return std::vector<float>(a.begin(), a.end()); }
+std::vector<float> ToVec(const sim::CubeEnv::Action& a) {
+  return std::vector<float>(a.begin(), a.end());
+}
 
 // Drives one episode in lockstep with the oracle; returns the last observation.
-msspr::Observation::ConstPtr RunEpisode(RosTestHelper& h, ros_bridge::CubeGoalOracle& oracle, int task,
-                                        uint64_t seed) {
+msspr::Observation::ConstPtr RunEpisode(RosTestHelper& h, ros_bridge::CubeGoalOracle& oracle,
+                                        int task, uint64_t seed) {
   const auto res = CallReset(h.nh(), task, seed);
   EXPECT_TRUE(res.ok) << res.message;
   if (!res.ok) return nullptr;
@@ -53,9 +55,9 @@ msspr::Observation::ConstPtr RunEpisode(RosTestHelper& h, ros_bridge::CubeGoalOr
     if (o->success || o->last) return o;
     h.SendAction(id, step, ToVec(oracle.Act(o->state.data(), res.goal.data())));
     ++step;
-    const bool ok = h.WaitFor([&] {
-      return h.latest() && h.latest()->episode_id == id && h.latest()->step == step;
-    }, 10.0);
+    const bool ok = h.WaitFor(
+        [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == step; },
+        10.0);
     EXPECT_TRUE(ok) << "task " << task << " seed " << seed << " stalled at step " << step;
     if (!ok) return nullptr;
     o = h.latest();
@@ -82,8 +84,8 @@ TEST(CubeSimOracle, ReachesTaskGoals) {
         EXPECT_GT(last->step, 20u);  // it really carried the cube there
       }
     }
-    std::printf("[cube oracle over ROS] task %d: %d / %d reached, mean %.0f steps\n", task, reached, episodes,
-                reached > 0 ? steps / reached : 0.0);
+    std::printf("[cube oracle over ROS] task %d: %d / %d reached, mean %.0f steps\n", task, reached,
+                episodes, reached > 0 ? steps / reached : 0.0);
     EXPECT_GE(reached, std::ceil(0.9 * episodes)) << "task " << task;
   }
 }
@@ -94,7 +96,8 @@ TEST(CubeSimOracle, RobotDescriptionJointStatesTf) {
   RosTestHelper h;
   ASSERT_TRUE(h.WaitForSim());
   std::string xml;
-  ASSERT_TRUE(h.nh().getParam("robot_description", xml)) << "no robot_description in " << h.nh().getNamespace();
+  ASSERT_TRUE(h.nh().getParam("robot_description", xml))
+      << "no robot_description in " << h.nh().getNamespace();
   const sim::ArmModel arm = sim::ArmModel::FromString(xml, "robot_description");
   std::set<std::string> moving;
   for (const auto& l : arm.links())
@@ -114,14 +117,16 @@ TEST(CubeSimOracle, RobotDescriptionJointStatesTf) {
   uint32_t step = 0;
   msspr::Observation::ConstPtr o = boost::make_shared<msspr::Observation>(res.observation);
   for (; step < 40; ++step) {  // the arm moves toward the cube
-    h.SendAction(res.observation.episode_id, step, ToVec(oracle.Act(o->state.data(), res.goal.data())));
+    h.SendAction(res.observation.episode_id, step,
+                 ToVec(oracle.Act(o->state.data(), res.goal.data())));
     ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->step == step + 1; }, 10.0));
     o = h.latest();
   }
   ASSERT_TRUE(h.WaitFor([&] { return joints && joints->header.stamp == o->header.stamp; }, 5.0));
   ASSERT_EQ(joints->name.size(), joints->position.size());
   EXPECT_EQ(std::set<std::string>(joints->name.begin(), joints->name.end()), moving);
-  for (size_t i = 0; i < joints->name.size() && i < 6; ++i)  // the arm joints come first, as in the state
+  for (size_t i = 0; i < joints->name.size() && i < 6;
+       ++i)  // the arm joints come first, as in the state
     EXPECT_NEAR(joints->position[i], o->state[i], 1e-5) << joints->name[i];
 
   // tf2: every link, the cube and the goal, at the observation's stamp.
@@ -132,18 +137,25 @@ TEST(CubeSimOracle, RobotDescriptionJointStatesTf) {
   }
   ASSERT_TRUE(tf_buffer.canTransform("world", "cube", stamp, ros::Duration(5.0)));
   ASSERT_TRUE(tf_buffer.canTransform("world", "cube_goal", stamp, ros::Duration(5.0)));
-  const Eigen::Isometry3d pinch = tf2::transformToEigen(tf_buffer.lookupTransform("world", "pinch", stamp));
-  const Eigen::Vector3d pinch_obs = Eigen::Vector3d(0.425, 0, 0) +
-                                    Eigen::Vector3d(o->state[12], o->state[13], o->state[14]) / 10.0;
+  const Eigen::Isometry3d pinch =
+      tf2::transformToEigen(tf_buffer.lookupTransform("world", "pinch", stamp));
+  const Eigen::Vector3d pinch_obs =
+      Eigen::Vector3d(0.425, 0, 0) +
+      Eigen::Vector3d(o->state[12], o->state[13], o->state[14]) / 10.0;
   // The observation reads MuJoCo's site / body positions after mj_step, which
   // computes them before the last 2 ms integration (OGBench's reading too);
   // tf2 poses the links at the final qpos: a moving arm differs by ~1 mm.
   EXPECT_LT((pinch.translation() - pinch_obs).norm(), 3e-3);
-  const Eigen::Isometry3d cube = tf2::transformToEigen(tf_buffer.lookupTransform("world", "cube", stamp));
-  EXPECT_LT((cube.translation() - ros_bridge::CubePositionFromObservation(o->state.data())).norm(), 3e-3);
-  const Eigen::Isometry3d goal = tf2::transformToEigen(tf_buffer.lookupTransform("world", "cube_goal", stamp));
-  EXPECT_LT((goal.translation().head<2>() - ros_bridge::CubePositionFromObservation(res.goal.data()).head<2>())
-                .norm(), 1e-4);
+  const Eigen::Isometry3d cube =
+      tf2::transformToEigen(tf_buffer.lookupTransform("world", "cube", stamp));
+  EXPECT_LT((cube.translation() - ros_bridge::CubePositionFromObservation(o->state.data())).norm(),
+            3e-3);
+  const Eigen::Isometry3d goal =
+      tf2::transformToEigen(tf_buffer.lookupTransform("world", "cube_goal", stamp));
+  EXPECT_LT((goal.translation().head<2>() -
+             ros_bridge::CubePositionFromObservation(res.goal.data()).head<2>())
+                .norm(),
+            1e-4);
 }
 
 // reset / set_goal / pause and malformed actions, as for the maze.
@@ -169,7 +181,8 @@ TEST(CubeSimOracle, ServicesAndBadInput) {
   EXPECT_TRUE(g.response.ok) << g.response.message;
   const uint32_t id = cur.observation.episode_id;
   h.SendAction(id, 0, {0, 0, 0, 0, 0});
-  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 10));
+  ASSERT_TRUE(h.WaitFor(
+      [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 10));
   EXPECT_EQ(h.latest()->goal, other.goal);
   // pause: lockstep does not step
   ros::ServiceClient pc = h.nh().serviceClient<msspr::Pause>("pause");
@@ -187,16 +200,19 @@ TEST(CubeSimOracle, ServicesAndBadInput) {
   h.SendAction(id, 1, {0, 0, NAN, 0, 0});
   h.SendAction(id, 1, {0, 0, 0.5f, 0, 0});
   ASSERT_TRUE(h.WaitFor([&] { return h.latest()->step == 2; }, 10));
-  EXPECT_TRUE(h.WaitFor([&] { return h.Counter("rejected_wrong_length") >= 1 && h.Counter("rejected_nonfinite") >= 1; },
-                        5.0));
+  EXPECT_TRUE(h.WaitFor(
+      [&] {
+        return h.Counter("rejected_wrong_length") >= 1 && h.Counter("rejected_nonfinite") >= 1;
+      },
+      5.0));
 }
 
 // Runs msspr_eval in this node's namespace with ARGS and --out JSON (removed
 // first), prints its output, asserts it exits 0 and reads the results JSON into *j.
 void RunEval(const std::string& args, const std::string& json, std::string* j) {
   std::remove(json.c_str());
-  const std::string cmd = std::string(MSSPR_EVAL_EXE) + " __ns:=" + ros::this_node::getNamespace() + " " + args +
-                          " --out " + json + " 2>&1";
+  const std::string cmd = std::string(MSSPR_EVAL_EXE) + " __ns:=" + ros::this_node::getNamespace() +
+                          " " + args + " --out " + json + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   ASSERT_NE(p, nullptr);
   std::string out;
@@ -217,14 +233,15 @@ TEST(CubeEvalOracle, FiveTasks) {
   const int episodes = pnh.param("episodes", 5);
   const std::string json = "/tmp/msspr_cube_eval_" + std::to_string(getpid()) + ".json";
   std::string j;
-  ASSERT_NO_FATAL_FAILURE(RunEval("--env cube-single --episodes " + std::to_string(episodes) +
-                                      " --seed 3 --agent cube-oracle",
-                                  json, &j));
+  ASSERT_NO_FATAL_FAILURE(RunEval(
+      "--env cube-single --episodes " + std::to_string(episodes) + " --seed 3 --agent cube-oracle",
+      json, &j));
   EXPECT_NE(j.find("\"env\": \"cube-single\""), std::string::npos) << j;
   EXPECT_NE(j.find("\"max_steps\": 200"), std::string::npos) << j;
   EXPECT_NE(j.find("\"stalled_episodes\": 0"), std::string::npos) << j;
   int tasks = 0;
-  for (size_t at = j.find("\"success\": "); at != std::string::npos; at = j.find("\"success\": ", at + 1)) {
+  for (size_t at = j.find("\"success\": "); at != std::string::npos;
+       at = j.find("\"success\": ", at + 1)) {
     const double success = std::stod(j.substr(at + 11));
     EXPECT_GE(success, 0.9) << j;
     ++tasks;
@@ -255,6 +272,49 @@ TEST(CubeEvalRobot, ServedThroughTheSpecReachesGoals) {
   EXPECT_GE(std::stod(j.substr(at + 16)) * 5 * episodes, 2.0 - 1e-9) << j;
   std::remove(json.c_str());
 }
+
+#if defined(MSSPR_BAG_INFO_EXE) && defined(MSSPR_TRAIN_EXE)
+// A robot under a namespace: the arm's standard topics (/msspr/joint_states beside
+// /msspr/gripper/joint_states, the cube's pose, tf, the goal and both commands), recorded
+// with `rosbag record` while the shipped checkpoint drives the arm through
+// config/robots/ur5e_cube.yaml (msspr_eval, one episode of two tasks), read by
+// msspr_bag_info --robot ur5e_cube.yaml and trained on by msspr_train --robot.
+TEST(CubeRobotRecording, NamespacedStandardTopicsReadAndTrainThroughTheSpec) {
+  LiveRecording rec(
+      "msspr_cube_robot",
+      {"/msspr/joint_states", "/msspr/gripper/joint_states", "/msspr/cube_pose", "/tf",
+       "/tf_static", "/msspr/goal_observation", "/msspr/ee_twist", "/msspr/gripper_command"});
+  ASSERT_TRUE(rec.started());
+  ros::WallDuration(3.0).sleep();  // the recorder subscribes
+  const std::string json = "/tmp/msspr_cube_robot_rec_" + std::to_string(getpid()) + ".json";
+  std::string j;
+  ASSERT_NO_FATAL_FAILURE(RunEval(
+      "--env cube-single --episodes 1 --tasks 1,2 --agent msspr-cube-state --robot ur5e_cube", json,
+      &j));
+  std::remove(json.c_str());
+  rec.Stop();
+  const std::string spec = std::string(MSSPR_SOURCE_DIR) + "/config/robots/ur5e_cube.yaml";
+  const test::ToolOutput info =
+      test::RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + spec + " " + rec.bag(), 120);
+  std::printf("%s\n", info.text.c_str());
+  EXPECT_NE(info.status, 2) << info.text;  // problems (e.g. a stale tick at a reset) may exit 1
+  const size_t at = info.text.find("with observation and action -> ");
+  ASSERT_NE(at, std::string::npos) << info.text;
+  const size_t steps_at = info.text.find("trajectories, ", at);
+  ASSERT_NE(steps_at, std::string::npos) << info.text;
+  EXPECT_GE(std::stoi(info.text.substr(steps_at + 14)), 50) << info.text;
+  const std::string out = "/tmp/msspr_cube_robot_run_" + std::to_string(getpid());
+  const test::ToolOutput t = test::RunTool(
+      std::string(MSSPR_TRAIN_EXE) + " --data " + rec.bag() + " --robot " + spec +
+          " --scale cpu --steps 2 --batch 16 --eval-every 0 --threads 1 --quiet --out " + out,
+      180);
+  std::printf("%s\n", t.text.c_str());
+  EXPECT_EQ(t.status, 0) << t.text;
+  EXPECT_NE(t.text.find("steps"), std::string::npos) << t.text;
+  std::system(("rm -rf " + out).c_str());
+  if (!std::getenv("MSSPR_KEEP_BAG")) rec.Cleanup();
+}
+#endif
 
 // Live collection (the sim's collection mode + msspr_cube_oracle_node in play
 // mode, recorded by rosbag record) writes msspr_collect --env cube-single's
@@ -290,14 +350,16 @@ TEST(CubeLiveRecording, PlayDataInTheCollectLayout) {
     ASSERT_EQ(ep.num_steps, kLength);
     ASSERT_EQ(ep.obs_dim, 28);
     ASSERT_EQ(ep.act_dim, 5);
-    for (int i = 0; i < 28; ++i) EXPECT_EQ(ep.observations[i], direct.observations[i]) << "episode " << k << " [" << i << "]";
+    for (int i = 0; i < 28; ++i)
+      EXPECT_EQ(ep.observations[i], direct.observations[i]) << "episode " << k << " [" << i << "]";
     for (float a : ep.actions) {
       EXPECT_GE(a, -1.0f);
       EXPECT_LE(a, 1.0f);
     }
     const Eigen::Vector3d c0 = sim::CubePositionFromObservation(ep.observations.data());
     for (int t = 1; t < ep.num_steps; ++t)
-      moved = std::max(moved, (sim::CubePositionFromObservation(&ep.observations[t * 28]) - c0).norm());
+      moved =
+          std::max(moved, (sim::CubePositionFromObservation(&ep.observations[t * 28]) - c0).norm());
     ++k;
   });
   EXPECT_EQ(k, kEpisodes);

@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "cube_sim_node.h"
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/cube_oracle.h"
+#include "msspr_sim_nodes/cube_sim_node.h"
 
 namespace msspr::ros_bridge::test {
 
@@ -23,8 +23,10 @@ struct CubeSpecBag {
   std::vector<sim::CubeEnv::Action> actions;            // clipped to [-1, 1], per step
 };
 
-// Writes `steps` steps (0.05 s apart from t0) of a collection episode seeded `seed`.
-inline CubeSpecBag WriteCubeSpecBag(const std::string& path, int steps, uint64_t seed, double t0_s = 20.0) {
+// Writes `steps` steps (0.05 s apart from t0) of a collection episode seeded `seed`; the
+// topics under the namespace `ns` ("/msspr": /msspr/joint_states, ...; /tf stays global).
+inline CubeSpecBag WriteCubeSpecBag(const std::string& path, int steps, uint64_t seed,
+                                    double t0_s = 20.0, const std::string& ns = "") {
   CubeSpecBag out;
   sim::CubeEnvOptions eo;
   eo.urdf_path = std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ur5e_2f85.urdf";
@@ -39,12 +41,13 @@ inline CubeSpecBag WriteCubeSpecBag(const std::string& path, int steps, uint64_t
   for (int k = 0; k < steps; ++k) {
     const ros::Time stamp = t0 + ros::Duration(0.05 * k);
     out.observations.push_back(env.GetObservation());
-    const CubeStandardMessages m = MakeCubeStandardMessages(env, stamp, "world", "cube", "cube_goal");
+    const CubeStandardMessages m =
+        MakeCubeStandardMessages(env, stamp, "world", "cube", "cube_goal");
     tf2_msgs::TFMessage tf;
     tf.transforms = m.transforms;
-    bag.write("/joint_states", stamp, m.joint_states);
-    bag.write("/gripper/joint_states", stamp, m.gripper_state);
-    bag.write("/cube_pose", stamp, m.cube_pose);
+    bag.write(ns + "/joint_states", stamp, m.joint_states);
+    bag.write(ns + "/gripper/joint_states", stamp, m.gripper_state);
+    bag.write(ns + "/cube_pose", stamp, m.cube_pose);
     bag.write("/tf", stamp, tf);
     sim::CubeEnv::Action a = oracle.Act(env);
     for (auto& v : a) v = std::clamp(v, -1.0, 1.0);
@@ -58,8 +61,8 @@ inline CubeSpecBag WriteCubeSpecBag(const std::string& path, int steps, uint64_t
     twist.twist.angular.z = a[3] * kCubeEeYawRate;
     std_msgs::Float64MultiArray grip;
     grip.data = {a[4]};
-    bag.write("/ee_twist", stamp + ros::Duration(0.001), twist);
-    bag.write("/gripper_command", stamp + ros::Duration(0.001), grip);
+    bag.write(ns + "/ee_twist", stamp + ros::Duration(0.001), twist);
+    bag.write(ns + "/gripper_command", stamp + ros::Duration(0.001), grip);
     env.Step(a);
   }
   return out;

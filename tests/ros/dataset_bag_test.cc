@@ -1,5 +1,5 @@
 // Dataset bags without a master: write, read back bit for bit, and report damage.
-#include "dataset_bag.h"
+#include "msspr_bags/dataset_bag.h"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
@@ -20,10 +20,10 @@
 #include <random>
 #include <string>
 
-#include "dataset_bag_validator.h"
 #include "msspr/Action.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
+#include "msspr_bags/dataset_bag_validator.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/point_maze.h"
 

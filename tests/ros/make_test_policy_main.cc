@@ -21,7 +21,8 @@ namespace {
 
 int Usage(const std::string& why) {
   std::cerr << "msspr_make_test_policy: " << why
-            << "\nusage: msspr_make_test_policy --mode state|pixels --scale tiny|cpu --out FILE [--seed N]"
+            << "\nusage: msspr_make_test_policy --mode state|pixels --scale tiny|cpu --out FILE "
+               "[--seed N]"
                " [--agent NAME]\n";
   return 2;
 }
@@ -35,12 +36,18 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return Usage("missing value after " + a);
     const std::string v = argv[++i];
-    if (a == "--mode") mode = v;
-    else if (a == "--scale") scale = v;
-    else if (a == "--out") out = v;
-    else if (a == "--agent") agent = v;
-    else if (a == "--seed") seed = std::strtoull(v.c_str(), nullptr, 10);
-    else return Usage("unknown option " + a);
+    if (a == "--mode")
+      mode = v;
+    else if (a == "--scale")
+      scale = v;
+    else if (a == "--out")
+      out = v;
+    else if (a == "--agent")
+      agent = v;
+    else if (a == "--seed")
+      seed = std::strtoull(v.c_str(), nullptr, 10);
+    else
+      return Usage("unknown option " + a);
   }
   if (out.empty()) return Usage("--out is required");
   if (mode != "state" && mode != "pixels") return Usage("--mode must be state or pixels");
@@ -77,14 +84,16 @@ int main(int argc, char** argv) {
         x += 0.2f * ax;
         y += 0.2f * ay;
         if (pixels)
-          for (int64_t k = 0; k < shape.numel(); ++k) images.push_back(static_cast<uint8_t>(byte(rng)));
+          for (int64_t k = 0; k < shape.numel(); ++k)
+            images.push_back(static_cast<uint8_t>(byte(rng)));
       }
       builder.AddEpisode(pixels ? std::vector<float>{} : obs, act, images);
     }
     auto data = std::make_shared<core::Dataset>(builder.Build());
     core::Trainer trainer(o, data);
     trainer.ExportPolicy(out);
-    std::cout << "wrote untrained " << agent << " " << mode << " policy (" << scale << ") to " << out << "\n";
+    std::cout << "wrote untrained " << agent << " " << mode << " policy (" << scale << ") to "
+              << out << "\n";
   } catch (const std::exception& e) {
     std::cerr << "msspr_make_test_policy: " << e.what() << "\n";
     return 1;

@@ -1,11 +1,11 @@
 // rostest of msspr_policy_node serving a baseline agent's export
 // (tests/ros/policy_serves_{gcbc,hiql}.test): its diagnostics name the agent,
 // and its actions are those of the same export loaded in process.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "msspr_core/policy.h"
 #include "policy_client.h"
@@ -43,7 +43,8 @@ TEST(PolicyServesBaseline, ActionsMatchTheExportInProcess) {
   }
   // Goal-conditioned: not every (state, goal) pair gets the same action.
   bool differ = false;
-  for (const auto& a : seen) differ |= std::abs(a[0] - seen[0][0]) + std::abs(a[1] - seen[0][1]) > 1e-6;
+  for (const auto& a : seen)
+    differ |= std::abs(a[0] - seen[0][0]) + std::abs(a[1] - seen[0][1]) > 1e-6;
   EXPECT_TRUE(differ) << "every input got the same action";
 }
 

@@ -1,10 +1,14 @@
 // rostest scenarios of msspr_policy_node (one suite per .test file, see
 // tests/ros/policy_*.test).
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <poll.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/image_encodings.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
 #include <cmath>
@@ -15,18 +19,13 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-#include <sensor_msgs/Image.h>
-#include <sensor_msgs/image_encodings.h>
-
-#include "msg_conversion.h"
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
-#include "policy_client.h"
-#include "ros_test_helper.h"
-#include <visualization_msgs/MarkerArray.h>
+#include "msspr_bridge/msg_conversion.h"
 #include "msspr_core/policy.h"
 #include "msspr_sim/maze_map.h"
+#include "policy_client.h"
+#include "ros_test_helper.h"
 
 namespace msspr::testing {
 namespace {
@@ -50,15 +49,19 @@ TEST(PolicyBadInput, RejectsCountsAndKeepsServing) {
   PolicyClient c;
   ASSERT_TRUE(c.WaitForPolicy()) << "policy node not up";
   EXPECT_EQ(c.helper().DiagValue(kPolicyStatus, "goal_source"), "observation");
-  c.SendObservation(3, 0, {NAN, 0.f}, {1.f, 1.f});        // NaN state
-  c.SendObservation(3, 1, {0.f, 0.f, 0.f}, {1.f, 1.f});   // wrong state dimension
-  c.SendObservation(3, 2, {0.f, 0.f}, {});                // no goal anywhere
-  c.SendObservation(3, 3, {0.f, 0.f}, {1.f, INFINITY});   // Inf goal
-  c.SendObservation(3, 4, {0.f, 0.f}, {1.f});             // wrong goal dimension
-  ASSERT_TRUE(c.helper().WaitFor([&] {
-    return c.Diag("rejected_nonfinite") >= 2 && c.Diag("rejected_wrong_dim") >= 2 && c.Diag("rejected_no_goal") >= 1;
-  }, 10.0)) << "nonfinite=" << c.Diag("rejected_nonfinite") << " wrong_dim=" << c.Diag("rejected_wrong_dim")
-            << " no_goal=" << c.Diag("rejected_no_goal");
+  c.SendObservation(3, 0, {NAN, 0.f}, {1.f, 1.f});       // NaN state
+  c.SendObservation(3, 1, {0.f, 0.f, 0.f}, {1.f, 1.f});  // wrong state dimension
+  c.SendObservation(3, 2, {0.f, 0.f}, {});               // no goal anywhere
+  c.SendObservation(3, 3, {0.f, 0.f}, {1.f, INFINITY});  // Inf goal
+  c.SendObservation(3, 4, {0.f, 0.f}, {1.f});            // wrong goal dimension
+  ASSERT_TRUE(c.helper().WaitFor(
+      [&] {
+        return c.Diag("rejected_nonfinite") >= 2 && c.Diag("rejected_wrong_dim") >= 2 &&
+               c.Diag("rejected_no_goal") >= 1;
+      },
+      10.0))
+      << "nonfinite=" << c.Diag("rejected_nonfinite")
+      << " wrong_dim=" << c.Diag("rejected_wrong_dim") << " no_goal=" << c.Diag("rejected_no_goal");
   EXPECT_EQ(c.Diag("rejected_nonfinite"), 2);
   EXPECT_EQ(c.Diag("rejected_wrong_dim"), 2);
   EXPECT_EQ(c.Diag("rejected_no_goal"), 1);
@@ -90,9 +93,7 @@ TEST(PolicyBadInput, RejectsCountsAndKeepsServing) {
   std::vector<double> expected;
   for (int k = 0; k < 2; ++k) {
     const auto& sent = k == 0 ? a->action : a6->action;
-    auto tensor = [](const std::vector<float>& v) {
-      return torch::tensor(v, torch::kFloat32);
-    };
+    auto tensor = [](const std::vector<float>& v) { return torch::tensor(v, torch::kFloat32); };
     const torch::Tensor q = reference.Q(tensor(states[k]), tensor(sent), tensor(goal));
     ASSERT_EQ(q.numel(), 2) << "twin Q values";
     expected.push_back(q.min().item<double>());
@@ -119,12 +120,13 @@ TEST(PolicyBadInput, RejectsCountsAndKeepsServing) {
   a = c.WaitForAction(8, 0, 10.0);
   ASSERT_TRUE(a) << "no action with the goal from ~set_goal";
   ExpectValidAction(*a);
-  ASSERT_TRUE(c.helper().WaitFor([&] { return c.helper().DiagValue(kPolicyStatus, "goal_source") == "set_goal"; },
-                                 5.0));
+  ASSERT_TRUE(c.helper().WaitFor(
+      [&] { return c.helper().DiagValue(kPolicyStatus, "goal_source") == "set_goal"; }, 5.0));
   ASSERT_TRUE(CallSetGoal(nh, "policy/set_goal", {}, &res));  // clear
   EXPECT_TRUE(res.ok);
   c.SendObservation(8, 1, {0.f, 0.f}, {});
-  ASSERT_TRUE(c.WaitForCounter("rejected_no_goal", 2)) << "an empty goal after clearing was not rejected";
+  ASSERT_TRUE(c.WaitForCounter("rejected_no_goal", 2))
+      << "an empty goal after clearing was not rejected";
   EXPECT_FALSE(c.WaitForAction(8, 1, 0.5));
 
   // The goal_state topic (an Observation's state field) overrides as well.
@@ -157,7 +159,8 @@ TEST(PolicyBadInputPixels, RejectsCountsAndKeepsServing) {
   mono.step = 64;
   mono.data.resize(64 * 64);
   c.SendImage(mono);
-  ASSERT_TRUE(c.WaitForCounter("rejected_bad_image", 3)) << "bad_image=" << c.Diag("rejected_bad_image");
+  ASSERT_TRUE(c.WaitForCounter("rejected_bad_image", 3))
+      << "bad_image=" << c.Diag("rejected_bad_image");
   EXPECT_EQ(c.num_actions(), 0u);
   // A bad goal image does not replace the goal either.
   c.SendGoalImage(PolicyClient::Image(48, "rgb8", 10, PolicyClient::Stamp(2, 3)));
@@ -201,7 +204,8 @@ TEST(PolicyRate, ActsAtRateOnLatestObservation) {
     c.helper().WaitFor([] { return false; }, 0.1);
   }
   const size_t n0 = c.num_actions();
-  EXPECT_GE(n0, static_cast<size_t>(0.5 * rate)) << "rate mode published " << n0 << " actions in 1 s";
+  EXPECT_GE(n0, static_cast<size_t>(0.5 * rate))
+      << "rate mode published " << n0 << " actions in 1 s";
   EXPECT_LE(n0, static_cast<size_t>(1.5 * rate + 2));
   ASSERT_TRUE(c.WaitForAction(5, 0, 1.0));
   // A newer observation is the one answered from then on.
@@ -241,24 +245,31 @@ TEST(PolicyReachesGoal, EasyGoalInLockstep) {
     ASSERT_TRUE(r.response.ok) << r.response.message;
     const uint32_t id = r.response.observation.episode_id;
     msspr::SetGoal::Response res;
-    ASSERT_TRUE(CallSetGoal(h.nh(), "set_goal", {static_cast<float>(gx), static_cast<float>(gy)}, &res));
+    ASSERT_TRUE(
+        CallSetGoal(h.nh(), "set_goal", {static_cast<float>(gx), static_cast<float>(gy)}, &res));
     ASSERT_TRUE(res.ok) << res.message;
-    const bool ended = h.WaitFor([&] {
-      const auto& o = h.latest();
-      return o && o->episode_id == id &&
-             (o->success || o->last || o->step >= static_cast<uint32_t>(max_steps));
-    }, 120.0);
-    ASSERT_TRUE(ended) << "episode " << e << " stalled at step " << (h.latest() ? h.latest()->step : 0);
+    const bool ended = h.WaitFor(
+        [&] {
+          const auto& o = h.latest();
+          return o && o->episode_id == id &&
+                 (o->success || o->last || o->step >= static_cast<uint32_t>(max_steps));
+        },
+        120.0);
+    ASSERT_TRUE(ended) << "episode " << e << " stalled at step "
+                       << (h.latest() ? h.latest()->step : 0);
     const auto o = h.latest();
     const bool ok = o->success && o->step <= static_cast<uint32_t>(max_steps);
-    std::printf("episode %d: start (%.2f, %.2f) goal (%.2f, %.2f): %s at step %u, at (%.2f, %.2f)\n", e,
-                r.response.observation.state[0], r.response.observation.state[1], gx, gy,
-                ok ? "reached" : "not reached", o->step, o->state[0], o->state[1]);
+    std::printf(
+        "episode %d: start (%.2f, %.2f) goal (%.2f, %.2f): %s at step %u, at (%.2f, %.2f)\n", e,
+        r.response.observation.state[0], r.response.observation.state[1], gx, gy,
+        ok ? "reached" : "not reached", o->step, o->state[0], o->state[1]);
     reached += ok;
   }
-  EXPECT_GE(reached, std::min(2, episodes)) << reached << " of " << episodes << " episodes reached the goal";
+  EXPECT_GE(reached, std::min(2, episodes))
+      << reached << " of " << episodes << " episodes reached the goal";
   // The value estimate is taken once per diagnostics period (1 s).
-  EXPECT_TRUE(h.WaitFor([&] { return std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")); }, 5.0));
+  EXPECT_TRUE(
+      h.WaitFor([&] { return std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")); }, 5.0));
   EXPECT_EQ(h.DiagNumber(kPolicyStatus, "rejected_no_goal"), 0);
   // Value markers (~value_marker_maze medium, 2 x 2 points per free cell) for the goal
   // set above: the point next to the goal is valued above the one farthest from it by
@@ -282,7 +293,8 @@ TEST(PolicyReachesGoal, EasyGoalInLockstep) {
     const int moves = map.BfsDistance(map.XYToCell(p), goal_cell);
     if (moves > worst) worst = moves, far = k;
   }
-  EXPECT_GT(cubes.colors[near].g, cubes.colors[far].g) << "V near the goal should exceed V " << worst << " cells away";
+  EXPECT_GT(cubes.colors[near].g, cubes.colors[far].g)
+      << "V near the goal should exceed V " << worst << " cells away";
 }
 
 // The sim (pixels) and the policy node (pixels) in lockstep: camera images and
@@ -306,16 +318,21 @@ TEST(PolicySimPixels, LockstepLoopRuns) {
   ASSERT_TRUE(r.response.ok) << r.response.message;
   const uint32_t id = r.response.observation.episode_id;
   const ros::WallTime t0 = ros::WallTime::now();
-  ASSERT_TRUE(h.WaitFor([&] {
-    return h.latest() && h.latest()->episode_id == id && h.latest()->step >= static_cast<uint32_t>(steps);
-  }, 120.0)) << "stalled at step " << (h.latest() ? h.latest()->step : 0);
+  ASSERT_TRUE(h.WaitFor(
+      [&] {
+        return h.latest() && h.latest()->episode_id == id &&
+               h.latest()->step >= static_cast<uint32_t>(steps);
+      },
+      120.0))
+      << "stalled at step " << (h.latest() ? h.latest()->step : 0);
   const double s = (ros::WallTime::now() - t0).toSec();
   std::printf("%d pixel lockstep steps in %.2f s (%.1f steps/s)\n", steps, s, steps / s);
   ASSERT_TRUE(h.WaitFor([&] { return h.DiagNumber(kPolicyStatus, "actions") >= steps; }, 5.0));
-  for (const char* k : {"rejected_wrong_dim", "rejected_nonfinite", "rejected_no_goal", "rejected_bad_image",
-                        "inference_errors"})
+  for (const char* k : {"rejected_wrong_dim", "rejected_nonfinite", "rejected_no_goal",
+                        "rejected_bad_image", "inference_errors"})
     EXPECT_EQ(h.DiagNumber(kPolicyStatus, k), 0) << k;
-  EXPECT_TRUE(h.WaitFor([&] { return std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")); }, 5.0));
+  EXPECT_TRUE(
+      h.WaitFor([&] { return std::isfinite(h.DiagNumber(kPolicyStatus, "value_estimate")); }, 5.0));
 }
 
 // Runs `rosrun msspr <args...>` and returns its exit status (-1: did not exit
@@ -361,9 +378,11 @@ int RunRosrun(const std::vector<std::string>& args, std::string* output, double 
 }
 
 // Runs the policy node with private params (`_name:=value`); see RunRosrun.
-int RunPolicyNode(const std::vector<std::string>& params, std::string* output, double timeout_s = 60.0) {
+int RunPolicyNode(const std::vector<std::string>& params, std::string* output,
+                  double timeout_s = 60.0) {
   static int run = 0;  // a fresh node name per run: private params stay on the server
-  std::vector<std::string> args = {"msspr_policy_node", "__name:=policy_startup_check_" + std::to_string(run++)};
+  std::vector<std::string> args = {"msspr_policy_node",
+                                   "__name:=policy_startup_check_" + std::to_string(run++)};
   args.insert(args.end(), params.begin(), params.end());
   return RunRosrun(args, output, timeout_s);
 }
@@ -408,7 +427,8 @@ TEST(PolicyStartup, RefusesBadCheckpointsAndModeMismatch) {
   EXPECT_NE(out.find(truncated), std::string::npos) << out;
 
   out.clear();
-  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + state_ckpt, "_observation_mode:=pixels"}, &out), 1) << out;
+  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + state_ckpt, "_observation_mode:=pixels"}, &out), 1)
+      << out;
   EXPECT_NE(out.find("~observation_mode is 'pixels'"), std::string::npos) << out;
   EXPECT_NE(out.find(state_ckpt), std::string::npos) << out;
 
@@ -444,9 +464,11 @@ TEST(EvalParallel, TwoSimsGiveTheSerialResults) {
   const int episodes = pnh.param("episodes", 3);
   const int seed = pnh.param("seed", 0);
   const double timeout_s = pnh.param("run_timeout", 90.0);
-  const std::vector<std::string> common = {"--maze", "medium", "--tasks", tasks, "--episodes",
-                                           std::to_string(episodes), "--seed", std::to_string(seed),
-                                           "--agent", "eval-parallel-test"};
+  const std::vector<std::string> common = {"--maze",     "medium",
+                                           "--tasks",    tasks,
+                                           "--episodes", std::to_string(episodes),
+                                           "--seed",     std::to_string(seed),
+                                           "--agent",    "eval-parallel-test"};
   const std::string serial_json = TempPath("eval_serial") + ".json";
   const std::string parallel_json = TempPath("eval_parallel") + ".json";
   std::remove(serial_json.c_str());
@@ -459,8 +481,8 @@ TEST(EvalParallel, TwoSimsGiveTheSerialResults) {
   ASSERT_EQ(RunRosrun(serial, &out, timeout_s), 0) << out;
   std::printf("serial run:\n%s\n", out.c_str());
 
-  std::vector<std::string> parallel = {"msspr_eval", "--sims", "2", "--sim-ns", "/msspr_",
-                                       "--out", parallel_json};
+  std::vector<std::string> parallel = {"msspr_eval", "--sims", "2",          "--sim-ns",
+                                       "/msspr_",    "--out",  parallel_json};
   parallel.insert(parallel.end(), common.begin(), common.end());
   out.clear();
   ASSERT_EQ(RunRosrun(parallel, &out, timeout_s), 0) << out;
@@ -469,7 +491,8 @@ TEST(EvalParallel, TwoSimsGiveTheSerialResults) {
   int n0 = -1, n1 = -1;
   const auto at = out.find("episodes per sim:");
   ASSERT_NE(at, std::string::npos) << out;
-  ASSERT_EQ(std::sscanf(out.c_str() + at, "episodes per sim: /msspr_0 %d /msspr_1 %d", &n0, &n1), 2) << out;
+  ASSERT_EQ(std::sscanf(out.c_str() + at, "episodes per sim: /msspr_0 %d /msspr_1 %d", &n0, &n1), 2)
+      << out;
   const int n_tasks = static_cast<int>(std::count(tasks.begin(), tasks.end(), ',')) + 1;
   EXPECT_EQ(n0 + n1, n_tasks * episodes) << out;
   EXPECT_GE(n0, 1) << out;
@@ -480,11 +503,13 @@ TEST(EvalParallel, TwoSimsGiveTheSerialResults) {
   ASSERT_FALSE(b.empty()) << "no results in " << parallel_json;
   EXPECT_NE(a.find("\"wall_time_s\""), std::string::npos) << a;
   EXPECT_NE(a.find("\"episodes\": " + std::to_string(episodes)), std::string::npos) << a;
-  EXPECT_EQ(WithoutWallTime(a), WithoutWallTime(b)) << "serial:\n" << a << "\nparallel (--sims 2):\n" << b;
+  EXPECT_EQ(WithoutWallTime(a), WithoutWallTime(b)) << "serial:\n"
+                                                    << a << "\nparallel (--sims 2):\n"
+                                                    << b;
 
   // A third sim that is not running: named in the error, exit 1.
-  std::vector<std::string> missing = {"msspr_eval", "--sims", "3", "--sim-ns", "/msspr_",
-                                      "--wait", "1"};
+  std::vector<std::string> missing = {"msspr_eval", "--sims", "3", "--sim-ns",
+                                      "/msspr_",    "--wait", "1"};
   missing.insert(missing.end(), common.begin(), common.end());
   out.clear();
   EXPECT_EQ(RunRosrun(missing, &out, 30.0), 1) << out;

@@ -1,14 +1,16 @@
 // The point robot's URDF against the MuJoCo model (no master needed).
+#include "msspr_sim_nodes/robot_model.h"
+
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "robot_model.h"
-
 namespace msspr::ros_bridge {
 namespace {
 
-std::string ShippedUrdf() { return ReadTextFile(std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/point_robot.urdf"); }
+std::string ShippedUrdf() {
+  return ReadTextFile(std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/point_robot.urdf");
+}
 
 std::string Replace(std::string s, const std::string& from, const std::string& to) {
   const size_t at = s.find(from);
@@ -33,7 +35,8 @@ std::string Error(const std::string& xml, const std::string& maze = "medium") {
 }
 
 TEST(RobotModel, ShippedUrdfAgreesWithEveryMaze) {
-  for (const char* maze : {"arena", "medium", "large", "giant"}) EXPECT_EQ(Error(ShippedUrdf(), maze), "") << maze;
+  for (const char* maze : {"arena", "medium", "large", "giant"})
+    EXPECT_EQ(Error(ShippedUrdf(), maze), "") << maze;
   sim::PointMaze env(sim::PointMazeOptions{});
   const auto m = CheckPointRobotUrdf(ShippedUrdf(), "x", env, "world", "agent");
   ASSERT_EQ(m.chain.size(), 2u);
@@ -53,23 +56,35 @@ TEST(RobotModel, DisagreementsNameTheElement) {
   };
   expect(Error(""), "the robot description is empty");
   expect(Error("<robot name='x'><link name='world'/>"), "urdfdom could not parse");
-  expect(Error(Replace(u, "name=\"agent_y\"", "name=\"agent_z\"")), "joint 'agent_z': joint 2 of the chain must be the simulation's 'agent_y'");
-  expect(Error(Replace(u, "<axis xyz=\"0 1 0\"/>", "<axis xyz=\"1 0 0\"/>")), "joint 'agent_y': axis (1 0 0) differs from the simulation's (0 1 0)");
-  expect(Error(Replace(u, "<joint name=\"agent_x\" type=\"prismatic\">", "<joint name=\"agent_x\" type=\"revolute\">")),
+  expect(Error(Replace(u, "name=\"agent_y\"", "name=\"agent_z\"")),
+         "joint 'agent_z': joint 2 of the chain must be the simulation's 'agent_y'");
+  expect(Error(Replace(u, "<axis xyz=\"0 1 0\"/>", "<axis xyz=\"1 0 0\"/>")),
+         "joint 'agent_y': axis (1 0 0) differs from the simulation's (0 1 0)");
+  expect(Error(Replace(u, "<joint name=\"agent_x\" type=\"prismatic\">",
+                       "<joint name=\"agent_x\" type=\"revolute\">")),
          "joint 'agent_x': must be prismatic");
-  expect(Error(Replace(u, "<geometry><sphere radius=\"0.7\"/></geometry>\n      <material", "<geometry><sphere radius=\"0.5\"/></geometry>\n      <material")),
+  expect(Error(Replace(u, "<geometry><sphere radius=\"0.7\"/></geometry>\n      <material",
+                       "<geometry><sphere radius=\"0.5\"/></geometry>\n      <material")),
          "link 'agent': sphere radius 0.500000 differs from the simulation's 0.700000");
-  expect(Error(Replace(u, "<geometry><sphere radius=\"0.7\"/></geometry>\n    </collision>", "<geometry><box size=\"1 1 1\"/></geometry>\n    </collision>")),
+  expect(Error(Replace(u, "<geometry><sphere radius=\"0.7\"/></geometry>\n    </collision>",
+                       "<geometry><box size=\"1 1 1\"/></geometry>\n    </collision>")),
          "its collision geometry must be a sphere");
-  expect(Error(Replace(u, "<origin xyz=\"0 0 0.7\" rpy=\"0 0 0\"/>", "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>")), "lift the agent by 0");
-  expect(Error(Replace(u, "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>", "<origin xyz=\"0 0 0\" rpy=\"0 0 0.3\"/>")), "joint 'agent_y': origin rpy must be 0 0 0");
+  expect(Error(Replace(u, "<origin xyz=\"0 0 0.7\" rpy=\"0 0 0\"/>",
+                       "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>")),
+         "lift the agent by 0");
+  expect(Error(Replace(u, "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>",
+                       "<origin xyz=\"0 0 0\" rpy=\"0 0 0.3\"/>")),
+         "joint 'agent_y': origin rpy must be 0 0 0");
   // Limits that fit the medium maze but not the giant one.
-  const std::string small = Replace(Replace(u, "<limit lower=\"-10\" upper=\"60\"", "<limit lower=\"-6\" upper=\"30\""),
-                                    "<limit lower=\"-10\" upper=\"60\"", "<limit lower=\"-6\" upper=\"30\"");
+  const std::string small =
+      Replace(Replace(u, "<limit lower=\"-10\" upper=\"60\"", "<limit lower=\"-6\" upper=\"30\""),
+              "<limit lower=\"-10\" upper=\"60\"", "<limit lower=\"-6\" upper=\"30\"");
   EXPECT_EQ(Error(small, "medium"), "");
-  expect(Error(small, "giant"), "joint 'agent_x': limits [-6.000000, 30.000000] do not cover maze giant");
+  expect(Error(small, "giant"),
+         "joint 'agent_x': limits [-6.000000, 30.000000] do not cover maze giant");
   // A world frame by another name, a missing agent link.
-  expect(Error(Replace(Replace(u, "<link name=\"world\"/>", "<link name=\"map\"/>"), "<parent link=\"world\"/>", "<parent link=\"map\"/>")),
+  expect(Error(Replace(Replace(u, "<link name=\"world\"/>", "<link name=\"map\"/>"),
+                       "<parent link=\"world\"/>", "<parent link=\"map\"/>")),
          "the root link is 'map', expected the world frame 'world'");
   sim::PointMaze env(sim::PointMazeOptions{});
   EXPECT_THROW(CheckPointRobotUrdf(u, "x", env, "world", "base_link"), std::runtime_error);

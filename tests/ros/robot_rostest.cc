@@ -11,18 +11,17 @@
 //   goals, given to a node serving over the native msspr topics and to one
 //   serving through the spec, give the same commands: twist.linear.{x, y} =
 //   2.0 * clip(action, -1, 1) within 1e-5.
-#include <cmath>
-#include <cstdio>
-
-#include <algorithm>
-#include <random>
-#include <vector>
-
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <sensor_msgs/Image.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
 
 #include "msspr/Pause.h"
 #include "msspr/Reset.h"
@@ -38,11 +37,12 @@ TEST(RobotServing, ReachesGoalStopsWhenStaleAndResumes) {
   RosTestHelper h;
   uint64_t twists = 0, zero_twists = 0;
   geometry_msgs::Twist last;
-  ros::Subscriber cmd = h.nh().subscribe<geometry_msgs::Twist>("cmd_vel", 1000, [&](const geometry_msgs::Twist::ConstPtr& t) {
-    ++twists;
-    last = *t;
-    if (t->linear.x == 0.0 && t->linear.y == 0.0 && t->angular.z == 0.0) ++zero_twists;
-  });
+  ros::Subscriber cmd = h.nh().subscribe<geometry_msgs::Twist>(
+      "cmd_vel", 1000, [&](const geometry_msgs::Twist::ConstPtr& t) {
+        ++twists;
+        last = *t;
+        if (t->linear.x == 0.0 && t->linear.y == 0.0 && t->angular.z == 0.0) ++zero_twists;
+      });
   std::string level;
   ros::Subscriber diag = h.nh().subscribe<diagnostic_msgs::DiagnosticArray>(
       "/diagnostics", 10, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& d) {
@@ -70,12 +70,16 @@ TEST(RobotServing, ReachesGoalStopsWhenStaleAndResumes) {
     msspr::SetGoal g;  // the sim publishes the new goal on goal_pose
     g.request.goal = {3.0f, 0.0f};
     ASSERT_TRUE(set_goal.call(g));
-    ASSERT_TRUE(h.WaitFor([&] {
-      const auto& o = h.latest();
-      return o && o->episode_id == id && (o->success || o->step >= 300);
-    }, 120.0)) << "episode " << e << " stalled at step " << (h.latest() ? h.latest()->step : 0);
+    ASSERT_TRUE(h.WaitFor(
+        [&] {
+          const auto& o = h.latest();
+          return o && o->episode_id == id && (o->success || o->step >= 300);
+        },
+        120.0))
+        << "episode " << e << " stalled at step " << (h.latest() ? h.latest()->step : 0);
     reached += h.latest()->success;
-    std::printf("episode %d: %s at step %u\n", e, h.latest()->success ? "reached" : "not reached", h.latest()->step);
+    std::printf("episode %d: %s at step %u\n", e, h.latest()->success ? "reached" : "not reached",
+                h.latest()->step);
   }
   EXPECT_GE(reached, 1);
   EXPECT_TRUE(h.WaitFor([&] { return level.rfind("0 serving", 0) == 0; }, 5.0)) << level;
@@ -87,22 +91,31 @@ TEST(RobotServing, ReachesGoalStopsWhenStaleAndResumes) {
   ASSERT_TRUE(reset.call(r));
   auto counters = [&] {
     std::string s;
-    for (const char* k : {"steps", "actions", "stale", "ignored_after_end", "ignored_paused", "republished"})
+    for (const char* k :
+         {"steps", "actions", "stale", "ignored_after_end", "ignored_paused", "republished"})
       s += std::string(k) + "=" + h.DiagValue(": actions", k) + " ";
     for (const char* k : {"messages", "commands", "stop_commands", "stale_events", "rejected"})
       s += std::string(k) + "=" + h.DiagValue(kRobotStatus, k) + " ";
     return s;
   };
-  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == r.response.observation.episode_id &&
-                                     h.latest()->step >= 20; }, 30.0))
+  ASSERT_TRUE(h.WaitFor(
+      [&] {
+        return h.latest() && h.latest()->episode_id == r.response.observation.episode_id &&
+               h.latest()->step >= 20;
+      },
+      30.0))
       << "step " << (h.latest() ? h.latest()->step : 0) << "; " << counters();
   msspr::Pause p;
   p.request.pause = true;
   ASSERT_TRUE(pause.call(p));
   const uint64_t zeros_before = zero_twists;
   EXPECT_TRUE(h.WaitFor([&] { return zero_twists > zeros_before; }, 5.0)) << "no stop command";
-  EXPECT_TRUE(h.WaitFor([&] { return level.find("inputs stale, stopping: topic odom (field 'position')") != std::string::npos; },
-                        5.0))
+  EXPECT_TRUE(h.WaitFor(
+      [&] {
+        return level.find("inputs stale, stopping: topic odom (field 'position')") !=
+               std::string::npos;
+      },
+      5.0))
       << level;
   EXPECT_EQ(level[0], '1') << level;  // WARN
   // Inputs return: serving again, the episode moves on.
@@ -110,7 +123,8 @@ TEST(RobotServing, ReachesGoalStopsWhenStaleAndResumes) {
   const uint64_t twists_before = twists;
   p.request.pause = false;
   ASSERT_TRUE(pause.call(p));
-  EXPECT_TRUE(h.WaitFor([&] { return h.latest()->step >= step + 10 && twists >= twists_before + 10; }, 20.0))
+  EXPECT_TRUE(h.WaitFor(
+      [&] { return h.latest()->step >= step + 10 && twists >= twists_before + 10; }, 20.0))
       << "not serving again after the pause";
   EXPECT_NE(last.linear.x * last.linear.x + last.linear.y * last.linear.y, 0.0);
   EXPECT_TRUE(h.WaitFor([&] { return level.rfind("0 serving", 0) == 0; }, 5.0)) << level;
@@ -124,16 +138,22 @@ TEST(RobotCameraServing, ServesPixelsAndCountsCorruptImages) {
   RosTestHelper h;
   constexpr char kCameraStatus[] = "robot pointmaze_camera";
   uint64_t twists = 0, moving = 0;
-  ros::Subscriber cmd = h.nh().subscribe<geometry_msgs::Twist>("cmd_vel", 1000, [&](const geometry_msgs::Twist::ConstPtr& t) {
-    ++twists;
-    if (t->linear.x != 0.0 || t->linear.y != 0.0) ++moving;
-  });
+  ros::Subscriber cmd = h.nh().subscribe<geometry_msgs::Twist>(
+      "cmd_vel", 1000, [&](const geometry_msgs::Twist::ConstPtr& t) {
+        ++twists;
+        if (t->linear.x != 0.0 || t->linear.y != 0.0) ++moving;
+      });
   ros::Publisher bad_pub = h.nh().advertise<sensor_msgs::Image>("camera/image", 10);
   ros::ServiceClient reset = h.nh().serviceClient<msspr::Reset>("reset");
   ASSERT_TRUE(reset.waitForExistence(ros::Duration(60.0)));
-  ASSERT_TRUE(h.WaitFor([&] { return cmd.getNumPublishers() > 0 && bad_pub.getNumSubscribers() > 0 &&
-                                     !h.DiagValue(kCameraStatus, "bad_images").empty(); }, 60.0))
-      << "policy node not serving cmd_vel through the camera spec (its fatal error, if any, is on its stderr)";
+  ASSERT_TRUE(h.WaitFor(
+      [&] {
+        return cmd.getNumPublishers() > 0 && bad_pub.getNumSubscribers() > 0 &&
+               !h.DiagValue(kCameraStatus, "bad_images").empty();
+      },
+      60.0))
+      << "policy node not serving cmd_vel through the camera spec (its fatal error, if any, is on "
+         "its stderr)";
   msspr::Reset r;
   r.request.task_id = 1;
   r.request.seed = 3;
@@ -142,13 +162,15 @@ TEST(RobotCameraServing, ServesPixelsAndCountsCorruptImages) {
   const uint32_t id = r.response.observation.episode_id;
   auto counters = [&] {
     std::string s;
-    for (const char* k : {"messages", "images", "bad_images", "rejected", "commands", "stop_commands"})
+    for (const char* k :
+         {"messages", "images", "bad_images", "rejected", "commands", "stop_commands"})
       s += std::string(k) + "=" + h.DiagValue(kCameraStatus, k) + " ";
     return s + "twists=" + std::to_string(twists);
   };
-  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step >= 15; }, 30.0))
-      << "the pixels policy does not step the sim: step " << (h.latest() ? h.latest()->step : 0) << "; "
-      << counters();
+  ASSERT_TRUE(h.WaitFor(
+      [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step >= 15; }, 30.0))
+      << "the pixels policy does not step the sim: step " << (h.latest() ? h.latest()->step : 0)
+      << "; " << counters();
   EXPECT_GT(moving, 0u) << "only stop commands: " << counters();
   EXPECT_EQ(h.DiagValue(kCameraStatus, "bad_images"), "0") << counters();
 
@@ -164,11 +186,13 @@ TEST(RobotCameraServing, ServesPixelsAndCountsCorruptImages) {
   bad.data.assign(64 * 64 * 4, 0);
   bad.step = 64 * 4;
   bad_pub.publish(bad);
-  EXPECT_TRUE(h.WaitFor([&] { return h.DiagNumber(kCameraStatus, "bad_images") >= 2; }, 10.0)) << counters();
+  EXPECT_TRUE(h.WaitFor([&] { return h.DiagNumber(kCameraStatus, "bad_images") >= 2; }, 10.0))
+      << counters();
   EXPECT_GE(h.DiagNumber(kCameraStatus, "rejected"), 2) << counters();
   // Still serving: the episode moves on.
   const uint32_t step = h.latest()->step;
-  EXPECT_TRUE(h.WaitFor([&] { return h.latest()->episode_id == id && h.latest()->step >= step + 10; }, 20.0))
+  EXPECT_TRUE(h.WaitFor(
+      [&] { return h.latest()->episode_id == id && h.latest()->step >= step + 10; }, 20.0))
       << "not serving after the corrupt images: step " << h.latest()->step << "; " << counters();
   std::printf("camera spec: %s\n", counters().c_str());
 }
@@ -179,21 +203,30 @@ TEST(RobotSameActions, NativeAndSpecServingGiveTheSameCommands) {
   ros::NodeHandle nh;
   ros::Publisher obs_pub = nh.advertise<msspr::Observation>("/native/observation", 10);
   ros::Publisher odom_pub = nh.advertise<nav_msgs::Odometry>("/robot/odom", 10);
-  ros::Publisher goal_pub = nh.advertise<geometry_msgs::PoseStamped>("/robot/goal_pose", 1, /*latch=*/true);
+  ros::Publisher goal_pub =
+      nh.advertise<geometry_msgs::PoseStamped>("/robot/goal_pose", 1, /*latch=*/true);
   std::vector<std::vector<float>> actions;
   std::vector<geometry_msgs::Twist> twists;
   uint64_t stops = 0;
   ros::Subscriber act_sub = nh.subscribe<msspr::Action>(
-      "/native/action", 100, [&](const msspr::Action::ConstPtr& a) { actions.push_back(a->action); });
-  ros::Subscriber cmd_sub = nh.subscribe<geometry_msgs::Twist>("/robot/cmd_vel", 100, [&](const geometry_msgs::Twist::ConstPtr& t) {
-    // The watchdog's stop (before the first goal, or when odometry pauses) is an exact zero.
-    if (t->linear.x == 0.0 && t->linear.y == 0.0 && t->linear.z == 0.0 && t->angular.z == 0.0) ++stops;
-    else twists.push_back(*t);
-  });
-  ASSERT_TRUE(h.WaitFor([&] {
-    return obs_pub.getNumSubscribers() > 0 && act_sub.getNumPublishers() > 0 && odom_pub.getNumSubscribers() > 0 &&
-           goal_pub.getNumSubscribers() > 0 && cmd_sub.getNumPublishers() > 0;
-  }, 90.0)) << "the two policy nodes are not up (their fatal error, if any, is on their stderr)";
+      "/native/action", 100,
+      [&](const msspr::Action::ConstPtr& a) { actions.push_back(a->action); });
+  ros::Subscriber cmd_sub = nh.subscribe<geometry_msgs::Twist>(
+      "/robot/cmd_vel", 100, [&](const geometry_msgs::Twist::ConstPtr& t) {
+        // The watchdog's stop (before the first goal, or when odometry pauses) is an exact zero.
+        if (t->linear.x == 0.0 && t->linear.y == 0.0 && t->linear.z == 0.0 && t->angular.z == 0.0)
+          ++stops;
+        else
+          twists.push_back(*t);
+      });
+  ASSERT_TRUE(h.WaitFor(
+      [&] {
+        return obs_pub.getNumSubscribers() > 0 && act_sub.getNumPublishers() > 0 &&
+               odom_pub.getNumSubscribers() > 0 && goal_pub.getNumSubscribers() > 0 &&
+               cmd_sub.getNumPublishers() > 0;
+      },
+      90.0))
+      << "the two policy nodes are not up (their fatal error, if any, is on their stderr)";
 
   std::mt19937 rng(28);
   std::uniform_real_distribution<float> coord(0.0f, 20.0f);  // the medium maze spans about 0..20 m
@@ -229,12 +262,13 @@ TEST(RobotSameActions, NativeAndSpecServingGiveTheSameCommands) {
       obs_pub.publish(o);
       odom_pub.publish(od);
       ASSERT_TRUE(h.WaitFor([&] { return actions.size() >= n && twists.size() >= n; }, 20.0))
-          << "no answer to state " << step << ": " << actions.size() << " actions, " << twists.size()
-          << " commands, " << stops << " stops";
+          << "no answer to state " << step << ": " << actions.size() << " actions, "
+          << twists.size() << " commands, " << stops << " stops";
       const auto& a = actions[n - 1];
       const auto& t = twists[n - 1];
       ASSERT_EQ(a.size(), 2u);
-      const double ex = 2.0 * std::clamp<double>(a[0], -1.0, 1.0), ey = 2.0 * std::clamp<double>(a[1], -1.0, 1.0);
+      const double ex = 2.0 * std::clamp<double>(a[0], -1.0, 1.0),
+                   ey = 2.0 * std::clamp<double>(a[1], -1.0, 1.0);
       EXPECT_NEAR(t.linear.x, ex, 1e-5) << "state " << step;
       EXPECT_NEAR(t.linear.y, ey, 1e-5) << "state " << step;
       EXPECT_EQ(t.linear.z, 0.0);
@@ -242,8 +276,8 @@ TEST(RobotSameActions, NativeAndSpecServingGiveTheSameCommands) {
       worst = std::max({worst, std::abs(t.linear.x - ex), std::abs(t.linear.y - ey)});
     }
   }
-  std::printf("%u states, %d goals: largest difference %.3g m/s (%lu stop commands, ignored)\n", step, kGoals, worst,
-              stops);
+  std::printf("%u states, %d goals: largest difference %.3g m/s (%lu stop commands, ignored)\n",
+              step, kGoals, worst, stops);
 }
 
 }  // namespace

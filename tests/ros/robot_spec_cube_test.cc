@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "cube_sim_node.h"
 #include "cube_spec_bag.h"
-#include "robot_fields.h"
-#include "robot_spec.h"
-#include "spec_bag.h"
+#include "msspr_robot_interface/robot_fields.h"
+#include "msspr_robot_interface/robot_spec.h"
+#include "msspr_robot_interface/spec_bag.h"
+#include "msspr_sim_nodes/cube_sim_node.h"
 
 namespace msspr::ros_bridge {
 namespace {
@@ -26,14 +26,16 @@ namespace fs = std::filesystem;
 
 TEST(RobotSpecCube, SpecObservationsEqualTheNative28D) {
   ros::Time::init();
-  const fs::path dir = fs::temp_directory_path() / ("msspr_cube_spec_test_" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("msspr_cube_spec_test_" + std::to_string(getpid()));
   fs::create_directories(dir);
   const std::string bag_path = (dir / "cube.bag").string();
   constexpr int kSteps = 120;
   const test::CubeSpecBag written = test::WriteCubeSpecBag(bag_path, kSteps, 11);
   const auto& native = written.observations;
   const auto& actions = written.actions;
-  const RobotSpec spec = LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/ur5e_cube.yaml");
+  const RobotSpec spec =
+      LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/ur5e_cube.yaml");
   ASSERT_EQ(spec.obs_dim(), sim::CubeEnv::kObservationSize);
   ASSERT_EQ(spec.action_dim(), sim::CubeEnv::kActionSize);
   SpecBagReader reader(spec, {bag_path});
@@ -53,10 +55,12 @@ TEST(RobotSpecCube, SpecObservationsEqualTheNative28D) {
       worst = std::max(worst, static_cast<double>(std::abs(got - native[k][i])));
     }
     for (int i = 0; i < sim::CubeEnv::kActionSize; ++i)
-      EXPECT_NEAR(ep.actions[static_cast<size_t>(k) * 5 + i], actions[k][i], 1e-6) << "step " << k << " action[" << i << "]";
+      EXPECT_NEAR(ep.actions[static_cast<size_t>(k) * 5 + i], actions[k][i], 1e-6)
+          << "step " << k << " action[" << i << "]";
     contact = std::max(contact, static_cast<double>(native[k][18]));
   }
-  std::printf("%d steps: largest observation difference %.3g; largest contact %.3f\n", kSteps, worst, contact);
+  std::printf("%d steps: largest observation difference %.3g; largest contact %.3f\n", kSteps,
+              worst, contact);
   EXPECT_GT(contact, 0.0) << "the oracle never touched the cube: the contact entry went untested";
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
@@ -97,12 +101,14 @@ TEST(RobotSpecCube, Tf2FieldsAndTwoCommandTopics) {
                            "    field: translation");
   EXPECT_NE(e.find("arm.yaml: observation field 'pinch_position'"), std::string::npos) << e;
   EXPECT_NE(e.find("frames: [parent, child]"), std::string::npos) << e;
-  e = error_of("frames: [world, pinch_controller]\n    field: translation", "frames: [world, /pinch]\n    field: translation");
+  e = error_of("frames: [world, pinch_controller]\n    field: translation",
+               "frames: [world, /pinch]\n    field: translation");
   EXPECT_NE(e.find("must not start with '/'"), std::string::npos) << e;
   e = error_of("    field: translation", "    field: velocity");
   EXPECT_NE(e.find("tf2 has no field 'velocity'"), std::string::npos) << e;
   e = error_of("      type: std_msgs/Float64MultiArray\n", "");
-  EXPECT_NE(e.find("arm.yaml: action field 'grip' (topic gripper_command, data[0]): a field on its own topic needs its type"),
+  EXPECT_NE(e.find("arm.yaml: action field 'grip' (topic gripper_command, data[0]): a field on its "
+                   "own topic needs its type"),
             std::string::npos)
       << e;
   // A checkpoint's stored spec with other frames is told apart, naming the field.
@@ -114,7 +120,8 @@ TEST(RobotSpecCube, Tf2FieldsAndTwoCommandTopics) {
             return rest;
           }(),
       "other.yaml");
-  EXPECT_NE(CompareRobotSpecs(spec, other).find("observation field 3 'pinch_heading' (topic tf, rotation): frames"),
+  EXPECT_NE(CompareRobotSpecs(spec, other)
+                .find("observation field 3 'pinch_heading' (topic tf, rotation): frames"),
             std::string::npos)
       << CompareRobotSpecs(spec, other);
 }

@@ -4,7 +4,6 @@
 // error, and a bag's images read through the spec equal to the native
 // dataset's images of the same episodes. No master needed.
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <cmath>
@@ -12,24 +11,25 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 
-#include "dataset_bag.h"
-#include "robot_fields.h"
-#include "robot_spec.h"
+#include "msspr_bags/dataset_bag.h"
+#include "msspr_robot_interface/robot_fields.h"
+#include "msspr_robot_interface/robot_spec.h"
+#include "msspr_robot_interface/spec_bag.h"
 #include "robot_spec_test.h"
-#include "spec_bag.h"
 
 namespace msspr::ros_bridge {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string CameraSpecPath() { return std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_camera.yaml"; }
+std::string CameraSpecPath() {
+  return std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_camera.yaml";
+}
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path);
@@ -75,46 +75,59 @@ TEST(RobotSpecImages, BadImageEntriesAreRejectedNamingFileCameraAndTopic) {
   const std::string spec = ReadFile(CameraSpecPath());
   // An unknown key in a camera entry.
   std::string e = ParseError(Replace(spec, "    size: 64\n", "    size: 64\n    sise: 32\n"));
-  EXPECT_NE(e.find("cam.yaml: image 'camera' (topic camera/image): unknown key 'sise'"), std::string::npos) << e;
+  EXPECT_NE(e.find("cam.yaml: image 'camera' (topic camera/image): unknown key 'sise'"),
+            std::string::npos)
+      << e;
   // No size, a size out of range, a type that is no image.
   e = ParseError(Replace(spec, "    size: 64\n", ""));
   EXPECT_NE(e.find("image 'camera' (topic camera/image): no size"), std::string::npos) << e;
   e = ParseError(Replace(spec, "    size: 64\n", "    size: 4\n"));
   EXPECT_NE(e.find("size must be in 8..1024"), std::string::npos) << e;
-  e = ParseError(Replace(spec, "    type: sensor_msgs/Image   #", "    type: sensor_msgs/PointCloud2   #"));
-  EXPECT_NE(e.find("image 'camera' (topic camera/image): unsupported image type 'sensor_msgs/PointCloud2'"),
-            std::string::npos)
+  e = ParseError(
+      Replace(spec, "    type: sensor_msgs/Image   #", "    type: sensor_msgs/PointCloud2   #"));
+  EXPECT_NE(
+      e.find(
+          "image 'camera' (topic camera/image): unsupported image type 'sensor_msgs/PointCloud2'"),
+      std::string::npos)
       << e;
   e = ParseError(Replace(spec, "    topic: camera/image\n", ""));
   EXPECT_NE(e.find("image 'camera': no topic"), std::string::npos) << e;
   // Two cameras.
-  e = ParseError(Replace(spec, "observation:  ", R"(  - {name: second, topic: cam2, type: sensor_msgs/Image, size: 64}
+  e = ParseError(Replace(
+      spec, "observation:  ", R"(  - {name: second, topic: cam2, type: sensor_msgs/Image, size: 64}
 observation:  )"));
   EXPECT_NE(e.find("images: 2 cameras, a pixels policy takes one"), std::string::npos) << e;
   // An image as an observation field.
-  e = ParseError(Replace(spec, "    type: nav_msgs/Odometry", "    type: sensor_msgs/CompressedImage"));
+  e = ParseError(
+      Replace(spec, "    type: nav_msgs/Odometry", "    type: sensor_msgs/CompressedImage"));
   EXPECT_NE(e.find("observation field 'position' (topic odom"), std::string::npos) << e;
   EXPECT_NE(e.find("name the camera in the images: section"), std::string::npos) << e;
   // Goals: an image goal needs a camera; a camera needs an image goal of an image type.
-  const std::string no_images = Replace(spec, spec.substr(spec.find("images:"), spec.find("observation:") -
-                                                                                     spec.find("images:")),
-                                        "");
+  const std::string no_images = Replace(
+      spec, spec.substr(spec.find("images:"), spec.find("observation:") - spec.find("images:")),
+      "");
   e = ParseError(no_images);
   EXPECT_NE(e.find("goal (topic goal_image): source image needs a camera in the images: section"),
             std::string::npos)
       << e;
-  e = ParseError(Replace(spec, "  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n",
-                         "  source: pose\n  topic: goal_pose\n  type: geometry_msgs/PoseStamped\n  fields:\n"
-                         "    - {observation: position, field: pose.position, components: [x, y]}\n"));
-  EXPECT_NE(e.find("goal: a spec with images serves pixels policies, whose goal is an image"), std::string::npos)
-      << e;
-  e = ParseError(Replace(spec, "  type: sensor_msgs/Image\naction", "  type: sensor_msgs/Imag\naction"));
-  EXPECT_NE(e.find("goal (topic goal_image): source image takes sensor_msgs/Image or sensor_msgs/CompressedImage"),
+  e = ParseError(
+      Replace(spec, "  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n",
+              "  source: pose\n  topic: goal_pose\n  type: geometry_msgs/PoseStamped\n  fields:\n"
+              "    - {observation: position, field: pose.position, components: [x, y]}\n"));
+  EXPECT_NE(e.find("goal: a spec with images serves pixels policies, whose goal is an image"),
             std::string::npos)
       << e;
-  e = ParseError(Replace(spec, "  type: sensor_msgs/Image\naction", "  type: sensor_msgs/Image\n  colour: rgb\naction"));
+  e = ParseError(
+      Replace(spec, "  type: sensor_msgs/Image\naction", "  type: sensor_msgs/Imag\naction"));
+  EXPECT_NE(e.find("goal (topic goal_image): source image takes sensor_msgs/Image or "
+                   "sensor_msgs/CompressedImage"),
+            std::string::npos)
+      << e;
+  e = ParseError(Replace(spec, "  type: sensor_msgs/Image\naction",
+                         "  type: sensor_msgs/Image\n  colour: rgb\naction"));
   EXPECT_NE(e.find("goal: unknown key 'colour'"), std::string::npos) << e;
-  const std::string no_goal = Replace(spec, "goal:\n  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n", "");
+  const std::string no_goal =
+      Replace(spec, "goal:\n  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n", "");
   e = ParseError(no_goal);
   EXPECT_NE(e.find("a spec with images needs a goal"), std::string::npos) << e;
 }
@@ -122,13 +135,18 @@ observation:  )"));
 TEST(RobotSpecImages, CompareNamesTheCamera) {
   const std::string spec = ReadFile(CameraSpecPath());
   const RobotSpec a = ParseRobotSpec(spec, "a");
-  std::string d = CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "    size: 64\n", "    size: 32\n"), "b"));
+  std::string d =
+      CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "    size: 64\n", "    size: 32\n"), "b"));
   EXPECT_EQ(d, "image 0 'camera' (topic camera/image): size 64 vs 32");
-  d = CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "    topic: camera/image\n", "    topic: cam\n"), "b"));
-  EXPECT_EQ(d, "image 0 'camera' (topic camera/image): topic camera/image vs cam");
   d = CompareRobotSpecs(
-      a, ParseRobotSpec(Replace(spec, "    type: sensor_msgs/Image   #", "    type: sensor_msgs/CompressedImage #"), "b"));
-  EXPECT_EQ(d, "image 0 'camera' (topic camera/image): type sensor_msgs/Image vs sensor_msgs/CompressedImage");
+      a, ParseRobotSpec(Replace(spec, "    topic: camera/image\n", "    topic: cam\n"), "b"));
+  EXPECT_EQ(d, "image 0 'camera' (topic camera/image): topic camera/image vs cam");
+  d = CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "    type: sensor_msgs/Image   #",
+                                                  "    type: sensor_msgs/CompressedImage #"),
+                                          "b"));
+  EXPECT_EQ(d,
+            "image 0 'camera' (topic camera/image): type sensor_msgs/Image vs "
+            "sensor_msgs/CompressedImage");
   d = CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "  type: sensor_msgs/Image\naction",
                                                   "  type: sensor_msgs/CompressedImage\naction"),
                                           "b"));
@@ -140,8 +158,9 @@ cv::Mat Picture() {
   cv::Mat bgr(96, 128, CV_8UC3);
   for (int y = 0; y < bgr.rows; ++y)
     for (int x = 0; x < bgr.cols; ++x)
-      bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<uint8_t>(40 + x), static_cast<uint8_t>(30 + 2 * y),
-                                          static_cast<uint8_t>(200 - x / 2 - y / 2));
+      bgr.at<cv::Vec3b>(y, x) =
+          cv::Vec3b(static_cast<uint8_t>(40 + x), static_cast<uint8_t>(30 + 2 * y),
+                    static_cast<uint8_t>(200 - x / 2 - y / 2));
   return bgr;
 }
 
@@ -171,7 +190,8 @@ TEST(RobotSpecImages, EveryEncodingDecodesToTheSameResizedArray) {
   ASSERT_TRUE(DecodeImage(ImageMsg(rgb, "rgb8"), 64, &from_rgb, &why)) << why;
   ASSERT_TRUE(DecodeImage(ImageMsg(bgr, "bgr8"), 64, &from_bgr, &why)) << why;
   ASSERT_TRUE(DecodeImage(CompressedMsg(bgr, "png"), 64, &from_png, &why)) << why;
-  ASSERT_TRUE(DecodeImage(CompressedMsg(bgr, "rgb8; jpeg compressed bgr8"), 64, &from_jpeg, &why)) << why;
+  ASSERT_TRUE(DecodeImage(CompressedMsg(bgr, "rgb8; jpeg compressed bgr8"), 64, &from_jpeg, &why))
+      << why;
   ASSERT_EQ(from_rgb.size(), 64u * 64 * 3);
   EXPECT_EQ(from_bgr, from_rgb);
   EXPECT_EQ(from_png, from_rgb);
@@ -189,14 +209,16 @@ TEST(RobotSpecImages, EveryEncodingDecodesToTheSameResizedArray) {
   sensor_msgs::Image padded = ImageMsg(rgb, "rgb8");
   padded.step = static_cast<uint32_t>(rgb.cols * 3 + 8);
   padded.data.assign(static_cast<size_t>(padded.step) * rgb.rows, 0);
-  for (int y = 0; y < rgb.rows; ++y) std::memcpy(&padded.data[y * padded.step], rgb.ptr(y), rgb.cols * 3);
+  for (int y = 0; y < rgb.rows; ++y)
+    std::memcpy(&padded.data[y * padded.step], rgb.ptr(y), rgb.cols * 3);
   ASSERT_TRUE(DecodeImage(padded, 64, &from_padded, &why)) << why;
   EXPECT_EQ(from_padded, from_rgb);
   // The resize is INTER_AREA: a picture of 2x2 blocks gives the blocks' values exactly.
   cv::Mat blocks(128, 128, CV_8UC3);
   for (int y = 0; y < 128; ++y)
     for (int x = 0; x < 128; ++x)
-      blocks.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<uint8_t>(x / 2), static_cast<uint8_t>(y / 2), 7);
+      blocks.at<cv::Vec3b>(y, x) =
+          cv::Vec3b(static_cast<uint8_t>(x / 2), static_cast<uint8_t>(y / 2), 7);
   std::vector<uint8_t> small;
   ASSERT_TRUE(DecodeImage(ImageMsg(blocks, "rgb8"), 64, &small, &why)) << why;
   EXPECT_EQ(small[(10 * 64 + 20) * 3 + 0], 20);
@@ -224,14 +246,16 @@ TEST(RobotSpecImages, CorruptImagesAreRejectedWithAClearError) {
   sensor_msgs::CompressedImage jpeg = CompressedMsg(bgr, "jpeg");
   jpeg.data.resize(jpeg.data.size() / 2);
   EXPECT_FALSE(DecodeImage(jpeg, 64, &out, &why));
-  EXPECT_NE(why.find("jpeg of " + std::to_string(jpeg.data.size()) + " bytes without its end-of-image marker"),
+  EXPECT_NE(why.find("jpeg of " + std::to_string(jpeg.data.size()) +
+                     " bytes without its end-of-image marker"),
             std::string::npos)
       << why;
   // A jpeg whose body is garbage.
   jpeg = CompressedMsg(bgr, "jpeg");
   for (size_t i = 20; i + 2 < jpeg.data.size(); ++i) jpeg.data[i] = static_cast<uint8_t>(i * 37);
   EXPECT_FALSE(DecodeImage(jpeg, 64, &out, &why));
-  EXPECT_NE(why.find("jpeg of " + std::to_string(jpeg.data.size()) + " bytes does not decode"), std::string::npos)
+  EXPECT_NE(why.find("jpeg of " + std::to_string(jpeg.data.size()) + " bytes does not decode"),
+            std::string::npos)
       << why;
   // Bytes that are no image, and a format that is neither jpeg nor png.
   sensor_msgs::CompressedImage junk;
@@ -257,15 +281,17 @@ TEST(RobotSpecImages, CorruptImagesAreRejectedWithAClearError) {
   const RobotSpec spec = LoadRobotSpec(CameraSpecPath());
   TopicSample s;
   EXPECT_FALSE(DecodeImageSample(spec.images[0], img, ros::Time(1.0), &s, &why));
-  EXPECT_EQ(why.rfind("image 'camera' (topic camera/image, sensor_msgs/Image): rgb8 128x96", 0), 0u) << why;
+  EXPECT_EQ(why.rfind("image 'camera' (topic camera/image, sensor_msgs/Image): rgb8 128x96", 0), 0u)
+      << why;
 }
 
 class SpecBagImages : public ::testing::Test {
  protected:
   void SetUp() override {
     ros::Time::init();
-    dir_ = fs::temp_directory_path() / ("msspr_robot_spec_image_test_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() /
+           ("msspr_robot_spec_image_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -275,7 +301,8 @@ class SpecBagImages : public ::testing::Test {
     std::string text = ReadFile(CameraSpecPath());
     text = Replace(text, "    topic: camera/image\n", "    topic: robot_camera\n");
     if (format == "png" || format == "jpeg")
-      text = Replace(text, "    type: sensor_msgs/Image   #", "    type: sensor_msgs/CompressedImage   #");
+      text = Replace(text, "    type: sensor_msgs/Image   #",
+                     "    type: sensor_msgs/CompressedImage   #");
     return ParseRobotSpec(text, "camera_" + format + ".yaml");
   }
   fs::path dir_;
@@ -309,7 +336,8 @@ TEST_F(SpecBagImages, ImagesThroughTheSpecEqualTheNativeImages) {
       EXPECT_EQ(via_spec[e].has_image, native[e].has_image);
       int worst = 0;
       for (size_t i = 0; i < native[e].images.size(); ++i)
-        worst = std::max(worst, std::abs(static_cast<int>(via_spec[e].images[i]) - native[e].images[i]));
+        worst = std::max(worst,
+                         std::abs(static_cast<int>(via_spec[e].images[i]) - native[e].images[i]));
       EXPECT_LE(worst, format == "jpeg" ? 24 : 0);
       for (size_t i = 0; i < native[e].observations.size(); ++i)
         ASSERT_NEAR(via_spec[e].observations[i], native[e].observations[i], 1e-5) << i;
@@ -347,8 +375,9 @@ TEST_F(SpecBagImages, BadImagesAreCountedAndSplitTheEpisode) {
     EXPECT_EQ(got[0].Segments(), (std::vector<std::pair<int, int>>{{0, 8}, {10, 20}}));
     bool named = false;
     for (const auto& p : r.problems)
-      named |= p.find(bag + ": topic robot_camera (image 'camera'): 4 bad images rejected (first: image 'camera'") !=
-               std::string::npos;
+      named |= p.find(bag +
+                      ": topic robot_camera (image 'camera'): 4 bad images rejected (first: image "
+                      "'camera'") != std::string::npos;
     EXPECT_TRUE(named) << (r.problems.empty() ? "no problems" : r.problems[0]);
   }
 }

@@ -1,18 +1,18 @@
 // Robot interface specs: the loader, field extraction, and reading
-// a robot's bags through a spec (msspr_sim/ros/robot_spec.*, robot_fields.*,
+// a robot's bags through a spec (msspr_robot_interface: robot_spec, robot_fields,
 // spec_bag.*). No master needed.
-#include <gtest/gtest.h>
+#include "msspr_robot_interface/robot_spec.h"
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 
-#include "dataset_bag.h"
-#include "robot_fields.h"
-#include "robot_spec.h"
+#include "msspr_bags/dataset_bag.h"
+#include "msspr_robot_interface/robot_fields.h"
+#include "msspr_robot_interface/spec_bag.h"
 #include "robot_spec_test.h"
-#include "spec_bag.h"
 
 namespace msspr::ros_bridge {
 namespace {
@@ -22,8 +22,9 @@ namespace fs = std::filesystem;
 class RobotSpecTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("msspr_robot_spec_test_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() /
+           ("msspr_robot_spec_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
@@ -73,14 +74,16 @@ std::string Replace(std::string s, const std::string& from, const std::string& t
 }
 
 TEST_F(RobotSpecTest, LoadsTheShippedSpecs) {
-  for (const auto& entry : fs::directory_iterator(std::string(MSSPR_SOURCE_DIR) + "/config/robots")) {
+  for (const auto& entry :
+       fs::directory_iterator(std::string(MSSPR_SOURCE_DIR) + "/config/robots")) {
     SCOPED_TRACE(entry.path().string());
     const RobotSpec s = LoadRobotSpec(entry.path().string());
     EXPECT_GT(s.obs_dim(), 0);
     EXPECT_GT(s.action_dim(), 0);
     EXPECT_EQ(CompareRobotSpecs(s, ParseRobotSpec(s.text, "again")), "");
   }
-  const RobotSpec s = LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
+  const RobotSpec s =
+      LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
   EXPECT_EQ(s.obs_dim(), 2);
   EXPECT_EQ(s.action_dim(), 2);
   EXPECT_EQ(s.action_type, kTwistType);
@@ -88,7 +91,8 @@ TEST_F(RobotSpecTest, LoadsTheShippedSpecs) {
 }
 
 TEST_F(RobotSpecTest, RejectsUnknownKeysNamingFileTopicAndField) {
-  std::string e = LoadError(Replace(kBaseSpec, "    components: [x, y]\ngoal:", "    components: [x, y]\n    scael: 2\ngoal:"));
+  std::string e = LoadError(Replace(
+      kBaseSpec, "    components: [x, y]\ngoal:", "    components: [x, y]\n    scael: 2\ngoal:"));
   EXPECT_NE(e.find(Path("spec.yaml")), std::string::npos) << e;
   EXPECT_NE(e.find("unknown key 'scael'"), std::string::npos) << e;
   EXPECT_NE(e.find("topic odom"), std::string::npos) << e;
@@ -108,13 +112,15 @@ TEST_F(RobotSpecTest, RejectsAMissingTopicNamingFileAndField) {
 }
 
 TEST_F(RobotSpecTest, RejectsAFieldTheTypeDoesNotHave) {
-  std::string e = LoadError(Replace(kBaseSpec, "field: pose.pose.position\n", "field: pose.pose.positon\n"));
+  std::string e =
+      LoadError(Replace(kBaseSpec, "field: pose.pose.position\n", "field: pose.pose.positon\n"));
   EXPECT_NE(e.find(Path("spec.yaml")), std::string::npos) << e;
   EXPECT_NE(e.find("topic odom"), std::string::npos) << e;
   EXPECT_NE(e.find("nav_msgs/Odometry has no field 'pose.pose.positon'"), std::string::npos) << e;
   e = LoadError(Replace(kBaseSpec, "components: [x, y]\ngoal", "components: [x, q]\ngoal"));
   EXPECT_NE(e.find("no component 'q'"), std::string::npos) << e;
-  e = LoadError(Replace(kBaseSpec, "{name: velocity, field: linear", "{name: velocity, field: lineer"));
+  e = LoadError(
+      Replace(kBaseSpec, "{name: velocity, field: linear", "{name: velocity, field: lineer"));
   EXPECT_NE(e.find("topic cmd_vel"), std::string::npos) << e;
   EXPECT_NE(e.find("geometry_msgs/Twist has no field 'lineer'"), std::string::npos) << e;
   e = LoadError(Replace(kBaseSpec, "{observation: position,", "{observation: pos,"));
@@ -124,7 +130,8 @@ TEST_F(RobotSpecTest, RejectsAFieldTheTypeDoesNotHave) {
 
 TEST_F(RobotSpecTest, JointsByNameAndArraysBySlice) {
   const std::string joints = Replace(kBaseSpec, R"(    components: [x, y]
-goal:)", R"(    components: [x, y]
+goal:)",
+                                     R"(    components: [x, y]
   - name: arm
     topic: joint_states
     type: sensor_msgs/JointState
@@ -156,8 +163,9 @@ goal:)");
   std::vector<double> v;
   std::string why;
   EXPECT_FALSE(ReadRaw(js, s.observation[1], &v, &why));
-  EXPECT_NE(why.find("field 'arm' (topic joint_states, position): joint 'elbow' is not in the message"),
-            std::string::npos)
+  EXPECT_NE(
+      why.find("field 'arm' (topic joint_states, position): joint 'elbow' is not in the message"),
+      std::string::npos)
       << why;
   js.name = {"shoulder", "wrist", "elbow"};
   js.position = {0.1, 0.2, 0.3};
@@ -176,7 +184,8 @@ goal:)");
 }
 
 TEST_F(RobotSpecTest, ImagesAreNoObservationFields) {
-  const std::string e = LoadError(Replace(kBaseSpec, "type: nav_msgs/Odometry", "type: sensor_msgs/CompressedImage"));
+  const std::string e =
+      LoadError(Replace(kBaseSpec, "type: nav_msgs/Odometry", "type: sensor_msgs/CompressedImage"));
   EXPECT_NE(e.find("name the camera in the images: section"), std::string::npos) << e;
   EXPECT_NE(e.find("topic odom"), std::string::npos) << e;
 }
@@ -186,9 +195,13 @@ TEST_F(RobotSpecTest, CompareNamesTheField) {
   EXPECT_EQ(CompareRobotSpecs(a, ParseRobotSpec(kBaseSpec, "b")), "");
   const RobotSpec b = ParseRobotSpec(Replace(kBaseSpec, "scale: 2.0", "scale: 1.5"), "b");
   const std::string d = CompareRobotSpecs(a, b);
-  EXPECT_NE(d.find("action field 0 'velocity' (topic cmd_vel, linear): scale [2] vs [1.5]"), std::string::npos) << d;
-  const RobotSpec c = ParseRobotSpec(Replace(kBaseSpec, "components: [x, y]\ngoal", "components: [y, x]\ngoal"), "c");
-  EXPECT_NE(CompareRobotSpecs(a, c).find("observation field 0 'position' (topic odom"), std::string::npos);
+  EXPECT_NE(d.find("action field 0 'velocity' (topic cmd_vel, linear): scale [2] vs [1.5]"),
+            std::string::npos)
+      << d;
+  const RobotSpec c = ParseRobotSpec(
+      Replace(kBaseSpec, "components: [x, y]\ngoal", "components: [y, x]\ngoal"), "c");
+  EXPECT_NE(CompareRobotSpecs(a, c).find("observation field 0 'position' (topic odom"),
+            std::string::npos);
 }
 
 TEST_F(RobotSpecTest, CommandsRoundTripThroughTheSpec) {
@@ -221,7 +234,8 @@ TEST_F(RobotSpecTest, SpecEpisodesEqualTheNativeEpisodes) {
   test::SynthBagOptions o;
   o.odom_per_step = 5;  // odometry at 50 Hz, commands at 10 Hz
   test::WriteSynthBag(Path("both.bag"), eps, o);
-  const RobotSpec spec = LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
+  const RobotSpec spec =
+      LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
   std::vector<BagEpisode> native, via_spec;
   SpecBagReport report;
   ReadBoth(Path("both.bag"), spec, &native, &via_spec, &report);
@@ -254,7 +268,8 @@ TEST_F(RobotSpecTest, DroppedCommandsSplitAndStampsOutOfOrderAreReported) {
   o.drop_cmd_steps = {5, 6, 7, 8};  // 0.4 s without commands (stale_after 0.25 s)
   o.swap_odom_stamps = true;
   test::WriteSynthBag(Path("bad.bag"), eps, o);
-  const RobotSpec spec = LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
+  const RobotSpec spec =
+      LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
   SpecBagReader sr(spec, {Path("bad.bag")});
   std::vector<BagEpisode> got;
   sr.ForEachEpisode([&](BagEpisode&& ep) { got.push_back(std::move(ep)); });
@@ -267,7 +282,9 @@ TEST_F(RobotSpecTest, DroppedCommandsSplitAndStampsOutOfOrderAreReported) {
   EXPECT_EQ(r.fields[0].out_of_order, 1u);
   bool named = false;
   for (const auto& p : r.problems)
-    named |= p.find(Path("bad.bag") + ": topic odom (field 'position'): 1 messages stamped before") != std::string::npos;
+    named |=
+        p.find(Path("bad.bag") + ": topic odom (field 'position'): 1 messages stamped before") !=
+        std::string::npos;
   EXPECT_TRUE(named) << (r.problems.empty() ? "no problems" : r.problems[0]);
 }
 
@@ -277,14 +294,18 @@ TEST_F(RobotSpecTest, ABagWithoutTheTopicNamesBagTopicAndField) {
   test::SynthBagOptions o;
   o.standard = false;
   test::WriteSynthBag(Path("native_only.bag"), eps, o);
-  const RobotSpec spec = LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
+  const RobotSpec spec =
+      LoadRobotSpec(std::string(MSSPR_SOURCE_DIR) + "/config/robots/pointmaze_base.yaml");
   SpecBagReader sr(spec, {Path("native_only.bag")});
   try {
     sr.ForEachEpisode([](BagEpisode&&) {});
     FAIL() << "no error";
   } catch (const BagError& e) {
     const std::string m = e.what();
-    EXPECT_NE(m.find(Path("native_only.bag") + ": no topic odom (field 'position' of "), std::string::npos) << m;
+    EXPECT_NE(m.find(Path("native_only.bag") + ": the recording has no topic /odom"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("(field 'position', the action, the episodes of "), std::string::npos) << m;
     EXPECT_NE(m.find("pointmaze_base.yaml"), std::string::npos) << m;
   }
 }

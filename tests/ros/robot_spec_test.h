@@ -7,27 +7,29 @@
 // camera images (SynthBagOptions::images).
 #pragma once
 
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/Twist.h>
+#include <nav_msgs/Odometry.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
+
 #include <cmath>
 #include <cstdint>
 #include <fstream>
 #include <iterator>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <string>
 #include <vector>
 
-#include <geometry_msgs/PoseStamped.h>
-#include <geometry_msgs/Twist.h>
-#include <nav_msgs/Odometry.h>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <rosbag/bag.h>
-#include <sensor_msgs/CompressedImage.h>
-#include <sensor_msgs/Image.h>
-
-#include "msg_conversion.h"
 #include "msspr/Action.h"
 #include "msspr/EpisodeInfo.h"
 #include "msspr/Observation.h"
+#include "msspr_bridge/msg_conversion.h"
 
 namespace msspr::test {
 
@@ -73,10 +75,10 @@ inline std::vector<SynthEpisode> MakeSynthEpisodes(int episodes, int length, uin
 }
 
 struct SynthBagOptions {
-  bool native = true;            // msspr's own topics
-  bool standard = true;          // Odometry / Twist / PoseStamped
-  int odom_per_step = 1;         // odometry messages per control step (stamped evenly)
-  double drop_odom = 0.0;        // probability of dropping an odometry message (not at a step's stamp 0)
+  bool native = true;      // msspr's own topics
+  bool standard = true;    // Odometry / Twist / PoseStamped
+  int odom_per_step = 1;   // odometry messages per control step (stamped evenly)
+  double drop_odom = 0.0;  // probability of dropping an odometry message (not at a step's stamp 0)
   std::vector<int> drop_cmd_steps;  // steps (counted over the whole bag) whose command is dropped
   bool swap_odom_stamps = false;    // write two odometry messages of episode 0 with swapped stamps
   double dt = 0.1;
@@ -89,6 +91,10 @@ struct SynthBagOptions {
   std::string camera_format = "bgr8";
   int camera_scale = 2;
   std::vector<int> bad_image_steps;  // steps (over the whole bag) whose standard image is corrupt
+  // The standard commands (geometry_msgs/Twist, no stamp) are received `cmd_latency` s
+  // after their step's tick, plus a uniform jitter in [-cmd_jitter, cmd_jitter] (seeded).
+  double cmd_latency = 0.0, cmd_jitter = 0.0;
+  uint64_t jitter_seed = 5;
 };
 
 // The synthetic picture of episode e, step t: 64x64 rgb8, smooth (jpeg keeps it close).
@@ -102,7 +108,8 @@ inline std::vector<uint8_t> SynthImage(int e, int t, int side = 64) {
   return px;
 }
 
-inline sensor_msgs::Image RgbImageMsg(const std::vector<uint8_t>& rgb, int side, const ros::Time& stamp) {
+inline sensor_msgs::Image RgbImageMsg(const std::vector<uint8_t>& rgb, int side,
+                                      const ros::Time& stamp) {
   sensor_msgs::Image m;
   m.header.stamp = stamp;
   m.header.frame_id = "msspr_camera";
@@ -114,8 +121,9 @@ inline sensor_msgs::Image RgbImageMsg(const std::vector<uint8_t>& rgb, int side,
 }
 
 // `rgb` (side x side) as the camera sends it: each pixel repeated scale x scale, in `format`.
-inline void WriteCameraMsg(rosbag::Bag& bag, const std::string& topic, const std::vector<uint8_t>& rgb, int side,
-                           int scale, const std::string& format, const ros::Time& stamp, bool corrupt) {
+inline void WriteCameraMsg(rosbag::Bag& bag, const std::string& topic,
+                           const std::vector<uint8_t>& rgb, int side, int scale,
+                           const std::string& format, const ros::Time& stamp, bool corrupt) {
   const int big = side * scale;
   cv::Mat bgr(big, big, CV_8UC3), gray(big, big, CV_8UC1);
   for (int y = 0; y < big; ++y)
@@ -152,8 +160,9 @@ inline void WriteCameraMsg(rosbag::Bag& bag, const std::string& topic, const std
 inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisode>& eps,
                           const SynthBagOptions& o = {}) {
   rosbag::Bag bag(path, rosbag::bagmode::Write);
-  std::mt19937_64 rng(7);
+  std::mt19937_64 rng(7), jitter_rng(o.jitter_seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::uniform_real_distribution<double> jitter(-o.cmd_jitter, o.cmd_jitter);
   uint64_t tick = 0;
   int global_step = 0;
   for (size_t e = 0; e < eps.size(); ++e) {
@@ -179,7 +188,9 @@ inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisod
       g.pose.orientation.w = 1.0;
       bag.write("/msspr/goal_pose", t0, g);
     }
-    if (o.images) bag.write("/msspr/goal_image", t0, RgbImageMsg(SynthImage(static_cast<int>(e), 1000), 64, t0));
+    if (o.images)
+      bag.write("/msspr/goal_image", t0,
+                RgbImageMsg(SynthImage(static_cast<int>(e), 1000), 64, t0));
     for (int t = 0; t < ep.length; ++t, ++global_step) {
       if (t > 0) ++tick;
       const ros::Time stamp = ros_bridge::TickToTime(tick, o.dt);
@@ -193,7 +204,9 @@ inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisod
         obs.goal = {ep.goal[0], ep.goal[1]};
         obs.last = t == ep.length - 1;
         bag.write("/msspr/observation", stamp, obs);
-        if (o.images) bag.write("/msspr/camera/image", stamp, RgbImageMsg(SynthImage(static_cast<int>(e), t), 64, stamp));
+        if (o.images)
+          bag.write("/msspr/camera/image", stamp,
+                    RgbImageMsg(SynthImage(static_cast<int>(e), t), 64, stamp));
         msspr::Action act;
         act.header.stamp = stamp;
         act.episode_id = obs.episode_id;
@@ -219,25 +232,58 @@ inline void WriteSynthBag(const std::string& path, const std::vector<SynthEpisod
             od.pose.pose.position.y = y;
           }
           ros::Time rec = od.header.stamp;
-          if (o.swap_odom_stamps && e == 0 && t == 3 && k == 0) od.header.stamp = stamp - ros::Duration(2 * o.dt);
+          if (o.swap_odom_stamps && e == 0 && t == 3 && k == 0)
+            od.header.stamp = stamp - ros::Duration(2 * o.dt);
           bag.write("/msspr/odom", rec, od);
         }
         if (o.images) {
-          const bool bad =
-              std::find(o.bad_image_steps.begin(), o.bad_image_steps.end(), global_step) != o.bad_image_steps.end();
-          WriteCameraMsg(bag, "/msspr/robot_camera", SynthImage(static_cast<int>(e), t), 64, o.camera_scale,
-                         o.camera_format, stamp, bad);
+          const bool bad = std::find(o.bad_image_steps.begin(), o.bad_image_steps.end(),
+                                     global_step) != o.bad_image_steps.end();
+          WriteCameraMsg(bag, "/msspr/robot_camera", SynthImage(static_cast<int>(e), t), 64,
+                         o.camera_scale, o.camera_format, stamp, bad);
         }
-        if (std::find(o.drop_cmd_steps.begin(), o.drop_cmd_steps.end(), global_step) == o.drop_cmd_steps.end()) {
+        if (std::find(o.drop_cmd_steps.begin(), o.drop_cmd_steps.end(), global_step) ==
+            o.drop_cmd_steps.end()) {
           geometry_msgs::Twist tw;
           tw.linear.x = 2.0 * ep.actions[2 * t];
           tw.linear.y = 2.0 * ep.actions[2 * t + 1];
-          bag.write("/msspr/cmd_vel", stamp, tw);
+          const double delay = o.cmd_latency + (o.cmd_jitter > 0 ? jitter(jitter_rng) : 0.0);
+          bag.write("/msspr/cmd_vel", stamp + ros::Duration(delay), tw);
         }
       }
     }
   }
   bag.close();
+}
+
+// Copies `in` into `outs`, message by message in time order: the messages received
+// before splits[i] (and at or after splits[i - 1]) into outs[i] (the last takes the
+// rest), as `rosbag record --split` cuts a recording. repeat_latched: each file after
+// the first opens with the last message so far on that topic, at the file's first
+// time (as `--repeat-latched` does). compression: rosbag's, for every output.
+inline void SplitBag(
+    const std::string& in, const std::vector<std::string>& outs,
+    const std::vector<ros::Time>& splits, const std::string& repeat_latched = "",
+    rosbag::compression::CompressionType compression = rosbag::compression::Uncompressed) {
+  rosbag::Bag src(in, rosbag::bagmode::Read);
+  rosbag::View view(src);
+  std::vector<std::unique_ptr<rosbag::Bag>> dst;
+  for (const auto& o : outs) {
+    dst.push_back(std::make_unique<rosbag::Bag>(o, rosbag::bagmode::Write));
+    dst.back()->setCompression(compression);
+  }
+  size_t k = 0;
+  std::unique_ptr<rosbag::MessageInstance> latched;
+  for (const rosbag::MessageInstance& m : view) {
+    while (k + 1 < outs.size() && k < splits.size() && m.getTime() >= splits[k]) {
+      ++k;
+      if (latched) dst[k]->write(latched->getTopic(), m.getTime(), *latched);
+    }
+    dst[k]->write(m.getTopic(), m.getTime(), m);
+    if (!repeat_latched.empty() && m.getTopic() == repeat_latched)
+      latched = std::make_unique<rosbag::MessageInstance>(m);
+  }
+  for (auto& d : dst) d->close();
 }
 
 }  // namespace msspr::test

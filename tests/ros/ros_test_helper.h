@@ -2,6 +2,9 @@
 // with timeouts, and reads the sim's diagnostics counters.
 #pragma once
 
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,10 +16,7 @@
 #include <iostream>
 #include <map>
 #include <string>
-
-#include <diagnostic_msgs/DiagnosticArray.h>
-#include <gtest/gtest.h>
-#include <ros/ros.h>
+#include <vector>
 
 #include "msspr/Action.h"
 #include "msspr/Observation.h"
@@ -50,11 +50,11 @@ inline bool WaitFor(const std::function<bool()>& pred, double timeout_s) {
 class RosTestHelper {
  public:
   RosTestHelper() {
-    obs_sub_ = nh_.subscribe<msspr::Observation>(
-        "observation", 1000, [this](const msspr::Observation::ConstPtr& o) {
-          latest_ = o;
-          ++observations_;
-        });
+    obs_sub_ = nh_.subscribe<msspr::Observation>("observation", 1000,
+                                                 [this](const msspr::Observation::ConstPtr& o) {
+                                                   latest_ = o;
+                                                   ++observations_;
+                                                 });
     diag_sub_ = nh_.subscribe<diagnostic_msgs::DiagnosticArray>(
         "/diagnostics", 10, [this](const diagnostic_msgs::DiagnosticArray::ConstPtr& d) {
           for (const auto& st : d->status) {
@@ -73,8 +73,9 @@ class RosTestHelper {
 
   // Waits until the sim's observation topic and action subscriber are connected.
   bool WaitForSim(double timeout_s = 30.0) {
-    return WaitFor([&] { return obs_sub_.getNumPublishers() > 0 && action_pub_.getNumSubscribers() > 0; },
-                   timeout_s);
+    return WaitFor(
+        [&] { return obs_sub_.getNumPublishers() > 0 && action_pub_.getNumSubscribers() > 0; },
+        timeout_s);
   }
 
   void SendAction(uint32_t episode, uint32_t step, std::vector<float> a) {
@@ -121,7 +122,8 @@ class RosTestHelper {
   msspr::Observation::ConstPtr latest_;
   uint64_t observations_ = 0;
   std::map<std::string, uint64_t> counters_;
-  std::map<std::string, std::map<std::string, std::string>> statuses_;  // status name -> key -> value
+  std::map<std::string, std::map<std::string, std::string>>
+      statuses_;  // status name -> key -> value
 };
 
 // A live collection recorded by `rosbag record` (the dataset topics of
@@ -138,19 +140,44 @@ class LiveRecording {
     if (pid_ == 0) {
       const std::string node = "__name:=" + name + "_recorder";
       if (extra_topic.empty())
-        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation", "/msspr/action",
-               "/msspr/episode", node.c_str(), (char*)nullptr);
+        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation",
+               "/msspr/action", "/msspr/episode", node.c_str(), (char*)nullptr);
       else
-        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation", "/msspr/action",
-               "/msspr/episode", extra_topic.c_str(), node.c_str(), (char*)nullptr);
+        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation",
+               "/msspr/action", "/msspr/episode", extra_topic.c_str(), node.c_str(),
+               (char*)nullptr);
+      _exit(127);
+    }
+  }
+  // Records exactly `topics` (e.g. a robot's standard topics) into NAME_PID.bag.
+  LiveRecording(const std::string& name, const std::vector<std::string>& topics) {
+    const char* dir = std::getenv("ROS_LOG_DIR");
+    bag_ = std::string(dir ? dir : "/tmp") + "/" + name + "_" + std::to_string(getpid()) + ".bag";
+    pid_ = fork();
+    if (pid_ == 0) {
+      const std::string node = "__name:=" + name + "_recorder";
+      std::vector<std::string> args = {"rosbag", "record", "-O", bag_};
+      args.insert(args.end(), topics.begin(), topics.end());
+      args.push_back(node);
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execvp("rosbag", argv.data());
       _exit(127);
     }
   }
   bool Finish(RosTestHelper& h, int episodes, int length, double timeout_s = 120.0) {
-    const bool done = h.WaitFor([&] {
-      return h.latest() && h.latest()->episode_id == static_cast<uint32_t>(episodes - 1) &&
-             h.latest()->step == static_cast<uint32_t>(length - 1);
-    }, timeout_s);
+    const bool done = h.WaitFor(
+        [&] {
+          return h.latest() && h.latest()->episode_id == static_cast<uint32_t>(episodes - 1) &&
+                 h.latest()->step == static_cast<uint32_t>(length - 1);
+        },
+        timeout_s);
+    Stop();
+    return done;
+  }
+  // Stops the recorder (after a second for the last messages) and waits for the bag.
+  void Stop() {
     ros::WallDuration(1.0).sleep();  // the last action reaches the recorder
     if (pid_ > 0) {
       kill(pid_, SIGINT);
@@ -160,10 +187,11 @@ class LiveRecording {
       // closed the bag and renamed NAME.bag.active to NAME.bag (seen on a loaded
       // machine): wait for the rename.
       const std::string active = bag_ + ".active";
-      for (int i = 0; i < 200 && (access(bag_.c_str(), F_OK) != 0 || access(active.c_str(), F_OK) == 0); ++i)
+      for (int i = 0;
+           i < 200 && (access(bag_.c_str(), F_OK) != 0 || access(active.c_str(), F_OK) == 0); ++i)
         ros::WallDuration(0.05).sleep();
+      pid_ = -1;
     }
-    return done;
   }
   bool started() const { return pid_ > 0; }
   const std::string& bag() const { return bag_; }

@@ -1,28 +1,27 @@
 // rostest scenarios of the sim node (one suite per .test file, see tests/ros/*.test).
+#include <gtest/gtest.h>
+#include <sensor_msgs/JointState.h>
 #include <signal.h>
 #include <sys/wait.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 #include <unistd.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 
-#include <gtest/gtest.h>
-
-#include "dataset_bag.h"
 #include "msspr/Pause.h"
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
+#include "msspr_bags/dataset_bag.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/point_maze.h"
-#include "robot_model.h"
+#include "msspr_sim_nodes/robot_model.h"
 #include "ros_test_helper.h"
-#include <sensor_msgs/JointState.h>
-#include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
-#include <visualization_msgs/MarkerArray.h>
 
 namespace msspr::testing {
 namespace {
@@ -40,9 +39,12 @@ TEST(SimExpertLockstep, ReachesGoals) {
       const auto res = CallReset(h.nh(), task, 100 * task + e);
       ASSERT_TRUE(res.ok) << res.message;
       const uint32_t id = res.observation.episode_id;
-      const bool ok = h.WaitFor([&] {
-        return h.latest() && h.latest()->episode_id == id && (h.latest()->success || h.latest()->last);
-      }, 60.0);
+      const bool ok = h.WaitFor(
+          [&] {
+            return h.latest() && h.latest()->episode_id == id &&
+                   (h.latest()->success || h.latest()->last);
+          },
+          60.0);
       ASSERT_TRUE(ok) << "task " << task << " episode " << e << " stalled";
       if (h.latest()->success) {
         ++reached;
@@ -61,19 +63,23 @@ TEST(SimBadInput, RejectsAndKeepsServing) {
   ASSERT_TRUE(res.ok);
   const uint32_t id = res.observation.episode_id;
   const float x0 = res.observation.state[0], y0 = res.observation.state[1];
-  h.SendAction(id, 0, {0.1f});                       // wrong length
-  h.SendAction(id, 0, {0.1f, 0.2f, 0.3f});           // wrong length
-  h.SendAction(id, 0, {NAN, 0.f});                   // NaN
-  h.SendAction(id, 0, {0.f, INFINITY});              // Inf
-  ASSERT_TRUE(h.WaitFor([&] { return h.Counter("rejected_wrong_length") >= 2 &&
-                                     h.Counter("rejected_nonfinite") >= 2; }, 10.0))
+  h.SendAction(id, 0, {0.1f});              // wrong length
+  h.SendAction(id, 0, {0.1f, 0.2f, 0.3f});  // wrong length
+  h.SendAction(id, 0, {NAN, 0.f});          // NaN
+  h.SendAction(id, 0, {0.f, INFINITY});     // Inf
+  ASSERT_TRUE(h.WaitFor(
+      [&] {
+        return h.Counter("rejected_wrong_length") >= 2 && h.Counter("rejected_nonfinite") >= 2;
+      },
+      10.0))
       << "wrong_length=" << h.Counter("rejected_wrong_length")
       << " nonfinite=" << h.Counter("rejected_nonfinite");
   EXPECT_EQ(h.Counter("steps"), 0u);  // none of them stepped the sim
   // A stale action (wrong step) is ignored, a good one (out of range: clipped) steps.
   h.SendAction(id, 5, {1.f, 0.f});
   h.SendAction(id, 0, {0.f, 5.f});
-  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 10.0));
+  ASSERT_TRUE(h.WaitFor(
+      [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 10.0));
   const double moved = std::hypot(h.latest()->state[0] - x0, h.latest()->state[1] - y0);
   EXPECT_LE(moved, 0.2 + 1e-4);  // clipped to 1, times 0.2
   EXPECT_GT(moved, 0.0);
@@ -137,7 +143,8 @@ TEST(SimServices, ResetSetGoalPause) {
   p.request.pause = false;
   ASSERT_TRUE(pc.call(p));
   h.SendAction(id, 0, {1.f, 0.f});
-  ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 5.0));
+  ASSERT_TRUE(h.WaitFor(
+      [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == 1; }, 5.0));
   EXPECT_FLOAT_EQ(h.latest()->goal[0], 8.f);  // the goal set above holds
 }
 
@@ -149,9 +156,11 @@ TEST(SimRobotAndMarkers, AgreeWithTheMaze) {
   const auto map = sim::MazeMap::FromName("medium");
   // robot_description: present, parsed by urdfdom, and consistent with the simulation.
   std::string xml;
-  ASSERT_TRUE(h.nh().getParam("robot_description", xml)) << "no robot_description in " << h.nh().getNamespace();
+  ASSERT_TRUE(h.nh().getParam("robot_description", xml))
+      << "no robot_description in " << h.nh().getNamespace();
   sim::PointMaze env(sim::PointMazeOptions{});
-  const auto robot = ros_bridge::CheckPointRobotUrdf(xml, "robot_description", env, "world", "agent");
+  const auto robot =
+      ros_bridge::CheckPointRobotUrdf(xml, "robot_description", env, "world", "agent");
   EXPECT_EQ(robot.chain.size(), 2u);
 
   visualization_msgs::MarkerArray::ConstPtr markers;
@@ -163,7 +172,8 @@ TEST(SimRobotAndMarkers, AgreeWithTheMaze) {
   tf2_ros::Buffer tf_buffer;
   tf2_ros::TransformListener tf_listener(tf_buffer);
   // joint_states and /tf are not latched: connect before the steps that publish them.
-  ASSERT_TRUE(h.WaitFor([&] { return jsub.getNumPublishers() > 0 && msub.getNumPublishers() > 0; }, 10.0));
+  ASSERT_TRUE(
+      h.WaitFor([&] { return jsub.getNumPublishers() > 0 && msub.getNumPublishers() > 0; }, 10.0));
   ros::WallDuration(1.0).sleep();  // the tf listener's own connection
   const auto res = CallReset(h.nh(), 2, 5);
   ASSERT_TRUE(res.ok) << res.message;
@@ -171,7 +181,9 @@ TEST(SimRobotAndMarkers, AgreeWithTheMaze) {
   const uint32_t id = res.observation.episode_id;
   for (uint32_t k = 0; k < 5; ++k) {
     h.SendAction(id, k, {0.5f, 0.f});
-    ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == k + 1; }, 10.0));
+    ASSERT_TRUE(h.WaitFor(
+        [&] { return h.latest() && h.latest()->episode_id == id && h.latest()->step == k + 1; },
+        10.0));
   }
   const auto obs = *h.latest();
   auto find = [&](const std::string& ns) -> const visualization_msgs::Marker* {
@@ -181,11 +193,14 @@ TEST(SimRobotAndMarkers, AgreeWithTheMaze) {
     return nullptr;
   };
   // The path marker is refreshed at 5 Hz of wall time: wait for one that ends at the current state.
-  ASSERT_TRUE(h.WaitFor([&] {
-    const auto* p = find("path");
-    return p && !p->points.empty() && std::abs(p->points.back().x - obs.state[0]) < 1e-4 &&
-           std::abs(p->points.back().y - obs.state[1]) < 1e-4;
-  }, 10.0)) << "no path marker up to the current state";
+  ASSERT_TRUE(h.WaitFor(
+      [&] {
+        const auto* p = find("path");
+        return p && !p->points.empty() && std::abs(p->points.back().x - obs.state[0]) < 1e-4 &&
+               std::abs(p->points.back().y - obs.state[1]) < 1e-4;
+      },
+      10.0))
+      << "no path marker up to the current state";
   const auto* walls = find("walls");
   ASSERT_NE(walls, nullptr);
   EXPECT_EQ(walls->header.frame_id, "world");
@@ -209,18 +224,21 @@ TEST(SimRobotAndMarkers, AgreeWithTheMaze) {
   EXPECT_EQ(path->points.size(), 6u);  // the start and five steps
   EXPECT_NEAR(path->points.front().x, res.observation.state[0], 1e-5);
   // joint_states and tf2 follow the state.
-  ASSERT_TRUE(h.WaitFor([&] { return joints && std::abs(joints->position[0] - obs.state[0]) < 1e-5; }, 10.0));
+  ASSERT_TRUE(h.WaitFor(
+      [&] { return joints && std::abs(joints->position[0] - obs.state[0]) < 1e-5; }, 10.0));
   ASSERT_EQ(joints->name, (std::vector<std::string>{"agent_x", "agent_y"}));
   EXPECT_NEAR(joints->position[1], obs.state[1], 1e-5);
   geometry_msgs::TransformStamped tf;
-  ASSERT_TRUE(h.WaitFor([&] {
-    try {
-      tf = tf_buffer.lookupTransform("world", "agent", ros::Time(0));
-      return std::abs(tf.transform.translation.x - obs.state[0]) < 1e-5;
-    } catch (const tf2::TransformException&) {
-      return false;
-    }
-  }, 10.0));
+  ASSERT_TRUE(h.WaitFor(
+      [&] {
+        try {
+          tf = tf_buffer.lookupTransform("world", "agent", ros::Time(0));
+          return std::abs(tf.transform.translation.x - obs.state[0]) < 1e-5;
+        } catch (const tf2::TransformException&) {
+          return false;
+        }
+      },
+      10.0));
   EXPECT_NEAR(tf.transform.translation.y, obs.state[1], 1e-5);
   EXPECT_NEAR(tf.transform.translation.z, sim::kAgentRadius, 1e-9);
 }

@@ -1,0 +1,680 @@
+#include "msspr_robot_interface/robot_spec.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace msspr::ros_bridge {
+namespace {
+
+// Numeric groups of the geometry types, by the path prefix that holds them.
+const std::vector<std::string> kXyz = {"x", "y", "z"};
+const std::vector<std::string> kXyzw = {"x", "y", "z", "w"};
+
+// The groups (path -> component names) a message type has; empty for the
+// types read by joint name or array index.
+const std::map<std::string, std::vector<std::string>>& Groups(const std::string& type) {
+  static const std::map<std::string, std::map<std::string, std::vector<std::string>>> kGroups = {
+      {kOdometryType,
+       {{"pose.pose.position", kXyz},
+        {"pose.pose.orientation", kXyzw},
+        {"twist.twist.linear", kXyz},
+        {"twist.twist.angular", kXyz}}},
+      {kPoseStampedType, {{"pose.position", kXyz}, {"pose.orientation", kXyzw}}},
+      {kTwistType, {{"linear", kXyz}, {"angular", kXyz}}},
+      {kTwistStampedType, {{"twist.linear", kXyz}, {"twist.angular", kXyz}}},
+      {kTf2Type, {{"translation", kXyz}, {"rotation", kXyzw}}},
+  };
+  static const std::map<std::string, std::vector<std::string>> kNone;
+  auto it = kGroups.find(type);
+  return it == kGroups.end() ? kNone : it->second;
+}
+
+bool HasHeader(const std::string& type) {
+  return type != kTwistType && type != kFloat64MultiArrayType;
+}
+
+bool IsCommandType(const std::string& type) {
+  return type == kTwistType || type == kTwistStampedType || type == kFloat64MultiArrayType ||
+         type == kJointTrajectoryType;
+}
+
+bool KnownType(const std::string& type) {
+  return type == kTf2Type || type == kOdometryType || type == kPoseStampedType ||
+         type == kTwistType || type == kTwistStampedType || type == kJointStateType ||
+         type == kFloat64MultiArrayType || type == kJointTrajectoryType;
+}
+
+// "SPEC: observation field 'position' (topic odom, pose.pose.position): "
+std::string Where(const std::string& source, const std::string& kind, const SpecField& f) {
+  std::string s = source + ": " + kind + (kind.empty() ? "field" : " field");
+  if (!f.name.empty()) s += " '" + f.name + "'";
+  if (!f.topic.empty())
+    s += " (topic " + f.topic + (f.field.empty() ? "" : ", " + f.field) + ")";
+  else if (!f.field.empty())
+    s += " (" + f.field + ")";
+  return s + ": ";
+}
+
+// Parses "data[3]" or "data[0:6]" into [begin, end); false when it is not one.
+bool ParseArrayRange(const std::string& field, int* begin, int* end) {
+  if (field.rfind("data[", 0) != 0 || field.back() != ']') return false;
+  const std::string inner = field.substr(5, field.size() - 6);
+  const size_t colon = inner.find(':');
+  try {
+    size_t used = 0;
+    if (colon == std::string::npos) {
+      *begin = std::stoi(inner, &used);
+      if (used != inner.size()) return false;
+      *end = *begin + 1;
+    } else {
+      const std::string a = inner.substr(0, colon), b = inner.substr(colon + 1);
+      *begin = std::stoi(a, &used);
+      if (used != a.size()) return false;
+      *end = std::stoi(b, &used);
+      if (used != b.size()) return false;
+    }
+  } catch (const std::exception&) {
+    return false;
+  }
+  return *begin >= 0 && *end > *begin && *end <= 100000;
+}
+
+// Reads the keys of a YAML map into typed values; rejects the keys it never read.
+class MapReader {
+ public:
+  MapReader(const YAML::Node& node, std::string where) : node_(node), where_(std::move(where)) {
+    if (!node_.IsMap()) throw RobotSpecError(where_ + "must be a map");
+  }
+  template <class T>
+  bool Get(const char* key, T* value) {
+    seen_.insert(key);
+    const YAML::Node child = node_[key];
+    if (!child) return false;
+    try {
+      *value = child.as<T>();
+    } catch (const YAML::Exception& e) {
+      throw RobotSpecError(where_ + "bad value for '" + key + "': " + e.what());
+    }
+    return true;
+  }
+  // A number or a list of numbers.
+  bool GetNumbers(const char* key, std::vector<double>* value) {
+    seen_.insert(key);
+    const YAML::Node child = node_[key];
+    if (!child) return false;
+    try {
+      *value = child.IsSequence() ? child.as<std::vector<double>>()
+                                  : std::vector<double>{child.as<double>()};
+    } catch (const YAML::Exception& e) {
+      throw RobotSpecError(where_ + "bad value for '" + key +
+                           "' (a number or a list of numbers): " + e.what());
+    }
+    for (double v : *value)
+      if (!std::isfinite(v)) throw RobotSpecError(where_ + "'" + key + "' must be finite");
+    return true;
+  }
+  YAML::Node Child(const char* key) {
+    seen_.insert(key);
+    return node_[key];
+  }
+  void CheckNoUnknownKeys() const {
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (!seen_.count(key)) throw RobotSpecError(where_ + "unknown key '" + key + "'");
+    }
+  }
+
+ private:
+  YAML::Node node_;
+  std::string where_;
+  std::set<std::string> seen_;
+};
+
+// Reads one field entry. `kind`: "observation", "action" or "goal".
+SpecField ReadField(const YAML::Node& node, const std::string& source, const std::string& kind,
+                    int index, const std::string& default_topic, const std::string& default_type) {
+  SpecField f;
+  if (!node.IsMap())
+    throw RobotSpecError(source + ": " + kind + " field " + std::to_string(index) +
+                         ": must be a map");
+  // Name and topic first, so that every later error names them.
+  if (node["name"]) f.name = node["name"].as<std::string>("");
+  if (kind != "observation") f.topic = default_topic;
+  if ((kind == "observation" || kind == "action") && node["topic"])
+    f.topic = node["topic"].as<std::string>("");
+  if (kind == "observation" && !node["topic"] && node["type"] &&
+      node["type"].as<std::string>("") == kTf2Type)
+    f.topic = kTf2Topic;
+  if (node["field"]) f.field = node["field"].as<std::string>("");
+  const std::string where = Where(source, kind, f);
+  MapReader r(node, where);
+  r.Get("name", &f.name);
+  if (kind == "goal") {
+    std::string obs;
+    r.Get("observation", &obs);  // read by the caller
+  }
+  if (kind == "observation") {
+    r.Get("type", &f.type);
+    if (f.type == kTf2Type) {
+      // tf2 fields are read from /tf and /tf_static; `topic`, when given, must say so.
+      if (r.Get("topic", &f.topic) && f.topic != kTf2Topic && f.topic != "/tf")
+        throw RobotSpecError(
+            where + "a tf2 field is read from /tf and /tf_static: leave out topic (or say tf)");
+      f.topic = kTf2Topic;
+      if (!r.Get("frames", &f.frames) || f.frames.size() != 2 || f.frames[0].empty() ||
+          f.frames[1].empty() || f.frames[0] == f.frames[1])
+        throw RobotSpecError(where +
+                             "a tf2 field needs frames: [parent, child] (two different frames)");
+      for (const auto& fr : f.frames)
+        if (fr[0] == '/')
+          throw RobotSpecError(where + "tf2 frame '" + fr + "' must not start with '/'");
+    } else {
+      if (!r.Get("topic", &f.topic) || f.topic.empty()) throw RobotSpecError(where + "no topic");
+      if (f.type.empty()) throw RobotSpecError(where + "no type");
+    }
+  } else if (kind == "action") {
+    // A field may name its own command topic and type (default: the action's).
+    f.type = default_type;
+    const bool own_topic = r.Get("topic", &f.topic);
+    if (own_topic && f.topic.empty()) throw RobotSpecError(where + "empty topic");
+    if (!own_topic) f.topic = default_topic;
+    if (r.Get("type", &f.type) && !own_topic)
+      throw RobotSpecError(where + "a field with its own type needs its own topic");
+    if (own_topic && f.topic != default_topic && !node["type"])
+      throw RobotSpecError(where + "a field on its own topic needs its type");
+    if (!IsCommandType(f.type))
+      throw RobotSpecError(where + "unsupported command type '" + f.type +
+                           "' (supported: geometry_msgs/Twist, geometry_msgs/TwistStamped, "
+                           "std_msgs/Float64MultiArray, trajectory_msgs/JointTrajectory)");
+  } else {
+    f.topic = default_topic;
+    f.type = default_type;
+  }
+  if (f.type == kImageType || f.type == kCompressedImageType)
+    throw RobotSpecError(where + "images (" + f.type +
+                         ") are not observation fields: name the camera in the images: section");
+  if (!KnownType(f.type))
+    throw RobotSpecError(
+        where + "unsupported message type '" + f.type +
+        "' (supported: nav_msgs/Odometry, geometry_msgs/PoseStamped, tf2, geometry_msgs/Twist, "
+        "geometry_msgs/TwistStamped, sensor_msgs/JointState, std_msgs/Float64MultiArray, "
+        "trajectory_msgs/JointTrajectory)");
+  if (!r.Get("field", &f.field) || f.field.empty()) throw RobotSpecError(where + "no field");
+  r.Get("components", &f.components);
+  r.Get("joints", &f.joints);
+  r.Get("derive", &f.derive);
+  r.GetNumbers("scale", &f.scale);
+  r.GetNumbers("offset", &f.offset);
+  if (kind == "action") r.GetNumbers("clip", &f.clip);
+  if (kind == "observation") f.has_clip = r.GetNumbers("clip", &f.clip);
+  if (kind == "observation") r.Get("stamp", &f.stamp);
+  r.CheckNoUnknownKeys();
+  if (f.stamp.empty()) f.stamp = HasHeader(f.type) ? "header" : "receipt";
+  if (f.stamp != "header" && f.stamp != "receipt")
+    throw RobotSpecError(where + "stamp must be header or receipt, got '" + f.stamp + "'");
+  if (f.stamp == "header" && !HasHeader(f.type))
+    throw RobotSpecError(where + f.type + " has no header: stamp must be receipt");
+  if (f.derive != "" && f.derive != "yaw" && f.derive != "yaw_cos_sin")
+    throw RobotSpecError(where + "derive must be yaw or yaw_cos_sin, got '" + f.derive + "'");
+  if (kind == "action" && !f.derive.empty())
+    throw RobotSpecError(where + "an action field cannot derive");
+  // Resolving the paths checks field, components and joints against the type.
+  const int n = static_cast<int>(ResolveFieldPaths(f, source).size());
+  if (!f.derive.empty() && n != 4)
+    throw RobotSpecError(where + "derive " + f.derive + " needs a quaternion (x, y, z, w), got " +
+                         std::to_string(n) + " numbers");
+  const int size = f.size();
+  for (auto* v : {&f.scale, &f.offset}) {
+    if (v->size() != 1 && static_cast<int>(v->size()) != size)
+      throw RobotSpecError(where + "scale and offset must be one number or " +
+                           std::to_string(size) + " (one per value), got " +
+                           std::to_string(v->size()));
+  }
+  for (size_t i = 0; i < f.scale.size(); ++i)
+    if (f.scale[i] == 0.0) throw RobotSpecError(where + "scale must not be 0");
+  if (f.clip.size() != 2 || !(f.clip[0] < f.clip[1]))
+    throw RobotSpecError(where + "clip must be [low, high] with low < high");
+  return f;
+}
+
+std::string Fmt(const std::vector<double>& v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "[";
+  for (size_t i = 0; i < v.size(); ++i) s << (i ? ", " : "") << v[i];
+  s << "]";
+  return s.str();
+}
+
+std::string Fmt(const std::vector<std::string>& v) {
+  std::string s = "[";
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
+  return s + "]";
+}
+
+// Reads one camera of the images: section.
+SpecImage ReadImage(const YAML::Node& node, const std::string& source, int index) {
+  SpecImage im;
+  if (!node.IsMap())
+    throw RobotSpecError(source + ": image " + std::to_string(index) + ": must be a map");
+  if (node["topic"]) im.topic = node["topic"].as<std::string>("");
+  if (node["name"]) im.name = node["name"].as<std::string>("");
+  if (im.name.empty()) im.name = im.topic;
+  const std::string where = source + ": image '" + im.name + "'" +
+                            (im.topic.empty() ? "" : " (topic " + im.topic + ")") + ": ";
+  MapReader r(node, where);
+  r.Get("name", &im.name);
+  if (im.name.empty()) im.name = im.topic;
+  if (!r.Get("topic", &im.topic) || im.topic.empty()) throw RobotSpecError(where + "no topic");
+  if (!r.Get("type", &im.type) || im.type.empty()) throw RobotSpecError(where + "no type");
+  if (im.type != kImageType && im.type != kCompressedImageType)
+    throw RobotSpecError(where + "unsupported image type '" + im.type +
+                         "' (supported: " + kImageType + " with encoding rgb8, bgr8 or mono8; " +
+                         kCompressedImageType + " with jpeg or png)");
+  if (!r.Get("size", &im.size))
+    throw RobotSpecError(where + "no size (the network's image side, e.g. 64)");
+  if (im.size < 8 || im.size > 1024) throw RobotSpecError(where + "size must be in 8..1024 pixels");
+  r.CheckNoUnknownKeys();
+  return im;
+}
+
+}  // namespace
+
+int SpecField::size() const {
+  if (derive == "yaw") return 1;
+  if (derive == "yaw_cos_sin") return 2;
+  if (type == kJointStateType || type == kJointTrajectoryType)
+    return static_cast<int>(joints.size());
+  int b = 0, e = 0;
+  if (type == kFloat64MultiArrayType && ParseArrayRange(field, &b, &e)) return e - b;
+  if (!components.empty()) return static_cast<int>(components.size());
+  const auto& groups = Groups(type);
+  auto it = groups.find(field);
+  return it == groups.end() ? 1 : static_cast<int>(it->second.size());
+}
+
+std::vector<std::string> ResolveFieldPaths(const SpecField& f, const std::string& source) {
+  const std::string where = Where(source, "", f);
+  std::vector<std::string> out;
+  if (f.type == kJointStateType || f.type == kJointTrajectoryType) {
+    const bool js = f.type == kJointStateType;
+    const std::set<std::string> ok =
+        js ? std::set<std::string>{"position", "velocity", "effort"}
+           : std::set<std::string>{"points[0].positions", "points[0].velocities"};
+    if (!ok.count(f.field))
+      throw RobotSpecError(
+          where + f.type + " has no field '" + f.field + "' (it has " +
+          (js ? "position, velocity, effort" : "points[0].positions, points[0].velocities") + ")");
+    if (f.joints.empty())
+      throw RobotSpecError(where + "no joints: " + f.type + " is read by joint name");
+    std::set<std::string> seen;
+    for (const auto& j : f.joints) {
+      if (j.empty() || !seen.insert(j).second)
+        throw RobotSpecError(where + "joint '" + j + "' is empty or named twice");
+      out.push_back(f.field);
+    }
+    if (!f.components.empty()) throw RobotSpecError(where + "components do not apply to " + f.type);
+    return out;
+  }
+  if (!f.joints.empty())
+    throw RobotSpecError(where + "joints apply to JointState and JointTrajectory only");
+  if (!f.frames.empty() && f.type != kTf2Type)
+    throw RobotSpecError(where + "frames apply to tf2 fields only");
+  if (f.type == kFloat64MultiArrayType) {
+    int b = 0, e = 0;
+    if (!ParseArrayRange(f.field, &b, &e))
+      throw RobotSpecError(where +
+                           "std_msgs/Float64MultiArray is read as data[i] or data[a:b], got '" +
+                           f.field + "'");
+    for (int i = b; i < e; ++i) out.push_back("data[" + std::to_string(i) + "]");
+    return out;
+  }
+  const auto& groups = Groups(f.type);
+  auto it = groups.find(f.field);
+  if (it == groups.end()) {
+    // A single number: GROUP.c
+    const size_t dot = f.field.rfind('.');
+    if (dot != std::string::npos) {
+      auto g = groups.find(f.field.substr(0, dot));
+      const std::string c = f.field.substr(dot + 1);
+      if (g != groups.end() &&
+          std::find(g->second.begin(), g->second.end(), c) != g->second.end()) {
+        if (!f.components.empty())
+          throw RobotSpecError(where + "components apply to a group such as " + g->first +
+                               ", not to one number");
+        return {f.field};
+      }
+    }
+    std::string have;
+    for (const auto& [path, comps] : groups) have += (have.empty() ? "" : ", ") + path + Fmt(comps);
+    throw RobotSpecError(where + f.type + " has no field '" + f.field + "' (it has " + have + ")");
+  }
+  if (f.components.empty()) {
+    for (const auto& c : it->second) out.push_back(f.field + "." + c);
+    return out;
+  }
+  for (const auto& c : f.components) {
+    if (std::find(it->second.begin(), it->second.end(), c) == it->second.end())
+      throw RobotSpecError(where + f.field + " has no component '" + c + "' (it has " +
+                           Fmt(it->second) + ")");
+    out.push_back(f.field + "." + c);
+  }
+  return out;
+}
+
+int RobotSpec::obs_dim() const {
+  int n = 0;
+  for (const auto& f : observation) n += f.size();
+  return n;
+}
+
+int RobotSpec::action_dim() const {
+  int n = 0;
+  for (const auto& f : action) n += f.size();
+  return n;
+}
+
+std::vector<RobotSpec::CommandTopic> RobotSpec::CommandTopics() const {
+  std::vector<CommandTopic> out;
+  int at = 0;
+  for (int i = 0; i < static_cast<int>(action.size()); ++i) {
+    const SpecField& f = action[i];
+    auto it = std::find_if(out.begin(), out.end(),
+                           [&](const CommandTopic& c) { return c.topic == f.topic; });
+    if (it == out.end()) {
+      out.push_back(CommandTopic{f.topic, f.type, f.stamp, {}, {}, 0});
+      it = out.end() - 1;
+    }
+    it->fields.push_back(i);
+    it->action_offset.push_back(at);
+    it->size += f.size();
+    at += f.size();
+  }
+  return out;
+}
+
+std::vector<std::string> RobotSpec::ObservationTopics() const {
+  std::vector<std::string> out;
+  for (const auto& f : observation)
+    if (std::find(out.begin(), out.end(), f.topic) == out.end()) out.push_back(f.topic);
+  return out;
+}
+
+RobotSpec ParseRobotSpec(const std::string& yaml, const std::string& source) {
+  RobotSpec s;
+  s.source = source;
+  s.text = yaml;
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::Exception& e) {
+    throw RobotSpecError(source + ": YAML parse error: " + e.what());
+  }
+  if (!root.IsMap()) throw RobotSpecError(source + ": top level must be a map");
+  try {
+    MapReader top(root, source + ": ");
+    top.Get("name", &s.name);
+    top.Get("namespace", &s.ns);
+    top.Get("control_rate", &s.control_rate);
+    if (!(s.control_rate > 0 && std::isfinite(s.control_rate)))
+      throw RobotSpecError(source + ": control_rate must be > 0 (Hz)");
+    if (YAML::Node a = top.Child("alignment")) {
+      MapReader r(a, source + ": alignment: ");
+      r.Get("tolerance", &s.tolerance);
+      r.Get("stale_after", &s.stale_after);
+      r.CheckNoUnknownKeys();
+    }
+    const double dt = 1.0 / s.control_rate;
+    if (!(s.tolerance >= 0 && s.tolerance < dt / 2))
+      throw RobotSpecError(source + ": alignment: tolerance must be in [0, half a control period)");
+    if (!(s.stale_after > 0 && std::isfinite(s.stale_after)))
+      throw RobotSpecError(source + ": alignment: stale_after must be > 0 (s)");
+    if (YAML::Node e = top.Child("episodes")) {
+      MapReader r(e, source + ": episodes: ");
+      r.Get("split_by", &s.episodes.split_by);
+      r.Get("gap", &s.episodes.gap);
+      r.Get("topic", &s.episodes.topic);
+      r.CheckNoUnknownKeys();
+    }
+    const auto& ep = s.episodes;
+    if (ep.split_by != "gap" && ep.split_by != "topic" && ep.split_by != "bag")
+      throw RobotSpecError(source + ": episodes: split_by must be gap, topic or bag, got '" +
+                           ep.split_by + "'");
+    if (ep.split_by == "topic" && ep.topic.empty())
+      throw RobotSpecError(source + ": episodes: split_by topic needs a topic");
+    if (!(ep.gap > 0)) throw RobotSpecError(source + ": episodes: gap must be > 0 (s)");
+    if (const YAML::Node imgs = top.Child("images")) {
+      if (!imgs.IsSequence() || imgs.size() == 0)
+        throw RobotSpecError(source + ": images must be a non-empty list of cameras");
+      if (imgs.size() > 1)
+        throw RobotSpecError(source + ": images: " + std::to_string(imgs.size()) +
+                             " cameras, a pixels policy takes one");
+      for (size_t i = 0; i < imgs.size(); ++i)
+        s.images.push_back(ReadImage(imgs[i], source, static_cast<int>(i)));
+    }
+
+    const YAML::Node obs = top.Child("observation");
+    if (!obs || !obs.IsSequence() || obs.size() == 0)
+      throw RobotSpecError(source + ": observation must be a non-empty list of fields");
+    std::set<std::string> names;
+    for (size_t i = 0; i < obs.size(); ++i) {
+      SpecField f = ReadField(obs[i], source, "observation", static_cast<int>(i), "", "");
+      if (f.name.empty()) f.name = f.topic + ":" + f.field;
+      if (!names.insert(f.name).second)
+        throw RobotSpecError(source + ": observation field '" + f.name + "' is named twice");
+      s.observation.push_back(std::move(f));
+    }
+
+    const YAML::Node act = top.Child("action");
+    if (!act) throw RobotSpecError(source + ": no action");
+    {
+      MapReader r(act, source + ": action: ");
+      if (!r.Get("topic", &s.action_topic) || s.action_topic.empty())
+        throw RobotSpecError(source + ": action: no topic");
+      if (!r.Get("type", &s.action_type) || s.action_type.empty())
+        throw RobotSpecError(source + ": action (topic " + s.action_topic + "): no type");
+      if (s.action_type != kTwistType && s.action_type != kTwistStampedType &&
+          s.action_type != kFloat64MultiArrayType && s.action_type != kJointTrajectoryType)
+        throw RobotSpecError(source + ": action (topic " + s.action_topic +
+                             "): unsupported command type '" + s.action_type +
+                             "' (supported: geometry_msgs/Twist, geometry_msgs/TwistStamped, "
+                             "std_msgs/Float64MultiArray, trajectory_msgs/JointTrajectory)");
+      r.Get("stamp", &s.action_stamp);
+      const YAML::Node fields = r.Child("fields");
+      r.CheckNoUnknownKeys();
+      if (s.action_stamp.empty()) s.action_stamp = HasHeader(s.action_type) ? "header" : "receipt";
+      if (s.action_stamp != "header" && s.action_stamp != "receipt")
+        throw RobotSpecError(source + ": action (topic " + s.action_topic +
+                             "): stamp must be header or receipt");
+      if (s.action_stamp == "header" && !HasHeader(s.action_type))
+        throw RobotSpecError(source + ": action (topic " + s.action_topic + "): " + s.action_type +
+                             " has no header: stamp must be receipt");
+      if (!fields || !fields.IsSequence() || fields.size() == 0)
+        throw RobotSpecError(source + ": action (topic " + s.action_topic +
+                             "): fields must be a non-empty list");
+      std::set<std::string> anames;
+      for (size_t i = 0; i < fields.size(); ++i) {
+        SpecField f = ReadField(fields[i], source, "action", static_cast<int>(i), s.action_topic,
+                                s.action_type);
+        f.stamp =
+            f.topic == s.action_topic ? s.action_stamp : (HasHeader(f.type) ? "header" : "receipt");
+        for (const auto& g : s.action)
+          if (g.topic == f.topic && g.type != f.type)
+            throw RobotSpecError(source + ": action field '" + f.name + "' (topic " + f.topic +
+                                 "): type " + f.type + ", but field '" + g.name + "' publishes " +
+                                 g.type + " on that topic");
+        if (f.name.empty()) f.name = f.field;
+        if (!anames.insert(f.name).second)
+          throw RobotSpecError(source + ": action field '" + f.name + "' is named twice");
+        s.action.push_back(std::move(f));
+      }
+    }
+
+    if (YAML::Node g = top.Child("goal")) {
+      MapReader r(g, source + ": goal: ");
+      r.Get("source", &s.goal.source);
+      r.Get("topic", &s.goal.topic);
+      r.Get("type", &s.goal.type);
+      const YAML::Node fields = r.Child("fields");
+      r.CheckNoUnknownKeys();
+      if (!s.images.empty() && s.goal.source != "image")
+        throw RobotSpecError(
+            source +
+            ": goal: a spec with images serves pixels policies, whose goal is an image: "
+            "source image, got '" +
+            s.goal.source + "'");
+      if (s.goal.source == "image") {
+        if (!g["type"]) s.goal.type = kImageType;
+        if (!g["topic"]) s.goal.topic = "goal_image";
+        if (s.goal.type != kImageType && s.goal.type != kCompressedImageType)
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic + "): source image takes " +
+                               kImageType + " or " + kCompressedImageType + ", got '" +
+                               s.goal.type + "'");
+        if (fields)
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
+                               "): source image has no fields");
+        if (s.images.empty())
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
+                               "): source image needs a camera in the images: section (its size)");
+      } else if (s.goal.source == "observation") {
+        if (!g["type"]) s.goal.type = kFloat64MultiArrayType;
+        if (s.goal.type != kFloat64MultiArrayType)
+          throw RobotSpecError(
+              source + ": goal (topic " + s.goal.topic +
+              "): source observation takes std_msgs/Float64MultiArray (the full observation)");
+        if (fields)
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
+                               "): source observation has no fields");
+      } else if (s.goal.source == "pose") {
+        if (s.goal.type != kPoseStampedType)
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
+                               "): source pose takes geometry_msgs/PoseStamped");
+        if (!fields || !fields.IsSequence() || fields.size() == 0)
+          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
+                               "): fields must be a non-empty list");
+        for (size_t i = 0; i < fields.size(); ++i) {
+          SpecGoal::Part p;
+          if (!fields[i].IsMap() || !fields[i]["observation"])
+            throw RobotSpecError(source + ": goal (topic " + s.goal.topic + ") field " +
+                                 std::to_string(i) +
+                                 ": no 'observation' (the observation field it fills)");
+          p.observation = fields[i]["observation"].as<std::string>();
+          p.field =
+              ReadField(fields[i], source, "goal", static_cast<int>(i), s.goal.topic, s.goal.type);
+          if (p.field.name.empty()) p.field.name = p.observation;
+          const SpecField* target = nullptr;
+          for (const auto& f : s.observation)
+            if (f.name == p.observation) target = &f;
+          if (!target)
+            throw RobotSpecError(source + ": goal (topic " + s.goal.topic + ", " + p.field.field +
+                                 "): no observation field named '" + p.observation + "'");
+          if (target->size() != p.field.size())
+            throw RobotSpecError(source + ": goal (topic " + s.goal.topic + ", " + p.field.field +
+                                 ") gives " + std::to_string(p.field.size()) +
+                                 " numbers, observation field '" + p.observation + "' has " +
+                                 std::to_string(target->size()));
+          s.goal.parts.push_back(std::move(p));
+        }
+      } else {
+        throw RobotSpecError(source + ": goal: source must be pose, observation or image, got '" +
+                             s.goal.source + "'");
+      }
+      if (s.goal.topic.empty()) throw RobotSpecError(source + ": goal: no topic");
+    } else {
+      if (!s.images.empty())
+        throw RobotSpecError(
+            source + ": a spec with images needs a goal (source image: the goal camera topic)");
+      s.goal.source = "";  // no goal topic: goals come from ~set_goal only
+      s.goal.topic = "";
+    }
+    top.CheckNoUnknownKeys();
+  } catch (const YAML::Exception& e) {
+    throw RobotSpecError(source + ": " + e.what());
+  }
+  return s;
+}
+
+RobotSpec LoadRobotSpec(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw RobotSpecError(path + ": cannot open robot spec");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ParseRobotSpec(ss.str(), path);
+}
+
+std::string CompareRobotSpecs(const RobotSpec& a, const RobotSpec& b) {
+  std::ostringstream s;
+  s.precision(17);
+  if (a.control_rate != b.control_rate) {
+    s << "control_rate " << a.control_rate << " vs " << b.control_rate;
+    return s.str();
+  }
+  auto fields = [&](const char* kind, const std::vector<SpecField>& x,
+                    const std::vector<SpecField>& y) -> std::string {
+    if (x.size() != y.size())
+      return std::string(kind) + ": " + std::to_string(x.size()) + " fields vs " +
+             std::to_string(y.size());
+    for (size_t i = 0; i < x.size(); ++i) {
+      const SpecField& f = x[i];
+      const SpecField& g = y[i];
+      const std::string who = std::string(kind) + " field " + std::to_string(i) + " '" + f.name +
+                              "' (topic " + f.topic + ", " + f.field + "): ";
+      if (f.topic != g.topic) return who + "topic " + f.topic + " vs " + g.topic;
+      if (f.type != g.type) return who + "type " + f.type + " vs " + g.type;
+      if (f.field != g.field) return who + "field " + f.field + " vs " + g.field;
+      if (f.components != g.components)
+        return who + "components " + Fmt(f.components) + " vs " + Fmt(g.components);
+      if (f.joints != g.joints) return who + "joints " + Fmt(f.joints) + " vs " + Fmt(g.joints);
+      if (f.frames != g.frames) return who + "frames " + Fmt(f.frames) + " vs " + Fmt(g.frames);
+      if (f.has_clip != g.has_clip)
+        return who + std::string("clip ") + (f.has_clip ? "set" : "none") + " vs " +
+               (g.has_clip ? "set" : "none");
+      if (f.derive != g.derive) return who + "derive '" + f.derive + "' vs '" + g.derive + "'";
+      if (f.scale != g.scale) return who + "scale " + Fmt(f.scale) + " vs " + Fmt(g.scale);
+      if (f.offset != g.offset) return who + "offset " + Fmt(f.offset) + " vs " + Fmt(g.offset);
+      if (f.clip != g.clip) return who + "clip " + Fmt(f.clip) + " vs " + Fmt(g.clip);
+    }
+    return "";
+  };
+  std::string d = fields("observation", a.observation, b.observation);
+  if (!d.empty()) return d;
+  if (a.action_type != b.action_type)
+    return "action type " + a.action_type + " vs " + b.action_type;
+  d = fields("action", a.action, b.action);
+  if (!d.empty()) return d;
+  if (a.images.size() != b.images.size())
+    return "images: " + std::to_string(a.images.size()) + " cameras vs " +
+           std::to_string(b.images.size());
+  for (size_t i = 0; i < a.images.size(); ++i) {
+    const SpecImage& p = a.images[i];
+    const SpecImage& q = b.images[i];
+    const std::string who =
+        "image " + std::to_string(i) + " '" + p.name + "' (topic " + p.topic + "): ";
+    if (p.topic != q.topic) return who + "topic " + p.topic + " vs " + q.topic;
+    if (p.type != q.type) return who + "type " + p.type + " vs " + q.type;
+    if (p.size != q.size)
+      return who + "size " + std::to_string(p.size) + " vs " + std::to_string(q.size);
+  }
+  if (a.goal.source != b.goal.source)
+    return "goal source '" + a.goal.source + "' vs '" + b.goal.source + "'";
+  if (a.goal.source == "image" && a.goal.type != b.goal.type)
+    return "goal (topic " + a.goal.topic + "): type " + a.goal.type + " vs " + b.goal.type;
+  if (a.goal.parts.size() != b.goal.parts.size()) return "goal: different number of fields";
+  for (size_t i = 0; i < a.goal.parts.size(); ++i) {
+    const auto& p = a.goal.parts[i];
+    const auto& q = b.goal.parts[i];
+    if (p.observation != q.observation || p.field.field != q.field.field ||
+        p.field.components != q.field.components)
+      return "goal field " + std::to_string(i) + " (" + p.field.field + " -> " + p.observation +
+             ") vs (" + q.field.field + " -> " + q.observation + ")";
+  }
+  return "";
+}
+
+}  // namespace msspr::ros_bridge

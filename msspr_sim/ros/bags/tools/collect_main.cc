@@ -1,0 +1,323 @@
+// msspr_collect: writes an offline dataset of the scripted expert straight into
+// a rosbag (no master needed), in the layout of dataset_bag.h.
+#include <ros/time.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <set>
+
+#include "msspr_bags/dataset_bag.h"
+#include "msspr_bridge/cli_args.h"
+#include "msspr_sim/cube_dataset.h"
+#include "msspr_sim/dataset_gen.h"
+#include "msspr_sim/env_id.h"
+#include "msspr_sim/expert.h"
+#include "msspr_sim/maze_map.h"
+#include "msspr_sim/package_files.h"
+#include "msspr_sim/point_maze.h"
+#ifdef MSSPR_COLLECT_ANT
+#include "msspr_core/sac.h"
+#include "msspr_eval/ant_dataset.h"
+#include "msspr_sim/ant_maze.h"
+#endif
+
+namespace {
+
+constexpr char kUsage[] = R"(usage: msspr_collect --out FILE.bag [options]
+Writes an expert dataset of an msspr point maze, OGBench's cube-single-play
+dataset of the URDF arm, or an ant maze's dataset, into a rosbag (LZ4).
+  --env ENV              pointmaze | cube-single | antmaze-medium | antmaze-large
+                                                               (default pointmaze)
+  --maze NAME            arena | medium | large | giant        (default medium)
+  --kind KIND            navigate | stitch                     (default navigate)
+  --episodes N           training episodes (default: 1000 navigate, 5000 stitch)
+  --val-episodes N       validation episodes, split "val"     (default 10% of N)
+  --length L             steps per episode (default: 1001 navigate, 201 stitch;
+                         2001 for giant navigate)
+  --noise STD            expert action noise std              (default 0.5)
+  --images               render 64x64 camera images for every episode
+  --image-episodes N     render images for the first N training episodes only
+  --seed S               base seed; episode k uses EpisodeSeed(S, k) (default 0)
+  --no-compress          write an uncompressed bag
+  --quiet                no progress output
+cube-single (--env cube-single; --maze, --kind and --noise do not apply): the
+play oracle (CubePlayOracle) from collection resets, 1000 + 100 episodes of
+1001 steps by default; --episodes, --val-episodes, --length, --images,
+--image-episodes, --seed as above, and
+  --urdf FILE            the arm's URDF (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
+antmaze-medium, antmaze-large (--maze and images do not apply): OGBench's
+antmaze datasets with the waypoint expert; --kind, --episodes, --val-episodes,
+--length, --seed as above, and
+  --expert FILE          the locomotion expert, sac_policy.pt of msspr_train_expert
+                         (default: the shipped msspr_sim/experts/ant_xy_expert.pt)
+  --noise STD            the expert's action noise std (default 0.2)
+Example (the full pointmaze-medium-navigate dataset, states only):
+  rosrun msspr msspr_collect --maze medium --kind navigate --out medium-navigate.bag
+Example (the full cube-single-play dataset, states only):
+  rosrun msspr msspr_collect --env cube-single --out cube-single-play.bag
+Example (the full antmaze-medium-navigate dataset):
+  rosrun msspr msspr_collect --env antmaze-medium --out antmaze-medium-navigate.bag
+)";
+
+// Progress line on stderr: every 200 ms on a terminal, every 5 s otherwise, and at the end.
+struct Progress {
+  bool quiet, tty;
+  long total;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now(), last = t0;
+  void Update(long done, uint64_t transitions) {
+    const auto now = std::chrono::steady_clock::now();
+    if (quiet || !(now - last > std::chrono::milliseconds(tty ? 200 : 5000) || done == total))
+      return;
+    last = now;
+    const double s = std::chrono::duration<double>(now - t0).count();
+    const double rate = transitions / std::max(s, 1e-9);
+    const double eta = (total - done) * (s / done);
+    std::fprintf(
+        stderr,
+        "%s[msspr_collect] %ld/%ld episodes  %.0f transitions/s  %.0fs elapsed  ETA %.0fs%s",
+        tty ? "\r" : "", done, total, rate, s, eta, tty ? "   " : "\n");
+  }
+  double Elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+};
+
+// Writes episodes 0 .. episodes + val - 1 into `writer` (the first `episodes`
+// split "train", the rest "val"; images for the first image_episodes) with
+// write_one(k, meta, images), which collects episode k, fills the rest of
+// `meta` (episode id, env and split set), writes it and returns its length;
+// then the progress line's end and a summary naming `what`.
+template <typename WriteOne>
+void WriteAllEpisodes(const msspr::ros_bridge::CliArgs& args,
+                      msspr::ros_bridge::DatasetBagWriter& writer, long episodes, long val,
+                      long image_episodes, int episode_length, const std::string& env,
+                      const std::string& what, WriteOne write_one) {
+  const long total = episodes + val;
+  Progress progress{args.Has("quiet"), isatty(STDERR_FILENO) != 0, total};
+  uint64_t transitions = 0;
+  for (long k = 0; k < total; ++k) {
+    msspr::ros_bridge::EpisodeMeta meta;
+    meta.episode_id = static_cast<uint64_t>(k);
+    meta.env = env;
+    meta.split = k < episodes ? "train" : "val";
+    transitions += static_cast<uint64_t>(write_one(k, meta, k < image_episodes));
+    progress.Update(k + 1, transitions);
+  }
+  writer.Close();
+  const double s = progress.Elapsed();
+  if (progress.quiet) return;
+  if (progress.tty) std::fprintf(stderr, "\n");
+  std::fprintf(stderr,
+               "[msspr_collect] wrote %s: %s, %ld train + %ld val episodes of %d steps "
+               "(%lu transitions, %ld with images) in %.1f s (%.0f steps/s)\n",
+               args.Get("out", "").c_str(), what.c_str(), episodes, val, episode_length,
+               static_cast<unsigned long>(transitions), std::min(image_episodes, total), s,
+               transitions / std::max(s, 1e-9));
+}
+
+// cube-single-play: CollectCubeEpisode per episode, state-only or with images.
+int CollectCube(const msspr::ros_bridge::CliArgs& args) {
+  using namespace msspr;
+  sim::CubeCollectOptions opt;
+  sim::CubeEnvOptions env_opt;
+  long episodes = 0, val = 0, image_episodes = 0;
+  try {
+    if (!args.positional().empty())
+      throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    for (const char* f : {"maze", "kind", "noise"})
+      if (args.Has(f))
+        throw cli::CliError(std::string("--") + f + " does not apply to --env cube-single");
+    episodes = args.GetInt("episodes", 1000, 1, 100000000);
+    val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
+    opt.episode_length = static_cast<int>(args.GetInt("length", 1001, 2, 1000000));
+    opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+    image_episodes =
+        args.Has("images") ? episodes + val : args.GetInt("image-episodes", 0, 0, 100000000);
+    env_opt.urdf_path = args.Get("urdf", sim::DefaultArmUrdf());
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  ros::Time::init();
+  env_opt.enable_rendering = image_episodes > 0;
+  sim::CubeEnv env(env_opt);
+  const std::string env_name = sim::EnvLabel(sim::EnvId::kCubeSingle);
+  const double control_dt = env_opt.scene.timestep * env_opt.substeps;
+  ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
+  WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name,
+                   env_name + "-play", [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
+                     sim::CubeCollectOptions o = opt;
+                     o.images = images;
+                     const sim::CubeEpisode ep =
+                         sim::CollectCubeEpisode(env, o, static_cast<uint64_t>(k));
+                     meta.seed = ep.seed;
+                     meta.start.assign(ep.observations.begin(),
+                                       ep.observations.begin() + sim::CubeEnv::kObservationSize);
+                     // play data has no goal: meta.goal stays empty, so no step is marked success
+                     writer.WriteEpisode(meta, ep.length, sim::CubeEnv::kObservationSize,
+                                         sim::CubeEnv::kActionSize, ep.observations.data(),
+                                         ep.actions.data(), images ? ep.images.data() : nullptr,
+                                         env_opt.image_size, env_opt.success_distance);
+                     return ep.length;
+                   });
+  return 0;
+}
+
+// antmaze-medium / antmaze-large: agent::CollectAntEpisode per episode (states only).
+int CollectAnt(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvId env_id) {
+  using namespace msspr;
+  const std::string env_name = sim::EnvIdName(env_id);
+#ifndef MSSPR_COLLECT_ANT
+  (void)args;
+  std::cerr << "msspr_collect: --env " << env_name
+            << " needs the waypoint expert (msspr_eval_core); this build has no msspr_core\n";
+  return 2;
+#else
+  agent::AntCollectOptions opt;
+  std::string expert_path;
+  long episodes = 0, val = 0;
+  try {
+    if (!args.positional().empty())
+      throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+    for (const char* f : {"maze", "images", "image-episodes"})
+      if (args.Has(f))
+        throw cli::CliError(std::string("--") + f + " does not apply to --env " + env_name);
+    expert_path = args.Get("expert", sim::DefaultAntExpert());
+    opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
+    const bool stitch = opt.kind == sim::DatasetKind::kStitch;
+    episodes = args.GetInt("episodes", stitch ? 5000 : 1000, 1, 100000000);
+    val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
+    opt.episode_length = static_cast<int>(args.GetInt("length", stitch ? 201 : 1001, 2, 1000000));
+    opt.noise_std = args.GetDouble("noise", 0.2, 0.0, 1e6);
+    opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  ros::Time::init();
+  core::SacPolicy policy(expert_path);
+  sim::AntMazeOptions env_opt;
+  env_opt.maze = sim::AntMazeName(env_id);
+  env_opt.max_episode_steps = opt.episode_length;
+  sim::AntMaze env(env_opt);
+  const double control_dt = sim::kAntTimestep * sim::AntMaze::kFrameSkip;
+  ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
+  WriteAllEpisodes(args, writer, episodes, val, 0, opt.episode_length, sim::EnvLabel(env_id),
+                   sim::EnvLabel(env_id) + "-" + sim::DatasetKindName(opt.kind),
+                   [&](long k, ros_bridge::EpisodeMeta& meta, bool) {
+                     const agent::AntEpisode ep =
+                         agent::CollectAntEpisode(env, policy, opt, static_cast<uint64_t>(k));
+                     meta.seed = ep.seed;
+                     meta.start.assign(ep.observations.begin(),
+                                       ep.observations.begin() + sim::AntMaze::kObsDim);
+                     meta.goal.assign(ep.goal.data(), ep.goal.data() + ep.goal.size());
+                     // success as the env counts it: the torso's xy within the radius
+                     writer.WriteEpisode(meta, ep.length, sim::AntMaze::kObsDim,
+                                         sim::AntMaze::kActionDim, ep.observations.data(),
+                                         ep.actions.data(), nullptr, 0, env_opt.success_radius,
+                                         /*success_dims=*/2);
+                     return ep.length;
+                   });
+  return 0;
+#endif
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace msspr;
+  std::unique_ptr<ros_bridge::CliArgs> parsed;
+  try {
+    parsed = std::make_unique<ros_bridge::CliArgs>(
+        argc, argv, std::set<std::string>{"images", "no-compress", "quiet", "help"},
+        std::set<std::string>{"out", "env", "urdf", "maze", "kind", "episodes", "val-episodes",
+                              "length", "noise", "image-episodes", "seed", "expert"});
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  const ros_bridge::CliArgs& args = *parsed;
+  try {
+    if (args.Has("help")) {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (!args.Has("out")) {
+      std::cerr << "msspr_collect: --out FILE.bag is required\n" << kUsage;
+      return 2;
+    }
+    sim::EnvId env_id = sim::EnvId::kPointMaze;
+    try {
+      env_id = sim::ParseEnvId(args.GetChoice("env", sim::EnvIdName(env_id), sim::EnvIdNames()));
+      if (env_id != sim::EnvId::kCubeSingle && args.Has("urdf"))
+        throw cli::CliError("--urdf needs --env " + sim::EnvIdName(sim::EnvId::kCubeSingle));
+      if (!sim::IsAntMaze(env_id) && args.Has("expert"))
+        throw cli::CliError("--expert needs --env antmaze-medium or antmaze-large");
+    } catch (const std::exception& e) {
+      std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+      return 2;
+    }
+    switch (env_id) {
+      case sim::EnvId::kCubeSingle:
+        return CollectCube(args);
+      case sim::EnvId::kAntMazeMedium:
+      case sim::EnvId::kAntMazeLarge:
+        return CollectAnt(args, env_id);
+      case sim::EnvId::kPointMaze:
+        break;
+    }
+    sim::CollectOptions opt;
+    long episodes = 0, val = 0, image_episodes = 0;
+    try {  // every flag is checked first: a bad one is a usage error (exit 2)
+      if (!args.positional().empty())
+        throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+      const auto names = sim::MazeMap::Names();
+      opt.maze =
+          args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+      opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
+      const bool stitch = opt.kind == sim::DatasetKind::kStitch;
+      episodes =
+          args.GetInt("episodes", stitch ? 5000 : (opt.maze == "giant" ? 500 : 1000), 1, 100000000);
+      val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
+      opt.episode_length = static_cast<int>(
+          args.GetInt("length", stitch ? 201 : (opt.maze == "giant" ? 2001 : 1001), 2, 1000000));
+      opt.noise_std = args.GetDouble("noise", 0.5, 0.0, 1e6);
+      opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+      image_episodes =
+          args.Has("images") ? episodes + val : args.GetInt("image-episodes", 0, 0, 100000000);
+    } catch (const std::exception& e) {
+      std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
+      return 2;
+    }
+    ros::Time::init();
+    sim::PointMazeOptions env_opt;
+    env_opt.maze = opt.maze;
+    env_opt.enable_rendering = image_episodes > 0;
+    sim::PointMaze env(env_opt);
+    const std::string env_name = sim::EnvLabel(sim::EnvId::kPointMaze, opt.maze);
+    const double control_dt = 0.02 * sim::PointMaze::kFrameSkip;
+    ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
+    WriteAllEpisodes(
+        args, writer, episodes, val, image_episodes, opt.episode_length, env_name, env_name,
+        [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
+          sim::CollectOptions o = opt;
+          o.images = images;
+          const sim::Episode ep = sim::CollectEpisode(env, o, static_cast<uint64_t>(k));
+          meta.seed = ep.seed;
+          meta.start = {static_cast<float>(ep.start.x()), static_cast<float>(ep.start.y())};
+          meta.goal = {static_cast<float>(ep.goal.x()), static_cast<float>(ep.goal.y())};
+          writer.WriteEpisode(meta, ep.length, sim::PointMaze::kObsDim, sim::PointMaze::kActionDim,
+                              ep.observations.data(), ep.actions.data(),
+                              images ? ep.images.data() : nullptr, env_opt.image_size,
+                              env_opt.success_radius);
+          return ep.length;
+        });
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_collect: error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,420 @@
+// msspr_eval: OGBench's evaluation protocol over ROS. For each task it resets the
+// sim (reset service) and follows the observations that the agent under test (the
+// expert node or msspr_policy_node, in lockstep) drives, until success or the step
+// limit. Prints a per-task table; writes a results JSON and a trajectory PNG.
+// With --sims N it drives N sim + agent pairs in namespaces PREFIX0..PREFIX{N-1} at
+// once: one thread per sim takes (task, episode) pairs from a shared queue, and the
+// results are merged in the serial order (the JSON equals the serial run's but for
+// wall_time_s).
+#include <ros/callback_queue.h>
+#include <ros/master.h>
+#include <ros/names.h>
+#include <ros/ros.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "msspr/Observation.h"
+#include "msspr/Reset.h"
+#include "msspr_bridge/cli_args.h"
+#include "msspr_sim/cube_env.h"
+#include "msspr_sim/custom_tasks.h"
+#include "msspr_sim/env_id.h"
+#include "msspr_sim/eval_protocol.h"
+#include "msspr_sim/maze_map.h"
+#include "msspr_sim/maze_plot.h"
+
+namespace {
+
+constexpr char kUsage[] = R"(usage: rosrun msspr msspr_eval [options]
+Evaluates the agent that answers the sim's observations (lockstep), by OGBench's protocol.
+  --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large: the running
+                      sim's env (default pointmaze)
+  --maze NAME         maze of the running point-maze sim (default medium)
+  --tasks LIST        comma-separated task ids (default 1,2,3,4,5)
+  --episodes N        episodes per task (default 50)
+  --max-steps N       step limit per episode (default 1000; cube-single 200)
+  --seed S            evaluation seed (default 0)
+  --agent NAME        label written into the results (default "agent")
+  --robot NAME        the robot interface spec the agent is served through, written into the
+                      results as "robot" (demo.launch robot:=NAME; default: none)
+  --out FILE.json     results JSON (default: none)
+  --plot FILE.png     trajectories drawn on the maze, 5 per task (default: none)
+  --success-plot F    bar chart of success per task (PNG)
+  --tasks-file YAML   custom tasks instead of the maze's five, e.g.
+                        tasks:
+                          - {id: 1, start: [0.0, 0.0], goal: [8.0, 0.0]}
+                      (start/goal in metres; sent through reset + set_goal; msspr_make_tasks
+                      draws random ones)
+antmaze-medium, antmaze-large: the maze's 5 tasks with the ant (29-D goal states from the sim's
+reset; success: the torso within 0.5 m of the goal); --maze and --tasks-file do not apply.
+cube-single: the 5 tasks of OGBench's cube-single (success: the cube within 4 cm of the goal,
+at the step that ends the episode); --maze, --plot and --tasks-file do not apply.
+  --step-timeout S    seconds without a new observation before an episode counts as stalled (default 10)
+  --sims N            drive N sim + agent pairs at once, in namespaces PREFIX0..PREFIX{N-1}, one
+                      thread each, the episodes shared out; the results equal the serial run's
+                      (default 1: the sim in msspr_eval's own namespace, as `reset` and `observation`)
+  --sim-ns PREFIX     namespace prefix of the sims (default msspr_: relative, so /msspr_0, /msspr_1,
+                      ... when msspr_eval runs in /); given with --sims 1, the one sim is PREFIX0
+  --wait S            seconds to wait for each sim's reset service, observation topic and agent (default 60)
+)";
+
+struct EpisodeResult {
+  bool success = false, stalled = false;
+  int steps = 0;
+  std::vector<Eigen::Vector2d> path;
+  Eigen::Vector2d start, goal;
+};
+
+// One sim + agent pair: the reset service and observation topic in namespace `ns`
+// ("" is msspr_eval's own), with a callback queue of its own so that a worker
+// thread can follow its episodes while other threads follow other sims.
+class SimClient {
+ public:
+  SimClient(const std::string& ns, bool name_in_messages)
+      : nh_(ns), label_(name_in_messages ? " on " + nh_.getNamespace() : "") {
+    nh_.setCallbackQueue(&queue_);
+    sub_ = nh_.subscribe<msspr::Observation>(
+        "observation", 1000, [this](const msspr::Observation::ConstPtr& o) { inbox_.push_back(o); },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+    reset_ = nh_.serviceClient<msspr::Reset>("reset");
+  }
+
+  const std::string& Namespace() const { return nh_.getNamespace(); }
+  std::string ResetService() { return reset_.getService(); }
+  std::string ObservationTopic() const { return sub_.getTopic(); }
+  bool HasReset() { return reset_.exists(); }
+  bool HasObservations() const { return sub_.getNumPublishers() > 0; }
+  std::string ActionTopic() const { return nh_.resolveName("action"); }
+  // Whether anything (the agent under test) publishes the sim's action topic.
+  bool HasAgent() const {
+    ros::master::V_TopicInfo topics;
+    if (!ros::master::getTopics(topics)) return false;
+    // msspr/Action on action, or a robot's command served through a robot spec:
+    // cmd_vel (pointmaze_base) or ee_twist (ur5e_cube).
+    const std::string action = ActionTopic(), cmd_vel = nh_.resolveName("cmd_vel"),
+                      ee_twist = nh_.resolveName("ee_twist");
+    return std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) {
+      return t.name == action || t.name == cmd_vel || t.name == ee_twist;
+    });
+  }
+  int episodes_run() const { return episodes_run_; }
+
+  // Runs one episode: reset with `req`, then follows the observations until success,
+  // the last step, max_steps or step_timeout s without progress (stalled). False
+  // with *error when the reset fails; stops early (true) when `stop` is set.
+  bool RunEpisode(const msspr::Reset::Request& req, int episode, int max_steps, double step_timeout,
+                  const std::atomic<bool>& stop, EpisodeResult* r, std::string* error) {
+    msspr::Reset srv;
+    srv.request = req;
+    const bool answered = reset_.call(srv);
+    if (!answered || !srv.response.ok) {
+      *error = "reset of task " + std::to_string(req.task_id) + " (episode " +
+               std::to_string(episode) + ") through " + reset_.getService() + " failed: " +
+               (answered ? srv.response.message : "no answer (is the sim still running?)");
+      return false;
+    }
+    ++episodes_run_;
+    const auto& first = srv.response.observation;
+    r->start = {first.state[0], first.state[1]};
+    r->goal = {srv.response.goal[0], srv.response.goal[1]};
+    r->path.push_back(r->start);
+    const uint32_t id = first.episode_id;
+    uint32_t last_step = 0;
+    auto last_progress = ros::WallTime::now();
+    bool finished = false;
+    while (ros::ok() && !stop && !finished) {
+      queue_.callAvailable(ros::WallDuration(0.01));
+      if (inbox_.empty()) {
+        if ((ros::WallTime::now() - last_progress).toSec() > step_timeout) {
+          r->stalled = true;
+          ROS_WARN(
+              "msspr_eval: task %d episode %d stalled at step %u (no observation for %.0f s)%s",
+              req.task_id, episode, last_step, step_timeout, label_.c_str());
+          break;
+        }
+        continue;
+      }
+      while (!inbox_.empty() && !finished) {
+        const auto o = inbox_.front();
+        inbox_.pop_front();
+        if (o->episode_id != id || o->step <= last_step) continue;  // older episode or re-send
+        last_step = o->step;
+        r->path.emplace_back(o->state[0], o->state[1]);
+        last_progress = ros::WallTime::now();
+        if (o->success) {
+          r->success = true;
+          finished = true;
+        } else if (static_cast<int>(o->step) >= max_steps || o->last) {
+          finished = true;
+        }
+      }
+    }
+    r->steps = static_cast<int>(last_step);
+    return true;
+  }
+
+ private:
+  ros::CallbackQueue queue_;  // declared before the handle and subscriber that use it
+  ros::NodeHandle nh_;
+  std::string label_;
+  ros::Subscriber sub_;
+  ros::ServiceClient reset_;
+  std::deque<msspr::Observation::ConstPtr>
+      inbox_;  // every observation, in order (this sim's thread only)
+  int episodes_run_ = 0;
+};
+
+// Polls until ready(client) holds for every client or `timeout_s` pass; returns the
+// clients for which it does not (empty: all ready).
+template <typename Pred>
+std::vector<SimClient*> WaitForAll(std::vector<std::unique_ptr<SimClient>>& clients,
+                                   double timeout_s, Pred ready) {
+  const auto deadline = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  std::vector<SimClient*> missing;
+  for (;;) {
+    missing.clear();
+    for (auto& c : clients)
+      if (!ready(*c)) missing.push_back(c.get());
+    if (missing.empty() || !ros::ok() || ros::WallTime::now() > deadline) return missing;
+    ros::WallDuration(0.05).sleep();
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "msspr_eval", ros::init_options::AnonymousName);
+  using msspr::ros_bridge::CliArgs;
+  // Every flag is checked before anything else runs: a bad one is a usage error (exit 2).
+  std::unique_ptr<CliArgs> args;
+  std::unique_ptr<msspr::sim::MazeMap> map_ptr;
+  std::string maze;
+  using msspr::sim::EnvId;
+  EnvId env = EnvId::kPointMaze;
+  std::vector<int> tasks;
+  std::map<int, std::pair<std::vector<float>, std::vector<float>>> custom;  // id -> start, goal
+  int episodes = 0, max_steps = 0;
+  uint64_t seed = 0;
+  double step_timeout = 0, wait_s = 0;
+  std::vector<std::string> namespaces;  // one per sim; {""}: msspr_eval's own namespace
+  try {
+    args = std::make_unique<CliArgs>(
+        argc, argv, std::set<std::string>{"help"},
+        std::set<std::string>{"env", "maze", "tasks", "episodes", "max-steps", "seed", "agent",
+                              "out", "plot", "success-plot", "step-timeout", "tasks-file", "sims",
+                              "sim-ns", "wait", "robot"});
+    if (args->Has("help")) {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (!args->positional().empty())
+      throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
+    env = msspr::sim::ParseEnvId(
+        args->GetChoice("env", msspr::sim::EnvIdName(env), msspr::sim::EnvIdNames()));
+    const bool ant = msspr::sim::IsAntMaze(env);
+    for (const char* f : {"maze", "plot", "tasks-file"})
+      if ((env == EnvId::kCubeSingle || (ant && std::string(f) != "plot")) && args->Has(f))
+        throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
+                                    msspr::sim::EnvIdName(env));
+    maze = ant ? msspr::sim::AntMazeName(env) : args->Get("maze", "medium");
+    map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
+    if (args->Has("tasks-file")) {
+      for (const auto& t :
+           msspr::sim::LoadCustomTasks(args->Get("tasks-file", ""), map_ptr.get())) {
+        custom[t.id] = {{static_cast<float>(t.start.x()), static_cast<float>(t.start.y())},
+                        {static_cast<float>(t.goal.x()), static_cast<float>(t.goal.y())}};
+        tasks.push_back(t.id);
+      }
+    } else {
+      for (long id :
+           args->GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map_ptr->Tasks().size())))
+        tasks.push_back(static_cast<int>(id));
+    }
+    episodes = static_cast<int>(args->GetInt("episodes", 50, 1, 1000000));
+    max_steps = static_cast<int>(
+        args->GetInt("max-steps", env == EnvId::kCubeSingle ? 200 : 1000, 1, 100000000));
+    seed = static_cast<uint64_t>(args->GetInt("seed", 0, 0));
+    step_timeout = args->GetDouble("step-timeout", 10.0, 1e-3, 1e6);
+    wait_s = args->GetDouble("wait", 60.0, 0.0, 1e6);
+    const int sims = static_cast<int>(args->GetInt("sims", 1, 1, 256));
+    if (sims == 1 && !args->Has("sim-ns")) {
+      namespaces.push_back("");
+    } else {
+      const std::string prefix = args->Get("sim-ns", "msspr_");
+      for (int i = 0; i < sims; ++i) {
+        const std::string ns = prefix + std::to_string(i);
+        std::string why;
+        if (!ros::names::validate(ns, why))
+          throw std::invalid_argument("--sim-ns '" + prefix + "' gives the namespace '" + ns +
+                                      "', not a valid ROS name: " + why);
+        namespaces.push_back(ns);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_eval: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  const msspr::sim::MazeMap& map = *map_ptr;
+  const bool parallel = namespaces.size() > 1;
+
+  std::vector<std::unique_ptr<SimClient>> clients;
+  for (const auto& ns : namespaces) clients.push_back(std::make_unique<SimClient>(ns, parallel));
+  for (auto& c : clients)
+    ROS_INFO("msspr_eval: waiting for the sim's reset service %s", c->ResetService().c_str());
+  const auto no_reset = WaitForAll(clients, wait_s, [](SimClient& c) { return c.HasReset(); });
+  for (SimClient* c : no_reset)
+    ROS_FATAL("msspr_eval: no reset service %s after %.0f s (is msspr_sim_node running in %s?)",
+              c->ResetService().c_str(), wait_s, c->Namespace().c_str());
+  if (!no_reset.empty() || !ros::ok()) return 1;
+  const auto wall0 = std::chrono::steady_clock::now();
+  const auto silent = WaitForAll(clients, wait_s, [](SimClient& c) { return c.HasObservations(); });
+  for (SimClient* c : silent)
+    ROS_FATAL("msspr_eval: nothing publishes %s after %.0f s", c->ObservationTopic().c_str(),
+              wait_s);
+  if (!silent.empty() || !ros::ok()) return 1;
+  // An agent still loading (a policy checkpoint) would leave the first episode unanswered.
+  for (SimClient* c : WaitForAll(clients, wait_s, [](SimClient& c) { return c.HasAgent(); }))
+    ROS_WARN(
+        "msspr_eval: nothing publishes %s after %.0f s (is the agent under test running there?); "
+        "going on",
+        c->ActionTopic().c_str(), wait_s);
+  if (!ros::ok()) return 1;
+  ros::WallDuration(0.5).sleep();  // let the agents connect too
+
+  // The (task, episode) pairs in the serial order; each sim's thread takes the next one.
+  std::vector<std::pair<size_t, int>> work;
+  for (size_t ti = 0; ti < tasks.size(); ++ti)
+    for (int e = 0; e < episodes; ++e) work.emplace_back(ti, e);
+  std::vector<std::vector<EpisodeResult>> results(tasks.size(),
+                                                  std::vector<EpisodeResult>(episodes));
+  std::atomic<size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex mu;  // guards error and done
+  std::string error;
+  std::vector<int> done(tasks.size(), 0);
+  auto serve = [&](SimClient* client) {
+    for (;;) {
+      if (failed || !ros::ok()) return;
+      const size_t k = next++;
+      if (k >= work.size()) return;
+      const auto [ti, e] = work[k];
+      msspr::Reset::Request req;
+      req.task_id = tasks[ti];
+      req.seed = msspr::sim::EvalEpisodeSeed(seed, tasks[ti], e);
+      if (auto it = custom.find(tasks[ti]); it != custom.end()) {
+        req.start = it->second.first;
+        req.goal = it->second.second;
+      }
+      EpisodeResult r;
+      std::string why;
+      if (!client->RunEpisode(req, e, max_steps, step_timeout, failed, &r, &why)) {
+        std::lock_guard<std::mutex> lock(mu);
+        if (!failed.exchange(true)) error = why;
+        return;
+      }
+      results[ti][static_cast<size_t>(e)] = std::move(r);
+      std::lock_guard<std::mutex> lock(mu);
+      if (++done[ti] == episodes) {  // the task's last episode, whichever sim ran it
+        int ok = 0;
+        for (auto& x : results[ti]) ok += x.success;
+        ROS_INFO("msspr_eval: task %d done: %d/%zu", tasks[ti], ok, results[ti].size());
+      }
+    }
+  };
+  if (parallel) {
+    std::vector<std::thread> threads;
+    for (auto& c : clients) threads.emplace_back(serve, c.get());
+    for (auto& t : threads) t.join();
+  } else {
+    serve(clients[0].get());
+  }
+  if (failed) {
+    ROS_FATAL("msspr_eval: %s", error.c_str());
+    return 1;
+  }
+  if (!ros::ok()) return 1;
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+
+  msspr::sim::EvalReport report;
+  report.env = msspr::sim::EnvLabel(env, maze);
+  report.agent = args->Get("agent", "agent");
+  report.robot = args->Get("robot", "");
+  report.episodes_per_task = episodes;
+  report.max_steps = max_steps;
+  report.seed = seed;
+  report.wall_time_s = wall;
+  for (size_t ti = 0; ti < tasks.size(); ++ti) {
+    msspr::sim::TaskResult t;
+    t.task_id = tasks[ti];
+    t.episodes = static_cast<int>(results[ti].size());
+    int ok = 0;
+    double steps = 0;
+    for (auto& r : results[ti]) {
+      ok += r.success;
+      report.stalled_episodes += r.stalled;
+      if (r.success) steps += r.steps;
+    }
+    t.success = t.episodes ? double(ok) / t.episodes : 0.0;
+    t.mean_steps_successful = ok ? steps / ok : 0.0;
+    if (auto it = custom.find(t.task_id); it != custom.end()) {
+      t.start.assign(it->second.first.begin(), it->second.first.end());
+      t.goal.assign(it->second.second.begin(), it->second.second.end());
+    } else if (env == EnvId::kCubeSingle) {  // the cube's start and goal xy (m)
+      const auto& ct = msspr::sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];
+      t.start = {ct.start.x(), ct.start.y()};
+      t.goal = {ct.goal.x(), ct.goal.y()};
+    }
+    report.tasks.push_back(t);
+  }
+  msspr::sim::FinalizeReport(&report);
+  std::cout << msspr::sim::EvalReportTable(map, report);
+  if (parallel) {
+    std::cout << "  episodes per sim:";
+    for (auto& c : clients) std::cout << " " << c->Namespace() << " " << c->episodes_run();
+    std::cout << "\n";
+  }
+  std::cout << std::flush;
+  try {
+    if (args->Has("out")) {
+      msspr::sim::WriteTextFile(args->Get("out", ""), msspr::sim::EvalReportJson(map, report));
+      std::cout << "  results: " << args->Get("out", "") << "\n";
+    }
+    if (args->Has("success-plot")) {
+      msspr::sim::SaveSuccessPlot(report, args->Get("success-plot", ""));
+      std::cout << "  success per task: " << args->Get("success-plot", "") << "\n";
+    }
+    if (args->Has("plot")) {
+      std::vector<std::vector<Eigen::Vector2d>> paths;
+      std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
+      std::vector<bool> ok;
+      for (auto& task_results : results)
+        for (size_t k = 0; k < task_results.size() && k < 5; ++k) {  // 5 per task keeps it readable
+          paths.push_back(task_results[k].path);
+          sg.emplace_back(task_results[k].start, task_results[k].goal);
+          ok.push_back(task_results[k].success);
+        }
+      const std::string png = args->Get("plot", "");
+      msspr::sim::SaveTrajectoryPlot(map, paths, sg, ok, png);
+      std::cout << "  picture: " << png << "\n";
+    }
+  } catch (const std::exception& e) {
+    std::cout << std::flush;
+    ROS_FATAL("msspr_eval: %s", e.what());
+    return 1;
+  }
+  std::cout << std::flush;
+  return 0;
+}

@@ -1,0 +1,106 @@
+// msspr_cube_oracle_node: the cube-single play oracle over ROS (CubeGoalOracle):
+// answers each observation of msspr_sim_node (~env cube-single) with the
+// oracle's action, in lockstep. ~mode goal (default): toward the
+// observation's goal, noise off; the agent that msspr_eval --env cube-single
+// and the oracle rostest drive. ~mode play: OGBench's play
+// oracle (random targets, noise 0.1), the agent of a live collection
+// (launch/collect.launch env:=cube-single, the sim in collection mode).
+#include <ros/ros.h>
+
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+#include "msspr/Action.h"
+#include "msspr/Observation.h"
+#include "msspr_bridge/msg_conversion.h"
+#include "msspr_sim/package_files.h"
+#include "msspr_sim_nodes/cube_goal_oracle.h"
+
+namespace {
+
+class CubeOracleNode {
+ public:
+  CubeOracleNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh) {
+    std::string urdf = msspr::sim::DefaultArmUrdf();
+    pnh.param<std::string>("urdf", urdf, urdf);
+    std::string mode = "goal";
+    pnh.param<std::string>("mode", mode, mode);
+    if (mode != "goal" && mode != "play")
+      throw std::invalid_argument("~mode must be goal or play, got '" + mode + "'");
+    play_ = mode == "play";
+    double noise = play_ ? msspr::sim::CubePlayOracleOptions().noise_scale : 0.0;
+    pnh.param("noise_scale", noise, noise);
+    if (!(noise >= 0 && std::isfinite(noise)))
+      throw std::invalid_argument("~noise_scale must be >= 0");
+    pnh.param("seed", seed_, 0);
+    ROS_INFO_STREAM("msspr_cube_oracle_node parameters:\n  urdf: " << urdf << "\n  mode: " << mode
+                                                                   << "\n  noise_scale: " << noise
+                                                                   << "\n  seed: " << seed_);
+    auto opt = msspr::ros_bridge::CubeGoalOracle::NoNoise();
+    opt.noise_scale = noise;
+    oracle_ = std::make_unique<msspr::ros_bridge::CubeGoalOracle>(
+        urdf, static_cast<uint64_t>(seed_), opt);
+    action_pub_ = nh_.advertise<msspr::Action>("action", 10);
+    obs_sub_ = nh_.subscribe("observation", 10, &CubeOracleNode::OnObservation, this,
+                             ros::TransportHints().tcpNoDelay());
+  }
+
+ private:
+  void OnObservation(const msspr::Observation::ConstPtr& obs) {
+    if (obs->state.size() != 28 || (!play_ && obs->goal.size() != 28) ||
+        !msspr::ros_bridge::AllFinite(obs->state) || !msspr::ros_bridge::AllFinite(obs->goal)) {
+      ROS_ERROR_THROTTLE(
+          1.0,
+          "msspr_cube_oracle_node: ignoring an observation that is not cube-single's "
+          "(28-D state%s)",
+          play_ ? "" : " and goal");
+      return;
+    }
+    // Goal mode: the episode is over. Play mode: the last step's action is
+    // recorded too (the collection's next reset follows it).
+    if (!play_ && (obs->last || obs->success)) return;
+    if (static_cast<int64_t>(obs->episode_id) != episode_) {  // a new episode: a fresh plan
+      episode_ = obs->episode_id;
+      step_ = -1;
+      oracle_->Reset(static_cast<uint64_t>(seed_) * 1000003u + obs->episode_id);
+    }
+    // A re-sent observation (the sim's republish: the answer was lost) gets the same action.
+    if (static_cast<int64_t>(obs->step) != step_) {
+      step_ = obs->step;
+      last_ = play_ ? oracle_->ActPlay(obs->state.data())
+                    : oracle_->Act(obs->state.data(), obs->goal.data());
+    }
+    const auto& a = last_;
+    msspr::Action m;
+    m.header.stamp = obs->header.stamp;
+    m.episode_id = obs->episode_id;
+    m.step = obs->step;
+    m.action.assign(a.begin(), a.end());
+    action_pub_.publish(m);
+  }
+
+  ros::NodeHandle nh_;
+  ros::Publisher action_pub_;
+  ros::Subscriber obs_sub_;
+  std::unique_ptr<msspr::ros_bridge::CubeGoalOracle> oracle_;
+  int seed_ = 0;
+  bool play_ = false;
+  int64_t episode_ = -1, step_ = -1;
+  msspr::sim::CubeEnv::Action last_{};
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "msspr_cube_oracle_node");
+  ros::NodeHandle nh, pnh("~");
+  try {
+    CubeOracleNode node(nh, pnh);
+    ros::spin();
+  } catch (const std::exception& e) {
+    ROS_FATAL_STREAM("msspr_cube_oracle_node: " << e.what());
+    return 1;
+  }
+  return 0;
+}
