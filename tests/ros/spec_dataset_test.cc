@@ -142,6 +142,7 @@ TEST_F(SpecDatasetTest, TrainWithRobotStoresTheSpecAndBagInfoReports) {
       std::string::npos)
       << info.text;
   EXPECT_NE(info.text.find("ticks without a fresh command"), std::string::npos) << info.text;
+  EXPECT_NE(info.text.find(")) [" + spec_path_ + "]\n"), std::string::npos) << info.text;
 
   // A spec naming a topic the bag lacks: an error naming bag, topic and field; exit 2.
   std::string text = spec.text;

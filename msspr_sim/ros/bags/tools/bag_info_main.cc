@@ -178,7 +178,10 @@ int SpecInfo(const std::string& spec_path, const std::vector<std::string>& bags,
     if (!r.problems.empty()) {
       status = 1;
       std::fprintf(stderr, "%s: problems reading the bags through it:\n", spec_path.c_str());
-      PrintProblems(r.problems, max_problems);
+      // Every line names the spec, so that a line copied alone still says which.
+      std::vector<std::string> lines;
+      for (const auto& p : r.problems) lines.push_back(p + " [" + spec_path + "]");
+      PrintProblems(lines, max_problems);
     }
     if (!export_path.empty() && steps > 0) {
       out.Write(export_path);
