@@ -71,7 +71,25 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   o.checkpoint = Param(pnh, "checkpoint", o.checkpoint);
   o.robot = Param(pnh, "robot", o.robot);
   o.observation_mode = Param(pnh, "observation_mode", o.observation_mode);
-  o.mode = Param(pnh, "mode", o.mode);
+  // ~stepping (lockstep | realtime); the deprecated ~mode (lockstep | rate) still works.
+  std::string stepping = Param(pnh, "stepping", std::string());
+  std::string mode;
+  if (pnh.getParam("mode", mode)) {
+    ROS_WARN_STREAM_NAMED(kLog,
+                          "~mode is deprecated: use ~stepping (lockstep | realtime; "
+                          "~mode rate is ~stepping realtime)");
+    if (mode != "lockstep" && mode != "rate")
+      throw std::invalid_argument("~mode must be lockstep or rate, got '" + mode + "'");
+    const std::string as_stepping = mode == "rate" ? "realtime" : "lockstep";
+    if (!stepping.empty() && stepping != as_stepping)
+      throw std::invalid_argument("~stepping " + stepping + " and the deprecated ~mode " + mode +
+                                  " disagree: give ~stepping only");
+    stepping = as_stepping;
+  }
+  if (stepping.empty()) stepping = "lockstep";
+  if (stepping != "lockstep" && stepping != "realtime")
+    throw std::invalid_argument("~stepping must be lockstep or realtime, got '" + stepping + "'");
+  o.stepping = stepping == "lockstep" ? Stepping::kLockstep : Stepping::kRealtime;
   o.rate = Param(pnh, "rate", o.rate);
   o.observation_timeout = Param(pnh, "observation_timeout", o.observation_timeout);
   o.threads = Param(pnh, "threads", o.threads);
@@ -88,8 +106,6 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   if (o.observation_mode != "state" && o.observation_mode != "pixels")
     throw std::invalid_argument("~observation_mode must be state or pixels, got '" +
                                 o.observation_mode + "'");
-  if (o.mode != "lockstep" && o.mode != "rate")
-    throw std::invalid_argument("~mode must be lockstep or rate, got '" + o.mode + "'");
   auto positive = [](const char* name, double v) {
     if (!(v > 0) || !std::isfinite(v))
       throw std::invalid_argument(std::string("~") + name + " must be a finite number > 0, got " +
@@ -169,7 +185,7 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
     throw std::invalid_argument(options_.checkpoint + ": state policy with obs_dim " +
                                 std::to_string(obs_dim_));
 
-  const bool lockstep = options_.mode == "lockstep";
+  const bool lockstep = options_.stepping == Stepping::kLockstep;
   const uint32_t queue = lockstep ? 10 : 1;
   action_pub_ = nh_.advertise<msspr::Action>("action", 10);
   diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
@@ -211,8 +227,8 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
     }
   }
   ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " ("
-                                                           << options_.mode << ", " << ckpt_mode
-                                                           << ")");
+                                                           << SteppingName(options_.stepping)
+                                                           << ", " << ckpt_mode << ")");
 }
 
 PolicyNode::~PolicyNode() = default;
@@ -289,7 +305,7 @@ void PolicyNode::OnObservation(const msspr::Observation::ConstPtr& msg) {
   auto in = std::make_unique<Input>();
   if (!MakeStateInput(*msg, in.get())) return;
   in->received = start;
-  if (options_.mode == "lockstep")
+  if (options_.stepping == Stepping::kLockstep)
     Act(*in, start);
   else
     latest_ = std::move(in);
@@ -326,7 +342,7 @@ void PolicyNode::TryPair() {
       auto in = std::make_unique<Input>();
       if (MakePixelInput(*obs, *img, in.get())) {
         in->received = start;
-        if (options_.mode == "lockstep")
+        if (options_.stepping == Stepping::kLockstep)
           Act(*in, start);
         else
           latest_ = std::move(in);
@@ -524,7 +540,7 @@ void PolicyNode::OnDiagnostics(const ros::WallTimerEvent&) {
   };
   const std::vector<double> lat(latencies_ms_.begin(), latencies_ms_.end());
   kv("agent", policy_->agent_name());
-  kv("mode", options_.mode);
+  kv("stepping", SteppingName(options_.stepping));
   kv("observation_mode", pixels_ ? "pixels" : "state");
   kv("goal_source", goal_source_);
   kv("latency_p50_ms", Fixed(Percentile(lat, 0.50)));

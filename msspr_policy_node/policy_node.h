@@ -29,19 +29,28 @@ namespace msspr::ros_bridge {
 
 class ValueMarkers;
 
+// How the node paces its actions (~stepping).
+enum class Stepping { kLockstep, kRealtime };
+inline const char* SteppingName(Stepping s) {  // "lockstep" | "realtime"
+  return s == Stepping::kLockstep ? "lockstep" : "realtime";
+}
+
 struct PolicyNodeOptions {
   std::string checkpoint;  // required: Trainer::ExportPolicy file or full checkpoint
   // A robot interface spec (config/robots/*.yaml): serve over the robot's
   // standard topics through it (robot_server.h) instead of msspr/Observation and Action.
   std::string robot;
   std::string observation_mode = "state";  // state | pixels; must match the checkpoint
-  std::string mode = "lockstep";           // lockstep: one action per observation; rate: ~rate Hz
-  double rate = 10.0;                      // Hz, rate mode
-  double observation_timeout = 1.0;        // s; rate mode does not act on an older observation
-  int threads = 1;                         // torch intra-op threads
-  std::string device = "cpu";              // torch device of the policy
-  double diagnostics_period = 1.0;         // s
-  int latency_window = 1000;               // actions kept for the latency percentiles
+  // ~stepping: lockstep (one action per observation) | realtime (~rate Hz, on the newest
+  // observation); the sim node's ~stepping takes the same words. ~mode (lockstep | rate) is
+  // its deprecated spelling.
+  Stepping stepping = Stepping::kLockstep;
+  double rate = 10.0;                // Hz, realtime stepping
+  double observation_timeout = 1.0;  // s; realtime stepping does not act on an older observation
+  int threads = 1;                   // torch intra-op threads
+  std::string device = "cpu";        // torch device of the policy
+  double diagnostics_period = 1.0;   // s
+  int latency_window = 1000;         // actions kept for the latency percentiles
   // V(s, g) over the free cells of this maze for the current goal, as markers
   // (state policies; "": off). Refreshed every value_marker_period s.
   std::string value_marker_maze;

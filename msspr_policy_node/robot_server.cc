@@ -126,7 +126,7 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
         [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnGoalImage(*m); });
   if (pixels_) {
     const SpecImage& cam = spec_.images[0];
-    const uint32_t queue = options_.mode == "lockstep" ? 10 : 1;
+    const uint32_t queue = options_.stepping == Stepping::kLockstep ? 10 : 1;
     if (cam.type == kImageType)
       image_sub_ = nh_.subscribe<sensor_msgs::Image>(
           cam.topic, queue, [this](const sensor_msgs::Image::ConstPtr& m) { OnImageMessage(*m); },
@@ -150,7 +150,7 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   }
   diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   const ros::WallDuration period(1.0 / spec_.control_rate);
-  if (options_.mode == "rate")
+  if (options_.stepping == Stepping::kRealtime)
     rate_timer_ = nh_.createWallTimer(period, &RobotServer::OnRateTick, this);
   watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(std::min(0.05, spec_.stale_after / 4)),
                                         &RobotServer::OnWatchdog, this);
@@ -167,17 +167,17 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
     commands += (commands.empty() ? "" : ", ") + c.type + " on " + c.topic;
   ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving "
                                   << options_.checkpoint << " through robot spec '" << spec_.name
-                                  << "' (" << spec_.source << ", " << options_.mode
-                                  << "): observation from" << s.str() << ", goal from "
-                                  << spec_.goal.topic << ", " << commands << " at "
-                                  << spec_.control_rate << " Hz");
+                                  << "' (" << spec_.source << ", "
+                                  << SteppingName(options_.stepping) << "): observation from"
+                                  << s.str() << ", goal from " << spec_.goal.topic << ", "
+                                  << commands << " at " << spec_.control_rate << " Hz");
 }
 
 RobotServer::~RobotServer() = default;
 
 template <class M>
 void RobotServer::SubscribeObservation(int k) {
-  const bool lockstep = options_.mode == "lockstep";
+  const bool lockstep = options_.stepping == Stepping::kLockstep;
   subs_.push_back(nh_.subscribe<M>(
       layout_.topics[k].name, lockstep ? 10 : 1,
       [this, k](const boost::shared_ptr<const M>& m) { OnObservationMessage(k, *m); },
@@ -209,7 +209,7 @@ void RobotServer::OnObservationMessage(int k, const M& msg) {
   last_receipt_[k] = ros::WallTime::now();
   (void)stamp;
   if (k == 0) ++first_topic_messages_;
-  if (options_.mode == "lockstep") TryActLockstep();
+  if (options_.stepping == Stepping::kLockstep) TryActLockstep();
 }
 
 template <class M>
@@ -229,7 +229,7 @@ void RobotServer::OnImageMessage(const M& msg) {
   image_history_.Add(std::move(s));
   image_history_.Trim(16);
   image_receipt_ = ros::WallTime::now();
-  if (options_.mode == "lockstep") TryActLockstep();
+  if (options_.stepping == Stepping::kLockstep) TryActLockstep();
 }
 
 template <class M>
@@ -366,9 +366,11 @@ void RobotServer::OnWatchdog(const ros::WallTimerEvent&) {
   if (!why.empty()) {
     // Rate mode: a stop every control period while stale. Lockstep: one stop when
     // inputs go stale (every command steps a lockstep simulator once).
-    if (options_.mode == "rate" ? (now - last_stop_).toSec() >= 1.0 / spec_.control_rate : !stale_)
+    if (options_.stepping == Stepping::kRealtime
+            ? (now - last_stop_).toSec() >= 1.0 / spec_.control_rate
+            : !stale_)
       PublishStop(why);
-  } else if (stale_ && options_.mode == "lockstep") {
+  } else if (stale_ && options_.stepping == Stepping::kLockstep) {
     stale_ = false;  // inputs are back; the next message acts
     ROS_INFO_STREAM_NAMED(kLog, "inputs fresh again: serving");
   }
@@ -438,11 +440,12 @@ void RobotServer::ActAt(const ros::Time& t) {
       PublishStop("the policy returned NaN / Inf");
       return;
     }
-  PublishCommand(av, options_.mode == "lockstep" ? t : ros::Time::now());
+  PublishCommand(av, options_.stepping == Stepping::kLockstep ? t : ros::Time::now());
 }
 
 ros::Time RobotServer::CommandStamp() const {
-  if (options_.mode == "lockstep" && !histories_.empty() && !histories_[0].samples().empty())
+  if (options_.stepping == Stepping::kLockstep && !histories_.empty() &&
+      !histories_[0].samples().empty())
     return histories_[0].samples().back().stamp;
   return ros::Time::now();
 }

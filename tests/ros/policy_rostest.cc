@@ -196,7 +196,8 @@ TEST(PolicyRate, ActsAtRateOnLatestObservation) {
   ASSERT_TRUE(c.WaitForPolicy()) << "policy node not up";
   ros::NodeHandle pnh("~");
   const double rate = pnh.param("rate", 20.0), timeout = pnh.param("observation_timeout", 0.5);
-  EXPECT_EQ(c.helper().DiagValue(kPolicyStatus, "mode"), "rate");
+  // Given as the deprecated ~mode rate: reported as the stepping it means.
+  EXPECT_EQ(c.helper().DiagValue(kPolicyStatus, "stepping"), "realtime");
   // Keep one observation fresh for ~1 s: about `rate` actions, all answering it.
   const ros::WallTime begin = ros::WallTime::now();
   while ((ros::WallTime::now() - begin).toSec() < 1.0) {
@@ -435,6 +436,13 @@ TEST(PolicyStartup, RefusesBadCheckpointsAndModeMismatch) {
   out.clear();
   EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + state_ckpt, "_mode:=sometimes"}, &out), 1) << out;
   EXPECT_NE(out.find("~mode"), std::string::npos) << out;
+  EXPECT_EQ(RunPolicyNode({"_checkpoint:=" + state_ckpt, "_stepping:=sometimes"}, &out), 1) << out;
+  EXPECT_NE(out.find("~stepping must be lockstep or realtime"), std::string::npos) << out;
+  // The old and the new spelling given apart.
+  EXPECT_EQ(
+      RunPolicyNode({"_checkpoint:=" + state_ckpt, "_stepping:=lockstep", "_mode:=rate"}, &out), 1)
+      << out;
+  EXPECT_NE(out.find("disagree"), std::string::npos) << out;
 
   std::remove(corrupt.c_str());
   std::remove(truncated.c_str());
