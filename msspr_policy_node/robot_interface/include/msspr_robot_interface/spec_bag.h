@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -85,8 +86,18 @@ class SpecBagReader {
   void set_namespace(const std::string& ns) { ns_ = ns; }
 
  private:
-  struct Recording;  // the decoded messages of every bag (spec_bag.cc)
+  struct Recording;  // the decoded messages of every bag (spec_bag_recording.h)
+  // The bag topics of the spec's topics in one bag, resolved under the namespace.
+  struct BagTopics {
+    std::vector<std::string> obs;  // per layout topic ("" for tf2 fields)
+    std::vector<std::string> commands, images;
+    std::string tf, tf_static, episode, episode_type;
+  };
+  BagTopics ResolveTopics(const std::string& path,
+                          const std::map<std::string, std::string>& bag_topics,
+                          const Recording& rec) const;
   void ReadMessages(const std::string& path, bool first_bag, Recording* rec);
+  void AddFieldProblems(const std::string& path, const std::vector<SpecFieldReport>& before);
   std::vector<std::pair<ros::Time, ros::Time>> EpisodeSpans(Recording* rec);
   void EmitEpisodes(Recording* rec, uint64_t* next_id, const std::function<void(BagEpisode&&)>& fn);
 
