@@ -86,4 +86,32 @@ TEST(EnvIdTest, EnvLabelsRoundTrip) {
 }
 
 }  // namespace
+// --env pointmaze-NAME is --env pointmaze --maze NAME, in every tool that takes --env.
+TEST(EnvIdTest, PointmazeNameIsTheMazeFlag) {
+  std::string maze;
+  EXPECT_EQ(ParseEnvFlag("pointmaze-large", "", AllEnvIds(), &maze), EnvId::kPointMaze);
+  EXPECT_EQ(maze, "large");
+  EXPECT_EQ(ParseEnvFlag("pointmaze", "giant", AllEnvIds(), &maze), EnvId::kPointMaze);
+  EXPECT_EQ(maze, "giant");
+  EXPECT_EQ(ParseEnvFlag("pointmaze", "", AllEnvIds(), &maze), EnvId::kPointMaze);
+  EXPECT_EQ(maze, "");
+  EXPECT_EQ(ParseEnvFlag("pointmaze-medium", "medium", AllEnvIds(), &maze), EnvId::kPointMaze);
+  EXPECT_EQ(ParseEnvFlag("antmaze-medium", "", AllEnvIds(), &maze), EnvId::kAntMazeMedium);
+  EXPECT_EQ(maze, "");
+  try {
+    ParseEnvFlag("pointmaze-medium", "large", AllEnvIds(), &maze);
+    FAIL() << "two mazes accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("name two mazes"), std::string::npos) << e.what();
+  }
+  try {
+    ParseEnvFlag("pointmaze-nowhere", "", AllEnvIds(), &maze);
+    FAIL() << "an unknown maze accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("pointmaze-medium"), std::string::npos) << e.what();
+  }
+  // An env the tool does not take is refused, named among the accepted ones.
+  EXPECT_THROW(ParseEnvFlag("cube-single", "", {EnvId::kPointMaze}, &maze), std::invalid_argument);
+}
+
 }  // namespace msspr::sim

@@ -1,7 +1,10 @@
 #include "msspr_sim/env_id.h"
 
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
+
+#include "msspr_sim/maze_map.h"
 
 namespace msspr::sim {
 namespace {
@@ -100,6 +103,46 @@ std::optional<EnvLabelParts> ParseEnvLabel(const std::string& label) {
   const auto id = TryParseEnvId(label);
   if (!id || *id == EnvId::kPointMaze) return std::nullopt;
   return EnvLabelParts{*id, ""};
+}
+
+EnvId ParseEnvFlag(const std::string& env, const std::string& maze_flag,
+                   const std::vector<EnvId>& allowed, std::string* maze) {
+  const std::vector<std::string> mazes = MazeMap::Names();
+  const bool point_allowed =
+      std::find(allowed.begin(), allowed.end(), EnvId::kPointMaze) != allowed.end();
+  std::string name = env, from_env;
+  const std::string prefix = EnvIdName(EnvId::kPointMaze) + "-";
+  if (point_allowed && env.rfind(prefix, 0) == 0 &&
+      std::find(mazes.begin(), mazes.end(), env.substr(prefix.size())) != mazes.end()) {
+    name = EnvIdName(EnvId::kPointMaze);
+    from_env = env.substr(prefix.size());
+  }
+  const std::optional<EnvId> id = TryParseEnvId(name);
+  if (!id || std::find(allowed.begin(), allowed.end(), *id) == allowed.end()) {
+    std::string list;
+    for (EnvId a : allowed) {
+      list += (list.empty() ? "" : ", ") + EnvIdName(a);
+      if (a == EnvId::kPointMaze)
+        for (const auto& m : mazes) list += ", " + prefix + m;
+    }
+    throw std::invalid_argument("--env '" + env + "' is not one of: " + list);
+  }
+  if (!from_env.empty() && !maze_flag.empty() && maze_flag != from_env)
+    throw std::invalid_argument("--env " + env + " and --maze " + maze_flag +
+                                " name two mazes: give one");
+  *maze = from_env.empty() ? maze_flag : from_env;
+  return *id;
+}
+
+std::string PointMazeOrDefault(const std::string& maze) {
+  const std::string m = maze.empty() ? "medium" : maze;
+  const std::vector<std::string> names = MazeMap::Names();
+  if (std::find(names.begin(), names.end(), m) != names.end()) return m;
+  std::vector<std::string> sorted = names;
+  std::sort(sorted.begin(), sorted.end());
+  std::string list;
+  for (const auto& n : sorted) list += (list.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("--maze '" + m + "' is not one of: " + list);
 }
 
 }  // namespace msspr::sim

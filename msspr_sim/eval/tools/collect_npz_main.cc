@@ -15,6 +15,7 @@
 // qvel [N, 14].
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -49,7 +50,8 @@ Collects point-maze or ant-maze episodes (those of msspr_collect) into .npz data
 without ROS.
   --out FILE.npz      training split (required); the validation split goes to FILE-val.npz
   --env ENV           pointmaze | antmaze-medium | antmaze-large (default pointmaze)
-  --maze NAME         arena, medium, large or giant (default medium; pointmaze)
+  --maze NAME         arena, medium, large or giant (default medium; pointmaze; --env
+                      pointmaze-NAME says the same)
   --kind KIND         navigate | stitch (default navigate)
   --episodes N        training episodes (default 1000)
   --val-episodes N    validation episodes (default episodes / 10)
@@ -174,10 +176,10 @@ int main(int argc, char** argv) {
     out = args.Get("out", "");
     if (out.size() < 5 || out.substr(out.size() - 4) != ".npz")
       throw msspr::cli::CliError("--out FILE.npz is required");
-    env_id = sim::ParseEnvId(
-        args.GetChoice("env", sim::EnvIdName(env_id),
-                       sim::EnvIdNames({sim::EnvId::kPointMaze, sim::EnvId::kAntMazeMedium,
-                                        sim::EnvId::kAntMazeLarge})));
+    std::string maze;  // --env pointmaze-NAME or --maze NAME
+    env_id = sim::ParseEnvFlag(
+        args.Get("env", sim::EnvIdName(env_id)), args.Get("maze", ""),
+        {sim::EnvId::kPointMaze, sim::EnvId::kAntMazeMedium, sim::EnvId::kAntMazeLarge}, &maze);
     const bool is_ant = sim::IsAntMaze(env_id);
     for (const char* f : {"maze", "no-images"})
       if (is_ant && args.Has(f))
@@ -188,8 +190,7 @@ int main(int argc, char** argv) {
         throw msspr::cli::CliError(std::string("--") + f +
                                    " needs --env antmaze-medium or antmaze-large");
     expert = args.Get("expert", sim::DefaultAntExpert());
-    const auto names = sim::MazeMap::Names();
-    opt.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+    opt.maze = sim::PointMazeOrDefault(maze);
     opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
     const bool ant_stitch = is_ant && opt.kind == sim::DatasetKind::kStitch;
     episodes = args.GetInt("episodes", ant_stitch ? 5000 : 1000, 0, 100000000);

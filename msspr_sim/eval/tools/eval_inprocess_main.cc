@@ -4,6 +4,7 @@
 // JSON has msspr_eval's format; msspr_train's evaluations run the same code.
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <iostream>
 #include <set>
 #include <string>
@@ -26,7 +27,8 @@ constexpr const char* kUsage = R"(usage: msspr_eval_inprocess --policy POLICY.pt
 Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_eval --seed S).
   --policy FILE       a policy export (policy.pt) or a training checkpoint (required)
   --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large (default pointmaze)
-  --maze NAME         arena, medium, large or giant (default medium; pointmaze only)
+  --maze NAME         arena, medium, large or giant (default medium; pointmaze only;
+                      --env pointmaze-NAME says the same)
   --tasks LIST        task ids (default 1,2,3,4,5)
   --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format; pointmaze only)
   --episodes N        episodes per task (default 50)
@@ -66,8 +68,9 @@ int main(int argc, char** argv) {
     policy_path = args.Get("policy", "");
     if (policy_path.empty()) throw msspr::cli::CliError("--policy is required");
     using sim::EnvId;
-    const EnvId env = sim::ParseEnvId(
-        args.GetChoice("env", sim::EnvIdName(EnvId::kPointMaze), sim::EnvIdNames()));
+    std::string maze;  // --env pointmaze-NAME or --maze NAME
+    const EnvId env = sim::ParseEnvFlag(args.Get("env", sim::EnvIdName(EnvId::kPointMaze)),
+                                        args.Get("maze", ""), sim::AllEnvIds(), &maze);
     cube = env == EnvId::kCubeSingle;
     ant = sim::IsAntMaze(env);
     if (ant) {
@@ -96,8 +99,7 @@ int main(int argc, char** argv) {
       co.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     } else {
       if (args.Has("urdf")) throw msspr::cli::CliError("--urdf applies to --env cube-single only");
-      const auto names = sim::MazeMap::Names();
-      eo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+      eo.maze = sim::PointMazeOrDefault(maze);
       const auto map = sim::MazeMap::FromName(eo.maze);
       if (args.Has("tasks-file") && args.Has("tasks"))
         throw msspr::cli::CliError("give --tasks or --tasks-file, not both");

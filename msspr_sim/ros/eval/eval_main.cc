@@ -41,7 +41,8 @@ constexpr char kUsage[] = R"(usage: rosrun msspr msspr_eval [options]
 Evaluates the agent that answers the sim's observations (lockstep), by OGBench's protocol.
   --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large: the running
                       sim's env (default pointmaze)
-  --maze NAME         maze of the running point-maze sim (default medium)
+  --maze NAME         maze of the running point-maze sim (default medium; --env
+                      pointmaze-NAME says the same)
   --tasks LIST        comma-separated task ids (default 1,2,3,4,5)
   --episodes N        episodes per task (default 50)
   --max-steps N       step limit per episode (default 1000; cube-single 200)
@@ -221,14 +222,15 @@ int main(int argc, char** argv) {
     }
     if (!args->positional().empty())
       throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
-    env = msspr::sim::ParseEnvId(
-        args->GetChoice("env", msspr::sim::EnvIdName(env), msspr::sim::EnvIdNames()));
+    std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
+    env = msspr::sim::ParseEnvFlag(args->Get("env", msspr::sim::EnvIdName(env)),
+                                   args->Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
     const bool ant = msspr::sim::IsAntMaze(env);
     for (const char* f : {"maze", "plot", "tasks-file"})
       if ((env == EnvId::kCubeSingle || (ant && std::string(f) != "plot")) && args->Has(f))
         throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
                                     msspr::sim::EnvIdName(env));
-    maze = ant ? msspr::sim::AntMazeName(env) : args->Get("maze", "medium");
+    maze = ant ? msspr::sim::AntMazeName(env) : msspr::sim::PointMazeOrDefault(maze_arg);
     map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (args->Has("tasks-file")) {
       for (const auto& t :

@@ -28,6 +28,18 @@ EnvId ParseEnvId(const std::string& name);
 // The names of `ids`, as a set (the choices of cli::CliArgs::GetChoice).
 std::set<std::string> EnvIdNames(const std::vector<EnvId>& ids = AllEnvIds());
 
+// A tool's --env and --maze as one idea: --env pointmaze-NAME is --env pointmaze --maze NAME
+// (the names msspr_train --eval-env and the bags' EpisodeInfo.env use). `maze_flag` is --maze
+// ("" when not given). Returns the env among `allowed` and sets *maze to the point maze's map
+// (from --env or --maze; "" when neither names one). Throws std::invalid_argument naming the
+// value and every accepted name, or when --env and --maze name two mazes.
+EnvId ParseEnvFlag(const std::string& env, const std::string& maze_flag,
+                   const std::vector<EnvId>& allowed, std::string* maze);
+
+// The point maze's map of a tool: `maze` (from ParseEnvFlag), "medium" when empty. Throws
+// std::invalid_argument "--maze 'X' is not one of: arena, giant, ..." for another name.
+std::string PointMazeOrDefault(const std::string& maze);
+
 // The ant mazes: antmaze-medium, antmaze-large.
 const std::vector<EnvId>& AntMazeEnvIds();
 bool IsAntMaze(EnvId id);

@@ -3,6 +3,7 @@
 #include <ros/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -31,7 +32,8 @@ Writes an expert dataset of an msspr point maze, OGBench's cube-single-play
 dataset of the URDF arm, or an ant maze's dataset, into a rosbag (LZ4).
   --env ENV              pointmaze | cube-single | antmaze-medium | antmaze-large
                                                                (default pointmaze)
-  --maze NAME            arena | medium | large | giant        (default medium)
+  --maze NAME            arena | medium | large | giant        (default medium;
+                         --env pointmaze-NAME says the same)
   --kind KIND            navigate | stitch                     (default navigate)
   --episodes N           training episodes (default: 1000 navigate, 5000 stitch)
   --val-episodes N       validation episodes, split "val"     (default 10% of N)
@@ -250,8 +252,10 @@ int main(int argc, char** argv) {
       return 2;
     }
     sim::EnvId env_id = sim::EnvId::kPointMaze;
+    std::string maze;  // --env pointmaze-NAME or --maze NAME
     try {
-      env_id = sim::ParseEnvId(args.GetChoice("env", sim::EnvIdName(env_id), sim::EnvIdNames()));
+      env_id = sim::ParseEnvFlag(args.Get("env", "pointmaze"), args.Get("maze", ""),
+                                 sim::AllEnvIds(), &maze);
       if (env_id != sim::EnvId::kCubeSingle && args.Has("urdf"))
         throw cli::CliError("--urdf needs --env " + sim::EnvIdName(sim::EnvId::kCubeSingle));
       if (!sim::IsAntMaze(env_id) && args.Has("expert"))
@@ -274,9 +278,7 @@ int main(int argc, char** argv) {
     try {  // every flag is checked first: a bad one is a usage error (exit 2)
       if (!args.positional().empty())
         throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
-      const auto names = sim::MazeMap::Names();
-      opt.maze =
-          args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+      opt.maze = sim::PointMazeOrDefault(maze);
       opt.kind = sim::ParseDatasetKind(args.GetChoice("kind", "navigate", {"navigate", "stitch"}));
       const bool stitch = opt.kind == sim::DatasetKind::kStitch;
       episodes =
