@@ -383,6 +383,16 @@ TEST_F(SpecDatasetTest, ARecordingSplitOverBagsOrCompressedReadsAsOne) {
   EXPECT_NE(info.text.find(Path("part_0.bag") + ": 44 ticks in episodes, 44 complete"),
             std::string::npos)
       << info.text;
+  // The export of the two parts has the rows of the whole bag's export.
+  for (const std::string& bags :
+       {Path("whole.bag"), Path("part_0.bag") + " " + Path("part_1.bag")}) {
+    info = RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + spec_path_ + " --export " +
+                   Path("x.npz") + " " + bags);
+    EXPECT_EQ(info.status, 0) << info.text;
+    core::NpyInfo oi;
+    core::ReadNpzFloat(Path("x.npz"), "observations", &oi);
+    EXPECT_EQ(oi.shape, (std::vector<int64_t>{120, 2})) << bags;
+  }
 
   test::SplitBag(Path("whole.bag"), {Path("bz2.bag")}, {}, "", rosbag::compression::BZ2);
   info =
