@@ -48,6 +48,8 @@ for f in setup.bash _setup_util.py \
   lib/msspr/msspr_compare share/msspr/config/grids/hard_tasks.yaml \
   lib/libmsspr_core.so lib/libmsspr_env.so lib/libmsspr_eval_core.so lib/libmsspr_bridge.so lib/libmsspr_bags.so lib/libmsspr_robot_interface.so lib/libmsspr_sim_nodes.so lib/libmsspr_maze_map.so \
   include/msspr/Observation.h include/msspr/Reset.h include/msspr_core/policy.h \
+  include/msspr_bridge/msg_conversion.h include/msspr_bags/dataset_bag.h \
+  include/msspr_robot_interface/spec_bag.h include/msspr_sim_nodes/sim_node_base.h \
   include/msspr_sim/point_maze.h include/msspr_eval/maze_evaluator.h \
   share/msspr/package.xml share/msspr/msgs/msg/Observation.msg share/msspr/msgs/srv/Reset.srv \
   share/msspr/launch/demo.launch share/msspr/launch/sim.launch share/msspr/launch/policy.launch \
