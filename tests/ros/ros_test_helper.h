@@ -133,22 +133,9 @@ class RosTestHelper {
 // reach step `length` - 1, stops the recorder and returns whether it got there.
 class LiveRecording {
  public:
-  LiveRecording(const std::string& name, const std::string& extra_topic = "") {
-    const char* dir = std::getenv("ROS_LOG_DIR");
-    bag_ = std::string(dir ? dir : "/tmp") + "/" + name + "_" + std::to_string(getpid()) + ".bag";
-    pid_ = fork();
-    if (pid_ == 0) {
-      const std::string node = "__name:=" + name + "_recorder";
-      if (extra_topic.empty())
-        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation",
-               "/msspr/action", "/msspr/episode", node.c_str(), (char*)nullptr);
-      else
-        execlp("rosbag", "rosbag", "record", "-O", bag_.c_str(), "/msspr/observation",
-               "/msspr/action", "/msspr/episode", extra_topic.c_str(), node.c_str(),
-               (char*)nullptr);
-      _exit(127);
-    }
-  }
+  // Records msspr's own topics (observation, action, episode) and `extra_topic`.
+  LiveRecording(const std::string& name, const std::string& extra_topic = "")
+      : LiveRecording(name, NativeTopics(extra_topic)) {}
   // Records exactly `topics` (e.g. a robot's standard topics) into NAME_PID.bag.
   LiveRecording(const std::string& name, const std::vector<std::string>& topics) {
     const char* dir = std::getenv("ROS_LOG_DIR");
@@ -194,6 +181,11 @@ class LiveRecording {
     }
   }
   bool started() const { return pid_ > 0; }
+  static std::vector<std::string> NativeTopics(const std::string& extra_topic) {
+    std::vector<std::string> t = {"/msspr/observation", "/msspr/action", "/msspr/episode"};
+    if (!extra_topic.empty()) t.push_back(extra_topic);
+    return t;
+  }
   const std::string& bag() const { return bag_; }
   // Removes the bag after a passing test; keeps it (and says where) otherwise.
   void Cleanup() const {

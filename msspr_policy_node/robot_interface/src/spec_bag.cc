@@ -184,10 +184,10 @@ void SpecBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& fn) 
       rec.label += " (+" + std::to_string(bags.size() - 1) + " bag" + (bags.size() > 2 ? "s" : "") +
                    " of the same recording)";
     for (size_t i = 0; i < bags.size(); ++i) ReadMessages(bags[i].path, i == 0, &rec);
-    for (auto& r : report_.fields)
-      r.rate_hz = r.messages > 1 && r.last > r.first ? (r.messages - 1) / (r.last - r.first) : 0.0;
     EmitEpisodes(&rec, &next_id, fn);
   }
+  for (auto& r : report_.fields)
+    r.rate_hz = r.messages > 1 && r.last > r.first ? (r.messages - 1) / (r.last - r.first) : 0.0;
 }
 
 SpecBagReader::BagTopics SpecBagReader::ResolveTopics(

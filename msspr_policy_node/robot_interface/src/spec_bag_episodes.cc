@@ -89,28 +89,35 @@ class CommandTrack {
         std::lower_bound(s.begin(), s.end(), Before(begin, ros::Duration(period)),
                          [](const TopicSample& x, const ros::Time& t) { return x.stamp < t; });
     const ros::Time end = begin + ros::Duration(period * static_cast<double>(ticks + 1));
+    std::vector<double> receipts;  // s after begin
     for (auto it = lo; it != s.end() && it->stamp < end; ++it) {
       samples_.push_back(&*it);
-      receipts_.push_back((it->stamp - begin).toSec());
+      receipts.push_back((it->stamp - begin).toSec());
     }
-    alignment_ = AlignCommands(receipts_, 0.0, period, ticks);
+    alignment_ = AlignCommands(receipts, 0.0, period, ticks);
+    // Per tick, the tick at or before it that has a command (-1: none yet), so that a tick
+    // without one finds the command it holds in one step.
+    latest_tick_.resize(alignment_.command_of_tick.size());
+    int64_t latest = -1;
+    for (size_t k = 0; k < latest_tick_.size(); ++k) {
+      if (alignment_.command_of_tick[k] >= 0) latest = static_cast<int64_t>(k);
+      latest_tick_[k] = latest;
+    }
   }
 
   // The command of tick k (at time t), or why there is none.
   std::string At(int64_t k, const ros::Time& t, const TopicSample** out) const {
     if (!aligned_) return NewestCommand(spec_, topic_.topic, history_, t, begin_, out);
-    for (int64_t j = k; j >= 0; --j) {
-      const int64_t c = alignment_.command_of_tick[static_cast<size_t>(j)];
-      if (c < 0) continue;
-      const TopicSample* s = samples_[static_cast<size_t>(c)];
-      if (j < k && s->stamp < Before(t, ros::Duration(spec_.stale_after)))
-        return "topic " + topic_.topic + ": no command for this tick, the last is " +
-               std::to_string((t - s->stamp).toSec()) + " s old (stale_after " +
-               std::to_string(spec_.stale_after) + " s)";
-      *out = s;
-      return "";
-    }
-    return "topic " + topic_.topic + ": no command yet";
+    const int64_t j = latest_tick_[static_cast<size_t>(k)];
+    if (j < 0) return "topic " + topic_.topic + ": no command yet";
+    const TopicSample* s =
+        samples_[static_cast<size_t>(alignment_.command_of_tick[static_cast<size_t>(j)])];
+    if (j < k && s->stamp < Before(t, ros::Duration(spec_.stale_after)))
+      return "topic " + topic_.topic + ": no command for this tick, the last is " +
+             std::to_string((t - s->stamp).toSec()) + " s old (stale_after " +
+             std::to_string(spec_.stale_after) + " s)";
+    *out = s;
+    return "";
   }
   bool aligned() const { return aligned_; }
   const CommandAlignment& alignment() const { return alignment_; }
@@ -122,7 +129,7 @@ class CommandTrack {
   ros::Time begin_;
   bool aligned_ = false;
   std::vector<const TopicSample*> samples_;
-  std::vector<double> receipts_;
+  std::vector<int64_t> latest_tick_;  // per tick: the latest tick <= it with a command, or -1
   CommandAlignment alignment_;
 };
 
