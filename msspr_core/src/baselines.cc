@@ -210,16 +210,20 @@ torch::Tensor GaussianActorImpl::LogProb(const torch::Tensor& x, const torch::Te
   return StdNormalLogProb(a, Mean(x));
 }
 
-PairEncoderImpl::PairEncoderImpl(const NetworkOptions& n, int64_t out_dim)
-    : downsample(std::max(1, n.image_downsample)) {
-  // The observation's and the goal's images stacked on channels.
-  RegisterImageCnn(*this, n, 2 * int64_t{n.image_channels} * n.frame_stack, out_dim, &light_cnn,
-                   &cnn);
+PairEncoderImpl::PairEncoderImpl(const NetworkOptions& n, int64_t out_dim, int images)
+    : downsample(std::max(1, n.image_downsample)), images(images) {
+  TORCH_CHECK(images == 1 || images == 2, "PairEncoder: images must be 1 or 2, got ", images);
+  // The observation's (and the goal's) images stacked on channels.
+  RegisterImageCnn(*this, n, images * int64_t{n.image_channels} * n.frame_stack, out_dim,
+                   &light_cnn, &cnn);
 }
 
 torch::Tensor PairEncoderImpl::forward(const torch::Tensor& obs, const torch::Tensor& goal) {
+  TORCH_CHECK(goal.defined() == (images == 2), "PairEncoder of ", images, " image(s) given ",
+              goal.defined() ? "a goal" : "no goal");
   const torch::Tensor x =
-      torch::cat({ImagesToInput(obs, downsample), ImagesToInput(goal, downsample)}, 1);
+      images == 2 ? torch::cat({ImagesToInput(obs, downsample), ImagesToInput(goal, downsample)}, 1)
+                  : ImagesToInput(obs, downsample);
   return light_cnn ? light_cnn->forward(x) : cnn->forward(x);
 }
 
@@ -412,9 +416,13 @@ torch::Tensor OgbenchAgent::Pair(PairEncoder& encoder, const torch::Tensor& obs,
   return encoder ? encoder(obs, goal) : Cat(obs, goal);
 }
 
-PairEncoder OgbenchAgent::RegisterPairEncoder(const std::string& name) {
+PairEncoder OgbenchAgent::RegisterPairEncoder(const std::string& name, int images) {
   if (!pixels_) return PairEncoder(nullptr);
-  return register_module(name, PairEncoder(options_.network, options_.baseline.hidden));
+  return register_module(name, PairEncoder(options_.network, options_.baseline.hidden, images));
+}
+
+torch::Tensor OgbenchAgent::Features(PairEncoder& encoder, const torch::Tensor& obs) {
+  return encoder ? encoder(obs) : obs;
 }
 
 std::vector<int64_t> OgbenchAgent::Sizes(int64_t in, int64_t out) const {
@@ -743,25 +751,35 @@ torch::Tensor CrlAgent::Value(const torch::Tensor& obs, const torch::Tensor& act
 
 HiqlAgent::HiqlAgent(const MsprOptions& o) : OgbenchAgent(o) {
   const BaselineOptions& b = o.baseline;
-  const int64_t in_v = obs_dim_ + b.rep_dim;
-  goal_rep = register_module("goal_rep", OgMlp(Sizes(2 * obs_dim_, b.rep_dim), false, true));
+  // The observation's features: the state, or (pixels) a CNN's hidden features.
+  const int64_t s_dim = pixels_ ? b.hidden : obs_dim_;
+  const int64_t in_v = s_dim + b.rep_dim;
+  goal_rep_enc = RegisterPairEncoder("goal_rep_enc");
+  goal_rep = register_module("goal_rep", OgMlp(Sizes(pair_dim_, b.rep_dim), false, true));
+  value_enc = RegisterPairEncoder("value_enc", 1);
   v1 = register_module("v1", OgMlp(Sizes(in_v, 1), false, true));
   v2 = register_module("v2", OgMlp(Sizes(in_v, 1), false, true));
+  target_value_enc = RegisterPairEncoder("target_value_enc", 1);
   target_v1 = register_module("target_v1", OgMlp(Sizes(in_v, 1), false, true));
   target_v2 = register_module("target_v2", OgMlp(Sizes(in_v, 1), false, true));
+  if (value_enc) InitTarget(*target_value_enc, *value_enc);
   InitTarget(*target_v1, *v1);
   InitTarget(*target_v2, *v2);
+  low_actor_enc = RegisterPairEncoder("low_actor_enc", 1);
   low_actor = register_module("low_actor", GaussianActor(in_v, b.hidden, b.layers, action_dim_));
+  high_actor_enc = RegisterPairEncoder("high_actor_enc");
   high_actor =
-      register_module("high_actor", GaussianActor(2 * obs_dim_, b.hidden, b.layers, b.rep_dim));
+      register_module("high_actor", GaussianActor(pair_dim_, b.hidden, b.layers, b.rep_dim));
 }
 
 torch::Tensor HiqlAgent::GoalRep(const torch::Tensor& obs, const torch::Tensor& goal) {
-  return LengthNormalize(goal_rep(Cat(obs, goal)));
+  return LengthNormalize(goal_rep(Pair(goal_rep_enc, obs, goal)));
 }
 
 torch::Tensor HiqlAgent::V(const torch::Tensor& obs, const torch::Tensor& goal, bool target) {
-  const torch::Tensor x = Cat(obs, GoalRep(obs, goal));
+  // The target heads (and, pixels, the target's CNN of s) on the online phi.
+  const torch::Tensor x =
+      Cat(Features(target ? target_value_enc : value_enc, obs), GoalRep(obs, goal));
   return target ? Twin(target_v1, target_v2, x) : Twin(v1, v2, x);
 }
 
@@ -792,11 +810,12 @@ torch::Tensor HiqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
   torch::Tensor low_rep = GoalRep(batch.obs, batch.low_goal);
   if (!b.low_actor_rep_grad) low_rep = low_rep.detach();
   const torch::Tensor low_loss =
-      -(AwrWeight(low_adv, b.low_alpha) * low_actor->LogProb(Cat(batch.obs, low_rep), batch.action))
+      -(AwrWeight(low_adv, b.low_alpha) *
+        low_actor->LogProb(Cat(Features(low_actor_enc, batch.obs), low_rep), batch.action))
            .mean();
   const torch::Tensor high_loss =
       -(AwrWeight(high_adv, b.high_alpha) *
-        high_actor->LogProb(Cat(batch.obs, batch.high_goal), high_target_rep))
+        high_actor->LogProb(Pair(high_actor_enc, batch.obs, batch.high_goal), high_target_rep))
            .mean();
   if (info) {
     info->emplace_back("value", Item(value_loss));
@@ -810,13 +829,21 @@ torch::Tensor HiqlAgent::Loss(const TransitionBatch& batch, NamedValues* info) {
 }
 
 void HiqlAgent::UpdateTargets() {
+  if (value_enc) Polyak(*target_value_enc, *value_enc);
   Polyak(*target_v1, *v1);
   Polyak(*target_v2, *v2);
 }
 
+std::vector<torch::nn::Module*> HiqlAgent::Targets() {
+  std::vector<torch::nn::Module*> t{target_v1.get(), target_v2.get()};
+  if (target_value_enc) t.push_back(target_value_enc.get());
+  return t;
+}
+
 torch::Tensor HiqlAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal) {
-  const torch::Tensor z = LengthNormalize(ForActing(high_actor)->Mean(Cat(obs, goal)));
-  return ForActing(low_actor)->Mean(Cat(obs, z)).clamp(-1.0, 1.0);
+  const torch::Tensor z =
+      LengthNormalize(ForActing(high_actor)->Mean(Pair(high_actor_enc, obs, goal)));
+  return ForActing(low_actor)->Mean(Cat(Features(low_actor_enc, obs), z)).clamp(-1.0, 1.0);
 }
 
 torch::Tensor HiqlAgent::Value(const torch::Tensor& obs, const torch::Tensor&,

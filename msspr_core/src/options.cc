@@ -27,10 +27,11 @@ std::vector<std::string> AgentNames() {
 }
 
 bool AgentTakesImages(const std::string& agent) {
-  return agent == "mspr" || agent == "gcbc" || agent == "gcivl" || agent == "gciql";
+  return agent == "mspr" || agent == "gcbc" || agent == "gcivl" || agent == "gciql" ||
+         agent == "hiql";
 }
 
-std::string ImageBaselinesText() { return "gcbc, gcivl and gciql"; }
+std::string ImageBaselinesText() { return "gcbc, gcivl, gciql and hiql"; }
 
 std::vector<std::string> PresetNames() {
   std::vector<std::string> names{"mspr", "D", "DI", "DIR"};

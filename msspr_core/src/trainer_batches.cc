@@ -96,10 +96,16 @@ TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool 
   torch::Tensor obs = GatherObs(d, idx.idx), next_obs = GatherObs(d, idx.next_idx);
   torch::Tensor value_goal = GatherObs(d, idx.value_goal),
                 actor_goal = GatherObs(d, idx.actor_goal);
-  if (augment) {
-    // One shift per sample, shared by its observation, next observation and goals.
-    ShiftSampleImages(DrawShifts(b), {&obs, &next_obs, &value_goal, &actor_goal});
+  torch::Tensor low_goal, high_goal, high_target;  // HIQL's subgoals
+  std::vector<torch::Tensor*> images{&obs, &next_obs, &value_goal, &actor_goal};
+  if (!idx.low_goal.empty()) {
+    low_goal = GatherObs(d, idx.low_goal);
+    high_goal = GatherObs(d, idx.high_goal);
+    high_target = GatherObs(d, idx.high_target);
+    images.insert(images.end(), {&low_goal, &high_goal, &high_target});
   }
+  // One shift per sample, shared by its observation, next observation and goals.
+  if (augment) ShiftSampleImages(DrawShifts(b), images);
   TransitionBatch batch;
   batch.obs = ToDevice(obs);
   batch.next_obs = ToDevice(next_obs);
@@ -112,10 +118,10 @@ TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool 
       ToDevice(torch::from_blob(const_cast<float*>(idx.ret.data()), {b}, torch::kFloat32).clone());
   batch.discount = ToDevice(
       torch::from_blob(const_cast<float*>(idx.discount.data()), {b}, torch::kFloat32).clone());
-  if (!idx.low_goal.empty()) {
-    batch.low_goal = ToDevice(GatherObs(d, idx.low_goal));
-    batch.high_goal = ToDevice(GatherObs(d, idx.high_goal));
-    batch.high_target = ToDevice(GatherObs(d, idx.high_target));
+  if (low_goal.defined()) {
+    batch.low_goal = ToDevice(low_goal);
+    batch.high_goal = ToDevice(high_goal);
+    batch.high_target = ToDevice(high_target);
   }
   return batch;
 }

@@ -50,6 +50,7 @@ TEST_P(BaselineLearningTest, PointInSquareReachesGoals) {
   if (c.images) {
     o.network.obs_mode = "pixels";
     o.network.cnn = "light";
+    o.baseline.low_actor_rep_grad = true;  // HIQL: OGBench's setting for pixels
   }
   if (const char* s = std::getenv("MSSPR_LEARNING_STEPS")) o.trainer.steps = std::atoll(s);
   if (const char* s = std::getenv("MSSPR_LEARNING_SEED"))
@@ -88,7 +89,10 @@ INSTANTIATE_TEST_SUITE_P(
                     // The policy (MakePolicy) acts with the average of the actor.
                     Case{"gcivl", 2000, 0.9, "bf16", 0.99},
                     // From images of the point and the goal.
-                    Case{"gcivl", 2000, 0.9, "bf16", 0, true}),
+                    Case{"gcivl", 2000, 0.9, "bf16", 0, true},
+                    // HIQL's five CNNs learn slower from images: 0.77 at 2000 steps and
+                    // 0.86 at 3000 (Intel Xeon); 0.6 shows it learned (untrained: 0).
+                    Case{"hiql", 2000, 0.6, "bf16", 0, true}),
     [](const testing::TestParamInfo<Case>& info) {
       std::string name = info.param.agent;
       if (info.param.precision != "fp32") name += "_" + info.param.precision;

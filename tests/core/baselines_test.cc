@@ -418,23 +418,24 @@ TEST(BaselineOptions, PresetsFollowOgbenchPointmazeSettings) {
 }
 
 // Images are for the agents OGBench runs from pixels here (gcbc, gcivl,
-// gciql), without a policy average; unknown agents are refused.
+// gciql, hiql), without a policy average; unknown agents are refused.
 TEST(BaselineOptions, PixelsOnlyForImageAgentsAndUnknownAgentsAreRejected) {
-  for (const char* agent : {"gcbc", "gcivl", "gciql"}) {
+  for (const char* agent : {"gcbc", "gcivl", "gciql", "hiql"}) {
     MsprOptions o = SmallOptions(agent);
     o.network.obs_mode = "pixels";
     EXPECT_NO_THROW(ValidateOptions(o)) << agent;
     o.trainer.policy_ema = 0.99;
     EXPECT_THROW(ValidateOptions(o), OptionsError) << agent;
   }
-  for (const char* agent : {"qrl", "crl", "hiql"}) {
+  for (const char* agent : {"qrl", "crl"}) {
     MsprOptions o = SmallOptions(agent);
     o.network.obs_mode = "pixels";
     try {
       ValidateOptions(o);
       FAIL() << agent << ": pixels accepted";
     } catch (const OptionsError& e) {
-      EXPECT_NE(std::string(e.what()).find("images: gcbc, gcivl and gciql"), std::string::npos)
+      EXPECT_NE(std::string(e.what()).find("images: gcbc, gcivl, gciql and hiql"),
+                std::string::npos)
           << e.what();
     }
   }
@@ -643,7 +644,11 @@ TEST_P(BaselinePixels, EncodersPerNetworkResumeExactlyAndExport) {
   const std::map<std::string, std::set<std::string>> expected{
       {"gcbc", {"actor_enc"}},
       {"gcivl", {"actor_enc", "value_enc", "target_value_enc"}},
-      {"gciql", {"actor_enc", "value_enc", "critic_enc", "target_critic_enc"}}};
+      {"gciql", {"actor_enc", "value_enc", "critic_enc", "target_critic_enc"}},
+      // OGBench's visual HIQL: phi's CNN of [s; g], a CNN of s for V, its
+      // target and the low actor, a CNN of [s; g] for the high actor.
+      {"hiql",
+       {"goal_rep_enc", "value_enc", "target_value_enc", "low_actor_enc", "high_actor_enc"}}};
   EXPECT_EQ(encoders, expected.at(GetParam()));
   for (torch::nn::Module* t : fresh.agent()->Targets()) {
     for (const auto& p : t->parameters()) EXPECT_FALSE(p.requires_grad());
@@ -668,7 +673,7 @@ TEST_P(BaselinePixels, EncodersPerNetworkResumeExactlyAndExport) {
   EXPECT_TRUE(torch::equal(live.Act(image(s0), image(g0)), act));
 }
 
-INSTANTIATE_TEST_SUITE_P(Agents, BaselinePixels, testing::Values("gcbc", "gcivl", "gciql"),
+INSTANTIATE_TEST_SUITE_P(Agents, BaselinePixels, testing::Values("gcbc", "gcivl", "gciql", "hiql"),
                          [](const testing::TestParamInfo<std::string>& info) {
                            return info.param;
                          });

@@ -7,12 +7,13 @@
 // here adds only its networks, its losses and its acting rule.
 //
 // Observations: states for all six; images (network.obs_mode "pixels") for
-// GCBC, GCIVL and GCIQL, as OGBench's visual agents read them: each network
-// that takes an (observation, goal) pair has its own encoder of the two
-// images stacked on channels (OGBench's GCEncoder(concat_encoder=...)), a
+// GCBC, GCIVL, GCIQL and HIQL, as OGBench's visual agents read them: each
+// network that takes an (observation, goal) pair has its own encoder of the
+// two images stacked on channels (OGBench's GCEncoder(concat_encoder=...)), a
 // CNN (network.cnn: the Impala CNN or the light CNN, network.image_downsample
 // and network.cnn_feature_norm as Ms.PR's) whose features (baseline.hidden
-// of them) replace [s, g]. Target networks copy their encoder too.
+// of them) replace [s, g]; HIQL's value and low actor read s through a CNN of
+// their own (GCEncoder(state_encoder=...)). Target networks copy their encoder.
 //
 // Conventions, as OGBench:
 // - MLPs: Linear -> GELU (tanh approximation) -> LayerNorm (eps 1e-6) per
@@ -87,18 +88,22 @@ class GaussianActorImpl : public torch::nn::Module {
 };
 TORCH_MODULE(GaussianActor);
 
-// OGBench's GCEncoder(concat_encoder=CNN) for image observations: the
-// observation's and the goal's images stacked on channels, then a CNN
-// (network.cnn) with out_dim features. Pixels mode only.
+// OGBench's GCEncoder for image observations, pixels mode only: with
+// images = 2 its concat_encoder (the observation's and the goal's images
+// stacked on channels), with images = 1 its state_encoder (the observation's
+// alone, as HIQL's value and low actor read it); then a CNN (network.cnn) with
+// out_dim features.
 class PairEncoderImpl : public torch::nn::Module {
  public:
-  PairEncoderImpl(const NetworkOptions& n, int64_t out_dim);
-  // obs, goal: [B, H, W, C] uint8 -> [B, out_dim] float32
-  torch::Tensor forward(const torch::Tensor& obs, const torch::Tensor& goal);
+  PairEncoderImpl(const NetworkOptions& n, int64_t out_dim, int images = 2);
+  // obs, goal: [B, H, W, C] uint8 -> [B, out_dim] float32; an encoder of one
+  // image takes no goal (an undefined tensor).
+  torch::Tensor forward(const torch::Tensor& obs, const torch::Tensor& goal = {});
 
   ImpalaCnn cnn{nullptr};       // "cnn" (network.cnn = impala)
   LightCnn light_cnn{nullptr};  // "light_cnn" (network.cnn = light)
   int64_t downsample = 1;
+  int images = 2;
 };
 TORCH_MODULE(PairEncoder);
 
@@ -185,8 +190,11 @@ class OgbenchAgent : public GcAgent {
   // `encoder` is null), or encoder(s, g) (pixels): [B, pair_dim_].
   static torch::Tensor Pair(PairEncoder& encoder, const torch::Tensor& obs,
                             const torch::Tensor& goal);
-  // A new encoder registered as `name` in pixels mode; null for states.
-  PairEncoder RegisterPairEncoder(const std::string& name);
+  // A new encoder of `images` images (the observation's, and with 2 the
+  // goal's) registered as `name` in pixels mode; null for states.
+  PairEncoder RegisterPairEncoder(const std::string& name, int images = 2);
+  // The observation's features: its encoder's (pixels) or the state itself.
+  static torch::Tensor Features(PairEncoder& encoder, const torch::Tensor& obs);
   // MLP sizes {in, hidden x layers, out}.
   std::vector<int64_t> Sizes(int64_t in, int64_t out) const;
   // The DDPG+BC actor loss shared by gciql, qrl and crl:
@@ -351,7 +359,7 @@ class HiqlAgent : public OgbenchAgent {
   }
   torch::Tensor Value(const torch::Tensor& obs, const torch::Tensor& action,
                       const torch::Tensor& goal) override;
-  std::vector<torch::nn::Module*> Targets() override { return {target_v1.get(), target_v2.get()}; }
+  std::vector<torch::nn::Module*> Targets() override;
   int SubgoalSteps() const override { return options_.baseline.subgoal_steps; }
   // phi([s; g]) length-normalised to sqrt(rep_dim): [B, rep_dim].
   torch::Tensor GoalRep(const torch::Tensor& obs, const torch::Tensor& goal);
@@ -363,6 +371,11 @@ class HiqlAgent : public OgbenchAgent {
   OgMlp target_v1{nullptr}, target_v2{nullptr};  // Polyak copies of the heads only
   GaussianActor low_actor{nullptr};              // pi_l(a | [s, rep(s, w)])
   GaussianActor high_actor{nullptr};             // pi_h(z | [s, g])
+  // Pixels, as OGBench's visual HIQL: phi reads a CNN of [s; g] (goal_rep_enc);
+  // V, its target and the low actor each read their own CNN of s beside phi;
+  // the high actor reads a CNN of [s; g]. Null for states.
+  PairEncoder goal_rep_enc{nullptr}, value_enc{nullptr}, target_value_enc{nullptr};
+  PairEncoder low_actor_enc{nullptr}, high_actor_enc{nullptr};
 };
 
 }  // namespace core

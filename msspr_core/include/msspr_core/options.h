@@ -317,7 +317,7 @@ std::vector<std::string> AgentNames();
 // The agents that train from images (network.obs_mode: pixels): Ms.PR and the baselines
 // with a pair encoder {"gcbc", "gcivl", "gciql"}; QRL, CRL and HIQL take states only.
 bool AgentTakesImages(const std::string& agent);
-// "gcbc, gcivl and gciql": the baselines of AgentTakesImages, for messages.
+// "gcbc, gcivl, gciql and hiql": the baselines of AgentTakesImages, for messages.
 std::string ImageBaselinesText();
 
 // Names accepted by MakePreset: the Ms.PR presets {"mspr", "D", "DI",
