@@ -221,6 +221,44 @@ TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
   EXPECT_THROW(EvaluateOnCube(maze_policy, opt), std::invalid_argument);
 }
 
+// An untrained pixels policy of cube-single (16x16 camera images, two frames
+// stacked, 5-D actions): the evaluator renders the arm's camera and the goal
+// image at the policy's size; outcomes are deterministic and an episode's is
+// the same alone as among others (each episode renders its own scene).
+TEST(CubeEvaluator, PixelsPoliciesAreServedTheCameraDeterministically) {
+  torch::manual_seed(0);
+  core::DatasetBuilder b(0, 5, core::ImageShape{16, 16, 3});
+  std::vector<float> act(10 * 5, 0.2f);
+  std::vector<uint8_t> images(10 * 16 * 16 * 3);
+  for (size_t i = 0; i < images.size(); ++i) images[i] = static_cast<uint8_t>(i * 7);
+  b.AddEpisode({}, act, images);
+  b.AddEpisode({}, act, images);
+  core::MsprOptions o = core::testing_util::TinyOptions();
+  o.network.obs_mode = "pixels";
+  o.network.cnn = "light";
+  o.network.frame_stack = 2;
+  core::Trainer trainer(o, std::make_shared<const core::Dataset>(b.Build()));
+  trainer.Step();
+  core::Policy policy = trainer.MakePolicy();
+  ASSERT_TRUE(policy.pixels());
+  CubeEvalOptions opt;
+  opt.tasks = {1, 3};
+  opt.episodes = 3;
+  opt.max_steps = 12;
+  const auto a = EvaluateOnCube(policy, opt);
+  const auto c = EvaluateOnCube(policy, opt);
+  ASSERT_EQ(a.episodes.size(), 6u);
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(a.episodes[k].steps, c.episodes[k].steps);
+    EXPECT_EQ(a.episodes[k].final_obs, c.episodes[k].final_obs);
+  }
+  CubeEvalOptions alone = opt;
+  alone.tasks = {3};
+  alone.episodes = 1;
+  const auto one = EvaluateOnCube(policy, alone);
+  EXPECT_EQ(one.episodes[0].final_obs, a.episodes[3].final_obs);
+}
+
 // An untrained ant policy (29-D states, 8-D actions) on antmaze-medium: the
 // evaluator's bookkeeping, determinism, report and errors.
 TEST(AntEvaluator, DeterministicAndChecksThePolicy) {

@@ -385,5 +385,38 @@ TEST(CubeEnvTest, SetGoalObservationRendersItsGoalImageAndKeepsTheState) {
   EXPECT_EQ(env.GetObservation(), twin.GetObservation());
 }
 
+// One rendering env draws another env's scene bit for bit (the in-process
+// evaluator of pixels policies renders every episode so): after a reset and
+// mid-step, RenderStateOf(source) is what a rendering twin's Render() gives,
+// and the source's episode goes on unchanged.
+TEST(CubeEnvTest, RenderStateOfDrawsAnotherEnvsSceneBitForBit) {
+  CubeEnvOptions options = Options();
+  options.scene.pixel_style = true;
+  CubeEnv plain(options);  // no rendering, as the evaluator's episodes
+  options.enable_rendering = true;
+  CubeEnv drawn(options), renderer(options);
+  plain.ResetToTask(3, 21);
+  drawn.ResetToTask(3, 21);
+  std::vector<uint8_t> image(64 * 64 * 3);
+  renderer.RenderStateOf(plain, image.data());
+  EXPECT_EQ(image, drawn.Render());
+  const CubeEnv::Action a{0.4, 0.3, -0.5, 0.2, 1.0};
+  for (int k = 0; k < 5; ++k) {
+    plain.Step(a);
+    drawn.Step(a);
+  }
+  renderer.RenderStateOf(plain, image.data());
+  EXPECT_EQ(image, drawn.Render());
+  EXPECT_NE(image, renderer.goal_image());
+  plain.Step(a);
+  drawn.Step(a);
+  EXPECT_EQ(plain.GetObservation(), drawn.GetObservation()) << "the source's state was touched";
+  // The goal image of the same task and seed, from the rendering env's own reset.
+  renderer.ResetToTask(3, 21);
+  EXPECT_EQ(renderer.goal_observation(), plain.goal_observation());
+  EXPECT_EQ(renderer.goal_image(), drawn.goal_image());
+  EXPECT_THROW(plain.RenderStateOf(drawn, image.data()), std::logic_error);
+}
+
 }  // namespace
 }  // namespace msspr::sim

@@ -416,6 +416,20 @@ void CubeEnv::Render(uint8_t* rgb) const {
   impl_->renderer->Render(m, d, rgb);
 }
 
+void CubeEnv::RenderStateOf(const CubeEnv& source, uint8_t* rgb) {
+  if (!impl_->renderer)
+    throw std::logic_error("CubeEnv::RenderStateOf: construct with enable_rendering = true");
+  const mjModel* m = impl_->model.get();
+  const mjModel* sm = source.impl_->model.get();
+  if (m->nq != sm->nq || m->nv != sm->nv || m->nbody != sm->nbody || m->ngeom != sm->ngeom ||
+      m->nu != sm->nu || m->nmocap != sm->nmocap || m->nbuffer != sm->nbuffer)
+    throw std::invalid_argument(
+        "CubeEnv::RenderStateOf: the source env's scene differs from this one's (another arm "
+        "or scene options)");
+  mj_copyData(impl_->data.get(), m, source.impl_->data.get());
+  impl_->renderer->Render(m, impl_->data.get(), rgb);
+}
+
 std::vector<uint8_t> CubeEnv::Render() const {
   std::vector<uint8_t> rgb(static_cast<size_t>(options_.image_size) * options_.image_size * 3);
   Render(rgb.data());

@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 #include <vector>
 
+#include "msspr_core/frame_stack.h"
 #include "msspr_core/policy.h"
 #include "msspr_eval/batched_episodes.h"
 #include "msspr_sim/cube_env.h"
@@ -20,12 +22,11 @@ namespace msspr::agent {
 CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   constexpr int kObs = sim::CubeEnv::kObservationSize, kAct = sim::CubeEnv::kActionSize;
-  if (policy.pixels())
-    throw std::invalid_argument(
-        "EvaluateOnCube: a pixels policy; evaluate it over ROS (msspr_eval --env cube-single, the "
-        "sim in "
-        "observation_mode pixels)");
-  if (policy.obs_dim() != kObs)
+  const bool pixels = policy.pixels();
+  const auto& net = policy.options().network;
+  if (pixels && (net.image_width != net.image_height || net.image_channels != 3))
+    throw std::invalid_argument("EvaluateOnCube: pixels policies need square RGB images");
+  if (!pixels && policy.obs_dim() != kObs)
     throw std::invalid_argument("EvaluateOnCube: the policy expects " +
                                 std::to_string(policy.obs_dim()) +
                                 "-dimensional observations, cube-single gives 28");
@@ -45,12 +46,28 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
   sim::CubeEnvOptions eo;
   eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
   eo.max_episode_steps = options.max_steps;
+  eo.scene.pixel_style = pixels;  // the look of the sim's pixels mode (no physics change)
+  // Pixels: one rendering env draws every episode's frames (RenderStateOf) and,
+  // reset to the same task and seed, its goal image, as the sim node renders them.
+  const int size = net.image_height;
+  std::unique_ptr<sim::CubeEnv> renderer;
+  std::optional<core::FrameStacker> stacker;
+  if (pixels) {
+    sim::CubeEnvOptions ro = eo;
+    ro.enable_rendering = true;
+    ro.image_size = size;
+    renderer = std::make_unique<sim::CubeEnv>(ro);
+    stacker.emplace(size, size, 3, std::max(1, net.frame_stack));
+  }
   struct Slot {
     std::unique_ptr<sim::CubeEnv> env;
     sim::CubeEnv::Observation obs;
     bool done = false, success = false;
     int steps = 0;
+    std::optional<core::FrameStacker> frames;  // the episode's last frames (pixels)
+    std::vector<uint8_t> goal_frames;          // the goal's image, stacked (pixels)
   };
+  std::vector<uint8_t> frame(pixels ? stacker->frame_bytes() : 0);
   std::vector<Slot> slots;
   const size_t nt = options.tasks.size();
   slots.reserve(nt * static_cast<size_t>(options.episodes));
@@ -58,13 +75,25 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     for (int e = 0; e < options.episodes; ++e) {
       Slot s;
       s.env = std::make_unique<sim::CubeEnv>(eo);
-      s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
+      const uint64_t seed = sim::EvalEpisodeSeed(options.seed, t, e);
+      s.obs = s.env->ResetToTask(t, seed);
+      if (pixels) {
+        renderer->ResetToTask(t, seed);
+        if (renderer->goal_observation() != s.env->goal_observation())
+          throw std::runtime_error("EvaluateOnCube: the rendering env's goal of task " +
+                                   std::to_string(t) + " differs from the episode's");
+        s.goal_frames = stacker->Repeat(renderer->goal_image().data());
+        renderer->RenderStateOf(*s.env, frame.data());
+        s.frames.emplace(*stacker);
+        s.frames->Reset(frame.data());
+      }
       s.success = s.done = s.env->Success();
       slots.push_back(std::move(s));
     }
 
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) {
+    if (pixels) return StackedImageInputs(active, *stacker, size, obs, goal);
     const int64_t B = static_cast<int64_t>(active.size());
     *obs = torch::empty({B, kObs}, torch::kFloat32);
     *goal = torch::empty({B, kObs}, torch::kFloat32);
@@ -81,6 +110,10 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     s.obs = s.env->GetObservation();
     ++s.steps;
     s.done = s.success || s.steps >= options.max_steps;
+    if (pixels && !s.done) {
+      renderer->RenderStateOf(*s.env, frame.data());
+      s.frames->Push(frame.data());
+    }
   });
 
   std::vector<EpisodeResult> episodes;

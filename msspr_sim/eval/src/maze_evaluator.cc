@@ -125,13 +125,7 @@ std::vector<EpisodeOutcome> RunEpisodes(core::Policy& policy, const std::string&
   auto inputs = [&](const std::vector<Slot*>& batch, torch::Tensor* obs, torch::Tensor* goal) {
     const int64_t B = static_cast<int64_t>(batch.size());
     if (pixels) {
-      *obs = torch::empty({B, size, size, 3 * stack}, torch::kUInt8);
-      *goal = torch::empty({B, size, size, 3 * stack}, torch::kUInt8);
-      for (int64_t b = 0; b < B; ++b) {
-        batch[b]->frames->Stacked((*obs)[b].data_ptr<uint8_t>());
-        std::memcpy((*goal)[b].data_ptr<uint8_t>(), batch[b]->goal_frames.data(),
-                    stacker->stacked_bytes());
-      }
+      StackedImageInputs(batch, *stacker, size, obs, goal);
     } else {
       *obs = torch::empty({B, 2}, torch::kFloat32);
       *goal = torch::empty({B, 2}, torch::kFloat32);

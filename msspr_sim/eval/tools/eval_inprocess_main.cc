@@ -40,8 +40,9 @@ Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_e
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories on the maze (default: none; pointmaze only)
   --urdf FILE         cube-single: the arm (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
-Prints the per-task table. cube-single and the ant mazes: state policies (pixels: msspr_eval
-over ROS).
+Prints the per-task table. The point mazes and cube-single take state or pixels
+policies (pixels: the sim's 64x64 camera images and the goal's image); the ant
+mazes, state policies.
 )";
 
 }  // namespace
@@ -152,7 +153,8 @@ int main(int argc, char** argv) {
     if (cube) {
       if (co.urdf_path.empty()) co.urdf_path = sim::DefaultArmUrdf();
       std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x "
-                << co.episodes << " episodes on cube-single (arm " << co.urdf_path << ") ...\n";
+                << co.episodes << " episodes on cube-single ("
+                << (policy.pixels() ? "pixels" : "states") << "; arm " << co.urdf_path << ") ...\n";
       const auto result = msspr::agent::EvaluateOnCube(policy, co);
       const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, co, agent);
       std::cout << sim::EvalReportTable(report);

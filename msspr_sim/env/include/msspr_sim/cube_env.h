@@ -116,6 +116,13 @@ class CubeEnv {
   // S = image_size. Throws std::logic_error unless enable_rendering.
   void Render(uint8_t* rgb) const;
   std::vector<uint8_t> Render() const;
+  // Renders `source`'s scene as it stands, the image source->Render() would
+  // give: its whole physics state is copied into this env (whose own state is
+  // replaced) and rendered with this env's camera. One rendering env can so
+  // draw many episodes that run without rendering. `source` must be built
+  // from the same arm and scene (std::invalid_argument otherwise); throws
+  // std::logic_error unless this env has enable_rendering.
+  void RenderStateOf(const CubeEnv& source, uint8_t* rgb);
   // Steps since the last reset; an episode ends on success or at
   // max_episode_steps.
   int episode_steps() const { return episode_steps_; }

@@ -8,8 +8,10 @@
 
 #include <torch/torch.h>
 
+#include <cstring>
 #include <vector>
 
+#include "msspr_core/frame_stack.h"
 #include "msspr_core/policy.h"
 
 namespace msspr::agent {
@@ -33,6 +35,22 @@ void StepEpisodesBatched(core::Policy& policy, std::vector<Slot>& slots, int max
     const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
     auto a = act.accessor<float, 2>();
     for (size_t b = 0; b < active.size(); ++b) apply(*active[b], a[static_cast<int64_t>(b)]);
+  }
+}
+
+// A pixels policy's inputs for `batch` (slots with `frames`, a running
+// core::FrameStacker, and `goal_frames`, the goal's stacked image): obs and
+// goal [B, S, S, 3 * stack] uint8 in the frame-stack layout of training.
+template <class Slot>
+void StackedImageInputs(const std::vector<Slot*>& batch, const core::FrameStacker& stacker,
+                        int size, torch::Tensor* obs, torch::Tensor* goal) {
+  const int64_t b = static_cast<int64_t>(batch.size()), c = 3 * stacker.stack();
+  *obs = torch::empty({b, size, size, c}, torch::kUInt8);
+  *goal = torch::empty({b, size, size, c}, torch::kUInt8);
+  for (int64_t k = 0; k < b; ++k) {
+    batch[k]->frames->Stacked((*obs)[k].data_ptr<uint8_t>());
+    std::memcpy((*goal)[k].data_ptr<uint8_t>(), batch[k]->goal_frames.data(),
+                stacker.stacked_bytes());
   }
 }
 

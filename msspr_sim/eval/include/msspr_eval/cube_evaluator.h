@@ -4,8 +4,10 @@
 // is within 4 cm of the goal (the episode ends there, as over ROS). All
 // episodes run side by side, one policy call per control step, each episode's
 // action computed on its own (Policy::Act), so outcomes do not depend on the
-// thread count or the number of episodes. State policies only: a pixels policy is evaluated over
-// ROS (msspr_eval --env cube-single with the sim's images).
+// thread count or the number of episodes. Pixels policies see 64x64 camera
+// images (front_pixels, the pixel-mode look, as msspr_sim_node's
+// observation_mode pixels and msspr_collect --images give them) and the goal's
+// image, rendered through one rendering context.
 #pragma once
 
 #include <cstdint>
@@ -31,7 +33,7 @@ struct CubeEvalOptions {
 using CubeEvalResult = TaskSuccessResult;
 
 // Runs the evaluation. Throws std::invalid_argument on a bad task or when the
-// policy's dimensions do not fit cube-single (28-D states, 5-D actions).
+// policy does not fit cube-single (28-D states or square RGB images, 5-D actions).
 CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& options);
 
 // The results in msspr_eval's report format (env "cube-single").

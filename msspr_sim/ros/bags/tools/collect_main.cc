@@ -145,6 +145,7 @@ int CollectCube(const msspr::ros_bridge::CliArgs& args) {
   }
   ros::Time::init();
   env_opt.enable_rendering = image_episodes > 0;
+  env_opt.scene.pixel_style = env_opt.enable_rendering;  // OGBench's visual look, goal hidden
   sim::CubeEnv env(env_opt);
   const std::string env_name = sim::EnvLabel(sim::EnvId::kCubeSingle);
   const double control_dt = env_opt.scene.timestep * env_opt.substeps;
