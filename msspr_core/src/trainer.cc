@@ -110,8 +110,10 @@ class Trainer::Batches : public TrainingContext {
   ChunkBatch SampleChunks() override { return t_.SampleChunks(); }
   TransitionBatch SampleTransitions() override { return t_.SampleTransitions(); }
   TransitionBatch SampleOgbenchTransitions(int subgoal_steps) override {
+    // Pixels: representation.augment_prob's random shifts, as Ms.PR's batches get them.
     return t_.MakeTransitionBatch(
-        t_.sampler_->SampleOgbenchTransitions(t_.local_batch(), t_.rng_, subgoal_steps), false);
+        t_.sampler_->SampleOgbenchTransitions(t_.local_batch(), t_.rng_, subgoal_steps),
+        t_.options_.network.obs_mode == "pixels");
   }
   int64_t step() const override { return t_.step_; }
   torch::Tensor Noise(int64_t rows, int64_t cols) override {

@@ -631,6 +631,7 @@ TEST_P(BaselinePixels, EncodersPerNetworkResumeExactlyAndExport) {
   o.network.obs_dim = 0;
   o.network.action_dim = 0;
   o.network.cnn = "light";
+  o.representation.augment_prob = 0.5;  // random shifts, drawn from the resumed stream too
   o.trainer.steps = 6;
   o.trainer.precision = "bf16";
   auto data = point_square::ExpertImageDataset(10, 20, 1);
