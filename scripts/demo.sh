@@ -6,7 +6,9 @@
 #   DEMO_EPISODES=50 make demo       episodes per task (default 20)
 #   DEMO_TASKS_FILE=config/eval_tasks_medium_easy.yaml make demo   custom tasks
 #   MSSPR_DEMO_ENV=cube-single make demo   the URDF arm's cube-single (states; writes
-#                                          results.json and success.png)
+#                                          results.json and success.png); with
+#                                          MSSPR_DEMO_PIXELS=1 from the camera and a goal image
+#   MSSPR_DEMO_CHECKPOINT=FILE make demo   cube-single: serve FILE instead of the shipped one
 #   MSSPR_DEMO_ENV=antmaze-medium make demo  the ant on antmaze-medium (states; 1000 steps)
 #   MSSPR_DEMO_ROBOT=pointmaze_base make demo   (or ur5e_cube with MSSPR_DEMO_ENV=cube-single)
 #                                          over standard ROS messages through the robot
@@ -35,17 +37,23 @@ case "$ENV" in
     fi
     ;;
   cube-single)
-    if [ "$PIXELS" = true ] || [ -n "${DEMO_TASKS_FILE:-}" ]; then
-      echo "[demo] MSSPR_DEMO_ENV=cube-single serves the state checkpoint: no MSSPR_DEMO_PIXELS or DEMO_TASKS_FILE" >&2
+    if [ -n "${DEMO_TASKS_FILE:-}" ]; then
+      echo "[demo] MSSPR_DEMO_ENV=cube-single runs the cube's five tasks: no DEMO_TASKS_FILE" >&2
       exit 2
     fi
-    CKPT=msspr_policy_node/checkpoints/cube-single-state.pt
+    MODE=$([ "$PIXELS" = true ] && echo pixels || echo state)
+    CKPT=${MSSPR_DEMO_CHECKPOINT:-msspr_policy_node/checkpoints/cube-single-$MODE.pt}
     if [ ! -f "$CKPT" ]; then
       echo "[demo] no $CKPT" >&2
       exit 1
     fi
-    echo "[demo] cube-single (URDF arm): msspr_policy_node serving $CKPT (states), lockstep over ROS"
-    LAUNCH=(demo.launch env:=cube-single cube_checkpoint:="$(readlink -f "$CKPT")")
+    echo "[demo] cube-single (URDF arm): msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo "camera and goal images" || echo states)), lockstep over ROS"
+    LAUNCH=(demo.launch env:=cube-single pixels:="$PIXELS")
+    if [ "$PIXELS" = true ]; then
+      LAUNCH+=(cube_pixel_checkpoint:="$(readlink -f "$CKPT")")
+    else
+      LAUNCH+=(cube_checkpoint:="$(readlink -f "$CKPT")")
+    fi
     ;;
   antmaze-medium|antmaze-large)
     if [ "$PIXELS" = true ] || [ -n "${DEMO_TASKS_FILE:-}" ] || [ -n "${MSSPR_DEMO_ROBOT:-}" ]; then

@@ -48,6 +48,8 @@ std::string ReportJson(const MazeMap* map, const EvalReport& r) {
   j << std::fixed << std::setprecision(4);
   j << "{\n  \"env\": \"" << Escape(r.env) << "\",\n  \"agent\": \"" << Escape(r.agent) << "\",";
   if (!r.robot.empty()) j << "\n  \"robot\": \"" << Escape(r.robot) << "\",";
+  if (!r.observation_mode.empty())
+    j << "\n  \"observation_mode\": \"" << Escape(r.observation_mode) << "\",";
   j << "\n  \"episodes_per_task\": " << r.episodes_per_task << ",\n  \"max_steps\": " << r.max_steps
     << ",\n  \"seed\": " << r.seed << ",\n  \"tasks\": [\n";
   for (size_t i = 0; i < r.tasks.size(); ++i) {

@@ -50,6 +50,8 @@ Evaluates the agent that answers the sim's observations (lockstep), by OGBench's
   --agent NAME        label written into the results (default "agent")
   --robot NAME        the robot interface spec the agent is served through, written into the
                       results as "robot" (demo.launch robot:=NAME; default: none)
+  --observation-mode M  what the agent is served, state or pixels, written into the results
+                      as "observation_mode" (demo.launch pixels:=true; default: none)
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories drawn on the maze, 5 per task (default: none)
   --success-plot F    bar chart of success per task (PNG)
@@ -215,13 +217,16 @@ int main(int argc, char** argv) {
         argc, argv, std::set<std::string>{"help"},
         std::set<std::string>{"env", "maze", "tasks", "episodes", "max-steps", "seed", "agent",
                               "out", "plot", "success-plot", "step-timeout", "tasks-file", "sims",
-                              "sim-ns", "wait", "robot"});
+                              "sim-ns", "wait", "robot", "observation-mode"});
     if (args->Has("help")) {
       std::cout << kUsage;
       return 0;
     }
     if (!args->positional().empty())
       throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
+    if (const std::string m = args->Get("observation-mode", "");
+        !m.empty() && m != "state" && m != "pixels")
+      throw std::invalid_argument("--observation-mode must be state or pixels, got '" + m + "'");
     std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
     env = msspr::sim::ParseEnvFlag(args->Get("env", msspr::sim::EnvIdName(env)),
                                    args->Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
@@ -354,6 +359,7 @@ int main(int argc, char** argv) {
   report.env = msspr::sim::EnvLabel(env, maze);
   report.agent = args->Get("agent", "agent");
   report.robot = args->Get("robot", "");
+  report.observation_mode = args->Get("observation-mode", "");
   report.episodes_per_task = episodes;
   report.max_steps = max_steps;
   report.seed = seed;
