@@ -10,7 +10,9 @@
 #                                          MSSPR_DEMO_PIXELS=1 from the camera and a goal image
 #   MSSPR_DEMO_CHECKPOINT=FILE make demo   cube-single: serve FILE instead of the shipped one
 #   MSSPR_DEMO_ENV=antmaze-medium make demo  the ant on antmaze-medium (states; 1000 steps)
-#   MSSPR_DEMO_ROBOT=pointmaze_base make demo   (or ur5e_cube with MSSPR_DEMO_ENV=cube-single)
+#   MSSPR_DEMO_ROBOT=pointmaze_base make demo   (or ur5e_cube with MSSPR_DEMO_ENV=cube-single;
+#                                          a spec with a camera, pointmaze_camera or
+#                                          ur5e_cube_camera, serves the pixels checkpoint)
 #                                          over standard ROS messages through the robot
 #                                          spec config/robots/NAME.yaml (docs/bring_your_own_robot.md)
 set -euo pipefail
@@ -23,6 +25,10 @@ rm -f "$OUT/results.json"
 LOG=$OUT/roslaunch.log
 PIXELS=false
 [ "${MSSPR_DEMO_PIXELS:-0}" = 1 ] && PIXELS=true
+# A robot spec with a camera (images:) serves a pixels policy.
+if [ -n "${MSSPR_DEMO_ROBOT:-}" ] && grep -q '^images:' "config/robots/${MSSPR_DEMO_ROBOT}.yaml" 2>/dev/null; then
+  PIXELS=true
+fi
 ENV=${MSSPR_DEMO_ENV:-pointmaze}
 case "$ENV" in
   pointmaze)
