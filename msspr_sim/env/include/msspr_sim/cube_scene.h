@@ -44,6 +44,14 @@ struct CubeSceneOptions {
   // with; for 64 x 64 frames 512 looks the same and, on a software GL
   // (llvmpipe), doubles collection speed with images (42 -> 90 rows/s).
   int shadow_size = 512;
+  // Tessellation of the rounded geoms (cylinders, spheres) when rendered:
+  // slices and stacks per geom, quads per flat face (MuJoCo's defaults are
+  // 28 / 16 / 4). At 64 x 64 these frames differ from the defaults' by 0.4/255
+  // per pixel on average (edges only) and render 2.8x faster on a software GL
+  // (llvmpipe; 8.9 -> 3.2 ms per frame on an Intel Xeon).
+  int render_slices = 8;
+  int render_stacks = 4;
+  int render_quads = 1;
 
   // OGBench's pixel-mode look (visual-cube-single): robot visuals at alpha
   // 0.1, the gripper's black and pad materials purple, the pads at alpha 0.5,
