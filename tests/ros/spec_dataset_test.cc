@@ -343,8 +343,19 @@ TEST_F(SpecDatasetTest, UnstampedCommandsUnderLatencyAndJitterKeepTheirTicks) {
         ++wrong;
   EXPECT_LE(wrong, 10) << "of 1000 exported ticks with another command";
   EXPECT_EQ(std::count(terminals.begin(), terminals.end(), 1.f), 25);
-  EXPECT_EQ(core::ListNpzKeys(Path("j.npz")),
-            (std::vector<std::string>{"observations", "actions", "terminals", "timestamps"}));
+  EXPECT_EQ(
+      core::ListNpzKeys(Path("j.npz")),
+      (std::vector<std::string>{"observations", "actions", "terminals", "timestamps", "goals"}));
+  // The goal in effect at each tick: its episode's goal_pose (x, y in observation units).
+  core::NpyInfo gi;
+  const std::vector<float> goals = core::ReadNpzFloat(Path("j.npz"), "goals", &gi);
+  ASSERT_EQ(gi.shape, (std::vector<int64_t>{1000, 2}));
+  row = 0;
+  int wrong_goals = 0;
+  for (const auto& ep : eps)
+    for (int t = 0; t < ep.length; ++t, ++row)
+      if (goals[2 * row] != ep.goal[0] || goals[2 * row + 1] != ep.goal[1]) ++wrong_goals;
+  EXPECT_EQ(wrong_goals, 0) << "of 1000 exported ticks with another goal";
   // msspr_train trains on the export with the same steps as on the bag.
   const std::string config = Path("tiny.yaml");
   std::ofstream(config) << core::OptionsToYaml(core::testing_util::TinyOptions());

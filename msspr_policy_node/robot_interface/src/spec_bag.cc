@@ -25,15 +25,15 @@ namespace {
 // The bag topics of `names` (a spec's topics), resolved under `ns` (topic_names.h).
 // Throws BagError naming the bag, what of the spec reads the topics found under no
 // namespace (`whos`), the spec and the bag's topics when one is missing.
-std::vector<std::string> ResolveInBag(const std::vector<std::string>& names,
-                                      const std::vector<std::string>& whos,
-                                      const std::map<std::string, std::string>& bag_topics,
-                                      const std::string& ns, const std::string& path,
-                                      const std::string& spec_source) {
+TopicResolution ResolveInBag(const std::vector<std::string>& names,
+                             const std::vector<std::string>& whos,
+                             const std::map<std::string, std::string>& bag_topics,
+                             const std::string& ns, const std::string& path,
+                             const std::string& spec_source) {
   std::set<std::string> topics;
   for (const auto& [t, type] : bag_topics) topics.insert(t);
   try {
-    return ResolveSpecTopics(names, topics, ns).topics;
+    return ResolveSpecTopics(names, topics, ns);
   } catch (const std::invalid_argument& e) {
     std::string readers;
     for (size_t i = 0; i < names.size(); ++i) {
@@ -213,8 +213,8 @@ SpecBagReader::BagTopics SpecBagReader::ResolveTopics(
     want(c.topic, c.type, cmd_topics.size() == 1 ? "the action" : "the action on " + c.topic);
   for (const auto& im : spec.images) want(im.topic, im.type, "image '" + im.name + "'");
   if (spec.episodes.split_by == "topic") want(spec.episodes.topic, "", "the episodes");
-  const std::vector<std::string> resolved =
-      ResolveInBag(names, whos, bag_topics, ns_, path, spec.source);
+  const TopicResolution resolution = ResolveInBag(names, whos, bag_topics, ns_, path, spec.source);
+  const std::vector<std::string>& resolved = resolution.topics;
   for (size_t i = 0; i < names.size(); ++i) {
     const std::string& t = resolved[i];
     if (!types[i].empty() && bag_topics.at(t) != types[i])
@@ -251,6 +251,12 @@ SpecBagReader::BagTopics SpecBagReader::ResolveTopics(
   if (spec.episodes.split_by == "topic") {
     out.episode = resolve();
     out.episode_type = bag_topics.at(out.episode);
+  }
+  // A vector goal is read where the bag holds its topic (under the same namespace).
+  if (spec.goal.source != "image") {
+    const std::string goal = ResolveTopicName(resolution.ns, spec.goal.topic);
+    const auto it = bag_topics.find(goal);
+    if (it != bag_topics.end() && it->second == spec.goal.type) out.goal = goal;
   }
   return out;
 }
@@ -352,11 +358,30 @@ void SpecBagReader::ReadMessages(const std::string& path, bool first_bag, Record
   if (!tf_topic.empty()) query.push_back(tf_topic);
   if (!tf_static_topic.empty()) query.push_back(tf_static_topic);
   if (!episode_topic.empty()) query.push_back(episode_topic);
+  if (!topics.goal.empty()) query.push_back(topics.goal);
   try {
     rosbag::View view(bag, rosbag::TopicQuery(query));
     for (const rosbag::MessageInstance& m : view) {
       const std::string& topic = m.getTopic();
       const ros::Time receipt = m.getTime();
+      if (topic == topics.goal) {
+        // The goals, for the episodes' goal rows; a goal that does not decode is skipped.
+        std::vector<double> goal;
+        std::string why;
+        ros::Time stamp = receipt;
+        Dispatch(spec.goal.type, m, [&](const auto& msg) {
+          using M = std::decay_t<decltype(msg)>;
+          if constexpr (std::is_same_v<M, geometry_msgs::PoseStamped> ||
+                        std::is_same_v<M, std_msgs::Float64MultiArray>) {
+            const ros::Time h = HeaderStamp(msg);
+            if (!h.isZero()) stamp = h;
+            if (!DecodeGoal(spec, msg, &goal, &why)) goal.clear();
+          }
+        });
+        if (!goal.empty())
+          rec->goals.push_back({stamp, std::vector<float>(goal.begin(), goal.end())});
+        if (topic != episode_topic) continue;
+      }
       if (topic == episode_topic) {
         ros::Time stamp = receipt;
         Dispatch(episode_type, m, [&](const auto& msg) {

@@ -3,6 +3,7 @@
 // each tick, the per-bag usage). The first half, reading the bags, is spec_bag.cc.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,6 +14,30 @@
 namespace msspr::ros_bridge {
 
 using spec_bag_internal::Stamp;
+
+namespace {
+
+// ep->goals: at each tick t0 + t * step_period, the last goal stamped at or before it
+// (within `tolerance` after, as the observations), NaN before the first. `goals` is
+// in time order; nothing when it is empty.
+void FillGoals(const std::vector<std::pair<ros::Time, std::vector<float>>>& goals, int obs_dim,
+               double tolerance, BagEpisode* ep) {
+  if (goals.empty()) return;
+  ep->goals.assign(static_cast<size_t>(ep->num_steps) * obs_dim,
+                   std::numeric_limits<float>::quiet_NaN());
+  size_t next = 0;  // the first goal after the current tick
+  const std::vector<float>* current = nullptr;
+  for (int t = 0; t < ep->num_steps; ++t) {
+    const double tick = ep->t0 + t * ep->step_period + tolerance;
+    while (next < goals.size() && goals[next].first.toSec() <= tick)
+      current = &goals[next++].second;
+    if (current && static_cast<int>(current->size()) == obs_dim)
+      std::copy(current->begin(), current->end(),
+                ep->goals.begin() + static_cast<size_t>(t) * obs_dim);
+  }
+}
+
+}  // namespace
 
 std::vector<std::pair<ros::Time, ros::Time>> SpecBagReader::EpisodeSpans(Recording* rec) {
   const RobotSpec& spec = spec_;
@@ -166,6 +191,8 @@ void SpecBagReader::EmitEpisodes(Recording* rec, uint64_t* next_id,
   const double dt = 1.0 / spec.control_rate;
   const int obs_dim = spec.obs_dim(), act_dim = spec.action_dim();
   std::vector<float> obs, act(static_cast<size_t>(act_dim), 0.f);
+  std::stable_sort(rec->goals.begin(), rec->goals.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
   for (const auto& [begin, last] : episodes) {
     BagEpisode ep;
     ep.meta.episode_id = (*next_id)++;
@@ -294,6 +321,7 @@ void SpecBagReader::EmitEpisodes(Recording* rec, uint64_t* next_id,
       ep.problems.push_back(who + std::to_string(missing_img) +
                             " ticks without a fresh image (first: " + first_img_why + ")");
     for (const auto& p : ep.problems) report_.problems.push_back(p);
+    FillGoals(rec->goals, obs_dim, spec.tolerance, &ep);
     fn(std::move(ep));
   }
   // Commands without stamps counted for another tick than the one they arrived in.

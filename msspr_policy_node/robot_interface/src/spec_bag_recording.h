@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "msspr_robot_interface/robot_fields.h"
@@ -29,7 +30,9 @@ struct SpecBagReader::Recording {
   std::vector<RobotSpec::CommandTopic> cmd_topics;
   std::vector<TopicHistory> histories, commands, images;  // per observation topic, command, camera
   std::vector<ros::Time> boundaries;                      // episode-topic messages
-  std::vector<uint8_t> last_episode_message;              // its bytes (latched repeats)
+  // A vector goal's messages (stamp, or receipt when unstamped; full goal observations).
+  std::vector<std::pair<ros::Time, std::vector<float>>> goals;
+  std::vector<uint8_t> last_episode_message;  // its bytes (latched repeats)
   tf2::BufferCore tf_buffer;
   struct Bag {
     std::string path;

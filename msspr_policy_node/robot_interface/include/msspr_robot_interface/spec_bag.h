@@ -7,7 +7,9 @@
 // episodes' images (decoded and resized by robot_fields.h DecodeImage, as the
 // policy node does when serving); bad images are rejected and counted. Ticks
 // whose inputs are missing or stale are absent and split the episode (never
-// bridged).
+// bridged). A pose or observation goal whose topic the bags hold is recorded
+// too: each episode's goals hold the goal in effect at each tick (for the
+// export; training relabels goals from the trajectories and needs none).
 #pragma once
 
 #include <ros/time.h>
@@ -92,6 +94,7 @@ class SpecBagReader {
     std::vector<std::string> obs;  // per layout topic ("" for tf2 fields)
     std::vector<std::string> commands, images;
     std::string tf, tf_static, episode, episode_type;
+    std::string goal;  // a vector goal's topic when the bag holds it ("" otherwise)
   };
   BagTopics ResolveTopics(const std::string& path,
                           const std::map<std::string, std::string>& bag_topics,

@@ -31,17 +31,19 @@ void PrintProblems(const std::vector<std::string>& problems, long max_problems) 
 
 // The per-tick dataset a spec extracts, in OGBench's .npz layout (--export).
 struct Export {
-  std::vector<float> observations, actions, terminals;
+  std::vector<float> observations, actions, terminals, goals;
   std::vector<double> timestamps;
   std::vector<uint8_t> images;
   int obs_dim = 0, act_dim = 0, image_size = 0;
   int64_t steps = 0;
+  bool with_goals = true;  // every episode so far had goal rows
 
   // Appends the episode's complete runs of steps (Segments), each one trajectory.
   void Add(const msspr::ros_bridge::BagEpisode& ep) {
     obs_dim = ep.obs_dim;
     act_dim = ep.act_dim;
     image_size = ep.image_size;
+    with_goals = with_goals && !ep.goals.empty();
     const size_t image_bytes = static_cast<size_t>(ep.image_size) * ep.image_size * 3;
     for (const auto& [b, e] : ep.Segments()) {
       for (int t = b; t < e; ++t) {
@@ -50,6 +52,9 @@ struct Export {
         actions.insert(actions.end(), ep.actions.begin() + t * ep.act_dim,
                        ep.actions.begin() + (t + 1) * ep.act_dim);
         terminals.push_back(t == e - 1 ? 1.f : 0.f);
+        if (with_goals)
+          goals.insert(goals.end(), ep.goals.begin() + t * ep.obs_dim,
+                       ep.goals.begin() + (t + 1) * ep.obs_dim);
         timestamps.push_back(ep.t0 + t * ep.step_period);
         if (image_bytes)
           images.insert(images.end(), ep.images.begin() + t * image_bytes,
@@ -60,8 +65,10 @@ struct Export {
   }
 
   // Writes observations [N, obs_dim] and actions [N, action_dim] float32, terminals [N]
-  // float32 (1 on each trajectory's last step), timestamps [N] float64 (s, the ticks)
-  // and, with a camera, images [N, S, S, 3] uint8. Throws on failure.
+  // float32 (1 on each trajectory's last step), timestamps [N] float64 (s, the ticks),
+  // with a camera images [N, S, S, 3] uint8, and with a recorded pose or observation
+  // goal goals [N, obs_dim] float32 (the goal in effect at each tick, NaN before the
+  // first). Throws on failure.
   void Write(const std::string& path) const {
 #ifdef MSSPR_BAG_INFO_EXPORT
     using msspr::core::NpyArray;
@@ -77,6 +84,9 @@ struct Export {
     if (image_size)
       arrays.push_back(
           {"images", "|u1", {steps, image_size, image_size, 3}, images.data(), images.size()});
+    if (with_goals && steps > 0)
+      arrays.push_back(
+          {"goals", "<f4", {steps, obs_dim}, goals.data(), sizeof(float) * goals.size()});
     msspr::core::SaveNpzArrays(path, arrays);
 #else
     throw std::runtime_error("--export " + path +

@@ -106,6 +106,10 @@ struct BagEpisode {
   std::vector<float> actions;       // [num_steps, act_dim]
   std::vector<uint8_t> images;      // [num_steps, image_size, image_size, 3] or empty
   std::vector<uint8_t> has_obs, has_action, has_image;  // [num_steps] 0/1
+  // Robot bags through a spec with a pose or observation goal on a recorded topic:
+  // the goal in effect at each step [num_steps, obs_dim], NaN before the first;
+  // empty otherwise.
+  std::vector<float> goals;
   std::vector<std::string> problems;  // human-readable, empty when the episode is whole
   // Step t's time is t0 + t * step_period (s; a robot's bags through a spec: its ticks).
   // 0 / 0 when unknown (msspr dataset bags number their steps).
