@@ -210,8 +210,8 @@ class Generator {
       << "    <headlight diffuse=\"0.6 0.6 0.6\" ambient=\"0.1 0.1 0.1\" specular=\"0 0 0\"/>\n"
       << "    <map znear=\"0.1\" zfar=\"10\"/>\n"
       << "    <quality shadowsize=\"" << options_.shadow_size << "\" numslices=\""
-      << options_.render_slices << "\" numstacks=\"" << options_.render_stacks
-      << "\" numquads=\"" << options_.render_quads << "\"/>\n"
+      << options_.render_slices << "\" numstacks=\"" << options_.render_stacks << "\" numquads=\""
+      << options_.render_quads << "\"/>\n"
       << "  </visual>\n"
       << "  <asset>\n"
       << "    <texture name=\"grid\" type=\"2d\" builtin=\"checker\" rgb1=\"0.08 0.11 0.16\""

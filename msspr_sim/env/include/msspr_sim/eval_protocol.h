@@ -30,7 +30,7 @@ struct TaskResult {
 struct EvalReport {
   std::string env;  // "pointmaze-medium"
   std::string agent;
-  std::string robot;  // the robot interface spec served through ("": msspr's own topics)
+  std::string robot;             // the robot interface spec served through ("": msspr's own topics)
   std::string observation_mode;  // what the agent was served: "state", "pixels" ("": unstated)
   int episodes_per_task = 0, max_steps = 1000;
   uint64_t seed = 0;
