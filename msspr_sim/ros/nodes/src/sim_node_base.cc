@@ -31,6 +31,7 @@ void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* 
   o->num_episodes = param("num_episodes", o->num_episodes);
   o->val_episodes = param("val_episodes", o->val_episodes);
   o->shutdown_when_done = param("shutdown_when_done", o->shutdown_when_done);
+  o->episode_gap = param("episode_gap", o->episode_gap);
   o->wait_for_subscribers = param("wait_for_subscribers", o->wait_for_subscribers);
   o->seed = param("seed", o->seed);
   auto bad = [](const std::string& name, const std::string& rule, const auto& v) {
@@ -55,6 +56,8 @@ void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* 
   if (o->episode_length < 2) bad("episode_length", ">= 2", o->episode_length);
   if (o->num_episodes < 0) bad("num_episodes", ">= 0 (0: unbounded)", o->num_episodes);
   if (o->val_episodes < 0) bad("val_episodes", ">= 0", o->val_episodes);
+  if (!(o->episode_gap >= 0 && o->episode_gap <= 3600))
+    bad("episode_gap", "in 0..3600 (s)", o->episode_gap);
   if (o->wait_for_subscribers < 0) bad("wait_for_subscribers", ">= 0", o->wait_for_subscribers);
   if (o->seed < 0) bad("seed", ">= 0", o->seed);
 }
@@ -214,6 +217,8 @@ bool SimNodeBase::NextAutoEpisode() {
   }
   const std::string split =
       common_.num_episodes > 0 && next >= common_.num_episodes ? "val" : "train";
+  if (next > 0 && common_.episode_gap > 0)  // the gap in sim time between two episodes
+    tick_ += static_cast<uint64_t>(std::ceil(common_.episode_gap / control_dt_ - 1e-9));
   StartCollectionEpisode(
       sim::EpisodeSeed(static_cast<uint64_t>(common_.seed), static_cast<uint64_t>(next)), split);
   return true;

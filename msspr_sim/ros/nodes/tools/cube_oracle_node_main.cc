@@ -5,7 +5,13 @@
 // and the oracle rostest drive. ~mode play: OGBench's play
 // oracle (random targets, noise 0.1), the agent of a live collection
 // (launch/collect.launch env:=cube-single, the sim in collection mode).
+// ~command action (default): msspr/Action on action; standard: the arm's
+// standard commands, as config/robots/ur5e_cube.yaml reads them, a
+// geometry_msgs/TwistStamped on ee_twist (kCubeEeSpeed, kCubeEeYawRate) and a
+// std_msgs/Float64MultiArray on gripper_command (collect.launch robot:=ur5e_cube).
+#include <geometry_msgs/TwistStamped.h>
 #include <ros/ros.h>
+#include <std_msgs/Float64MultiArray.h>
 
 #include <cmath>
 #include <memory>
@@ -16,6 +22,7 @@
 #include "msspr_bridge/msg_conversion.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim_nodes/cube_goal_oracle.h"
+#include "msspr_sim_nodes/cube_sim_node.h"
 
 namespace {
 
@@ -34,14 +41,24 @@ class CubeOracleNode {
     if (!(noise >= 0 && std::isfinite(noise)))
       throw std::invalid_argument("~noise_scale must be >= 0");
     pnh.param("seed", seed_, 0);
-    ROS_INFO_STREAM("msspr_cube_oracle_node parameters:\n  urdf: " << urdf << "\n  mode: " << mode
-                                                                   << "\n  noise_scale: " << noise
-                                                                   << "\n  seed: " << seed_);
+    std::string command = "action";
+    pnh.param<std::string>("command", command, command);
+    if (command != "action" && command != "standard")
+      throw std::invalid_argument("~command must be action or standard, got '" + command + "'");
+    standard_ = command == "standard";
+    ROS_INFO_STREAM("msspr_cube_oracle_node parameters:\n  urdf: "
+                    << urdf << "\n  mode: " << mode << "\n  noise_scale: " << noise
+                    << "\n  seed: " << seed_ << "\n  command: " << command);
     auto opt = msspr::ros_bridge::CubeGoalOracle::NoNoise();
     opt.noise_scale = noise;
     oracle_ = std::make_unique<msspr::ros_bridge::CubeGoalOracle>(
         urdf, static_cast<uint64_t>(seed_), opt);
-    action_pub_ = nh_.advertise<msspr::Action>("action", 10);
+    if (standard_) {
+      twist_pub_ = nh_.advertise<geometry_msgs::TwistStamped>("ee_twist", 10);
+      grip_pub_ = nh_.advertise<std_msgs::Float64MultiArray>("gripper_command", 10);
+    } else {
+      action_pub_ = nh_.advertise<msspr::Action>("action", 10);
+    }
     obs_sub_ = nh_.subscribe("observation", 10, &CubeOracleNode::OnObservation, this,
                              ros::TransportHints().tcpNoDelay());
   }
@@ -72,6 +89,19 @@ class CubeOracleNode {
                     : oracle_->Act(obs->state.data(), obs->goal.data());
     }
     const auto& a = last_;
+    if (standard_) {  // the command for this observation's step, stamped with its time
+      geometry_msgs::TwistStamped t;
+      t.header.stamp = obs->header.stamp;
+      t.twist.linear.x = a[0] * msspr::ros_bridge::kCubeEeSpeed;
+      t.twist.linear.y = a[1] * msspr::ros_bridge::kCubeEeSpeed;
+      t.twist.linear.z = a[2] * msspr::ros_bridge::kCubeEeSpeed;
+      t.twist.angular.z = a[3] * msspr::ros_bridge::kCubeEeYawRate;
+      std_msgs::Float64MultiArray g;
+      g.data = {a[4]};
+      grip_pub_.publish(g);
+      twist_pub_.publish(t);
+      return;
+    }
     msspr::Action m;
     m.header.stamp = obs->header.stamp;
     m.episode_id = obs->episode_id;
@@ -81,11 +111,11 @@ class CubeOracleNode {
   }
 
   ros::NodeHandle nh_;
-  ros::Publisher action_pub_;
+  ros::Publisher action_pub_, twist_pub_, grip_pub_;
   ros::Subscriber obs_sub_;
   std::unique_ptr<msspr::ros_bridge::CubeGoalOracle> oracle_;
   int seed_ = 0;
-  bool play_ = false;
+  bool play_ = false, standard_ = false;
   int64_t episode_ = -1, step_ = -1;
   msspr::sim::CubeEnv::Action last_{};
 };

@@ -108,6 +108,10 @@ class CubeSimNode : public SimNodeBase {
   void StartCollectionEpisode(uint64_t seed, const std::string& split) override;
   void StartInitialEpisode() override;
   uint32_t StandardCommandPublishers() const override { return ee_twist_sub_.getNumPublishers(); }
+  // A recorder of the arm's standard topics counts as an observation subscriber.
+  uint32_t StandardObservationSubscribers() const override {
+    return joint_state_pub_.getNumSubscribers();
+  }
   void OnEeTwist(const geometry_msgs::TwistStamped::ConstPtr& msg);
   void OnGripperCommand(const std_msgs::Float64MultiArray::ConstPtr& msg);
   // Pairs the k-th twist with the k-th gripper command (each topic arrives in

@@ -50,6 +50,10 @@ struct SimNodeCommonOptions {
   int num_episodes = 0;  // 0: unbounded
   int val_episodes = 0;  // extra episodes tagged split "val"
   bool shutdown_when_done = true;
+  // Sim time (s) skipped between collection episodes: the next episode's messages are
+  // stamped that much after the last one's, so that a recording of standard topics
+  // split by a gap (a robot spec's episodes: split_by gap) finds every episode.
+  double episode_gap = 0.0;
   int wait_for_subscribers = 0;  // observation subscribers before starting
   int seed = 0;
 };
