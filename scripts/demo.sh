@@ -50,7 +50,7 @@ case "$ENV" in
     MODE=$([ "$PIXELS" = true ] && echo pixels || echo state)
     CKPT=${MSSPR_DEMO_CHECKPOINT:-msspr_policy_node/checkpoints/cube-single-$MODE.pt}
     if [ ! -f "$CKPT" ]; then
-      echo "[demo] no $CKPT" >&2
+      echo "[demo] no $CKPT$([ "$PIXELS" = true ] && [ -z "${MSSPR_DEMO_CHECKPOINT:-}" ] && echo ": give a pixels checkpoint of the arm with MSSPR_DEMO_CHECKPOINT=FILE (one trained with config/cube_pixels_cpu.yaml)")" >&2
       exit 1
     fi
     echo "[demo] cube-single (URDF arm): msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo "camera and goal images" || echo states)), lockstep over ROS"
