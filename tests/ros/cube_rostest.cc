@@ -273,6 +273,42 @@ TEST(CubeEvalRobot, ServedThroughTheSpecReachesGoals) {
   std::remove(json.c_str());
 }
 
+// The same in real time (policy_robot_cube_realtime.test: the sim steps at 20 Hz of wall
+// time, the policy node acts on its own clock, as on a robot): the pinch point comes from
+// tf2 (world -> pinch_controller) at each tick, and the node serves it fresh. Over one
+// episode of task 2 the policy's own commands (not stop commands for stale inputs) cover
+// at least 80% of the episode's ticks, and the episode ends (by success or the step
+// limit) without a stall.
+TEST(CubeEvalRobot, RealtimeServesTf2FieldsFresh) {
+  RosTestHelper h;
+  const char* kStatus = ": robot ur5e_cube";
+  ASSERT_TRUE(h.WaitFor([&] { return !std::isnan(h.DiagNumber(kStatus, "commands")); }, 30.0))
+      << "no /diagnostics from the policy node";
+  const double commands0 = h.DiagNumber(kStatus, "commands");
+  const double stops0 = h.DiagNumber(kStatus, "stop_commands");
+  const std::string json = "/tmp/msspr_cube_robot_rt_" + std::to_string(getpid()) + ".json";
+  std::string j;
+  ASSERT_NO_FATAL_FAILURE(
+      RunEval("--env cube-single --episodes 1 --tasks 2 --agent msspr-cube-state --robot ur5e_cube",
+              json, &j));
+  std::remove(json.c_str());
+  EXPECT_NE(j.find("\"stalled_episodes\": 0"), std::string::npos) << j;
+  // The episode's ticks: to its success, or the 200-step limit.
+  const size_t s_at = j.find("\"success\": "), m_at = j.find("\"mean_steps_successful\": ");
+  ASSERT_TRUE(s_at != std::string::npos && m_at != std::string::npos) << j;
+  const double ticks =
+      std::stod(j.substr(s_at + 11)) > 0.5 ? std::stod(j.substr(m_at + 25)) : 200.0;
+  const double before = ros::WallTime::now().toSec();
+  ASSERT_TRUE(h.WaitFor([&] { return ros::WallTime::now().toSec() - before > 1.5; }, 5.0));
+  // The policy's own commands (not stops); once the episode ends the inputs go stale and
+  // the node sends only stop commands.
+  const double commands = h.DiagNumber(kStatus, "commands") - commands0;
+  const double stops = h.DiagNumber(kStatus, "stop_commands") - stops0;
+  std::printf("real time through ur5e_cube: %.0f ticks, %.0f commands, %.0f stop commands\n", ticks,
+              commands, stops);
+  EXPECT_GE(commands - stops, 0.8 * ticks) << "stops " << stops;
+}
+
 #if defined(MSSPR_BAG_INFO_EXE) && defined(MSSPR_TRAIN_EXE)
 // A robot under a namespace: the arm's standard topics (/msspr/joint_states beside
 // /msspr/gripper/joint_states, the cube's pose, tf, the goal and both commands), recorded
