@@ -14,8 +14,11 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
+#include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -183,9 +186,19 @@ void WriteRunRecord(const std::string& path, const RunRecord& r) {
   WriteTextAtomically(path, std::string(out.c_str()) + "\n");
 }
 
-}  // namespace
+// A usage error: the program prints the message and exits with 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
-int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
+// What the command line asks for.
+struct CliRequest {
+  RunRecord given;  // the valued flags and --config files as given
+  bool help = false, resume = false, print_options = false, quiet = false;
+};
+
+// Reads argv; throws cli::CliError for an unknown argument or a missing value.
+CliRequest ParseCommandLine(int argc, char** argv, const TrainCliExtensions& ext) {
   static const std::set<std::string> kValued = {"data",         "val",
                                                 "out",          "preset",
                                                 "agent",        "scale",
@@ -197,301 +210,364 @@ int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
                                                 "time-limit",   "threads",
                                                 "world-size",   "rank",
                                                 "master",       "dist-timeout"};
-  RunRecord given;
-  bool resume = false, print_options = false, quiet = false;
+  CliRequest req;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const std::string key = a.rfind("--", 0) == 0 ? a.substr(2) : "";
+    if (a == "--help" || a == "-h") {
+      req.help = true;
+      return req;
+    } else if (a == "--resume") {
+      req.resume = true;
+    } else if (a == "--print-options") {
+      req.print_options = true;
+    } else if (a == "--quiet") {
+      req.quiet = true;
+    } else if (kValued.count(key) || key == "config" || ext.extra_options.count(key)) {
+      if (i + 1 >= argc) throw cli::CliError("missing value after " + a);
+      if (key == "config")
+        req.given.configs.push_back(argv[++i]);
+      else
+        req.given.flags[key] = argv[++i];
+    } else if (a.find(":=") == std::string::npos) {  // (ROS remappings: rosrun, roslaunch)
+      throw cli::CliError("unknown argument '" + a + "' (see --help)");
+    }
+  }
+  return req;
+}
+
+// The data-parallel group: flags over torchrun's environment variables. Throws
+// cli::CliError or DistributedError.
+DistributedOptions ParseDistributed(const std::map<std::string, std::string>& flags) {
+  DistributedOptions d = DistributedOptions::FromEnvironment();
+  d.timeout_s = 1800;
+  auto has = [&](const char* k) { return flags.count(k) > 0; };
+  if (has("world-size"))
+    d.world_size = static_cast<int>(cli::ParseInt("world-size", flags.at("world-size"), 1, 4096));
+  if (has("rank")) d.rank = static_cast<int>(cli::ParseInt("rank", flags.at("rank"), 0, 4095));
+  if (has("master")) {
+    const std::string m = flags.at("master");
+    const size_t colon = m.rfind(':');
+    if (colon == std::string::npos || colon == 0)
+      throw cli::CliError("--master: expected HOST:PORT, got '" + m + "'");
+    d.master_addr = m.substr(0, colon);
+    d.master_port = static_cast<int>(cli::ParseInt("master port", m.substr(colon + 1), 1, 65535));
+  }
+  if (has("dist-timeout"))
+    d.timeout_s =
+        static_cast<double>(cli::ParseInt("dist-timeout", flags.at("dist-timeout"), 1, 1 << 30));
+  d.Validate();
+  return d;
+}
+
+// The run directory: its lock (held until the run returns) and the flags in force,
+// the saved run's on --resume with the allowed changes. Throws UsageError for a
+// --resume that does not fit the saved run, or an --out that holds another run.
+struct RunDir {
+  std::string out_dir, ckpt, run_file;
+  std::unique_ptr<RunDirLock> lock;
+  RunRecord run;
+  bool have_checkpoint = false;
+};
+
+RunDir OpenRunDir(const CliRequest& req, bool follower) {
+  RunDir d;
+  const RunRecord& given = req.given;
+  d.out_dir = given.flags.count("out") ? given.flags.at("out") : "";
+  d.ckpt = d.out_dir + "/checkpoint.ckpt";
+  d.run_file = d.out_dir + "/run.yaml";
+  d.run = given;
+  for (const char* k : {"data", "val"})
+    if (d.run.flags.count(k)) d.run.flags[k] = Absolute(d.run.flags[k]);
+  for (auto& c : d.run.configs) c = Absolute(c);
+  // --resume of a directory that is not there: refused below, without creating it.
+  if (!d.out_dir.empty() && !req.print_options &&
+      (!req.resume || std::filesystem::is_directory(d.out_dir))) {
+    if (!follower) {  // ranks other than 0 read the directory but never write to it
+      std::filesystem::create_directories(d.out_dir);
+      d.lock = std::make_unique<RunDirLock>(d.out_dir);
+    }
+    d.have_checkpoint = FileExists(d.ckpt) || FileExists(d.ckpt + ".prev");
+  }
+  if (req.resume) {
+    if (d.out_dir.empty()) throw UsageError("--resume needs --out DIR");
+    const bool have_record = FileExists(d.run_file);
+    if (!have_record && !d.have_checkpoint)
+      throw UsageError("--resume: " + d.out_dir +
+                       " holds no run (no run.yaml, no checkpoint.ckpt)");
+    if (have_record) {
+      RunRecord saved = ReadRunRecord(d.run_file);
+      for (const auto& [k, v] : d.run.flags) {
+        if (kResumeMayChange.count(k) || k == "out") continue;
+        auto it = saved.flags.find(k);
+        if (it == saved.flags.end() || it->second != v)
+          throw UsageError("--resume: --" + k + " " + given.flags.at(k) +
+                           " differs from the run in " + d.run_file + " (" +
+                           (it == saved.flags.end() ? "not given" : it->second) + ")" +
+                           kResumeRule);
+      }
+      if (!given.configs.empty() && d.run.configs != saved.configs)
+        throw UsageError("--resume: --config differs from the run in " + d.run_file + kResumeRule);
+      for (const auto& [k, v] : d.run.flags) saved.flags[k] = v;
+      d.run = saved;
+    }
+  } else if (!follower && !d.out_dir.empty() && !req.print_options &&
+             (d.have_checkpoint || FileExists(d.run_file))) {
+    throw UsageError(
+        d.out_dir + " already holds a training run (" + (d.have_checkpoint ? d.ckpt : d.run_file) +
+        "); continue it with --resume --out " + d.out_dir + ", or choose another --out");
+  }
+  return d;
+}
+
+// The numeric flags in force (-1: not given; threads 0: torch's choice). Throws cli::CliError.
+struct NumericFlags {
+  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1,
+            export_every = -1, log_every = -1, time_limit = -1;
+};
+
+NumericFlags ParseNumbers(const std::map<std::string, std::string>& flags) {
+  NumericFlags n;
+  auto number = [&](const std::string& k, long long lo, long long hi, long long* v) {
+    if (flags.count(k)) *v = cli::ParseInt(k, flags.at(k), lo, hi);
+  };
+  number("steps", 0, 1LL << 40, &n.steps);
+  number("batch", 1, 1 << 20, &n.batch);
+  number("seed", 0, LLONG_MAX, &n.seed);
+  number("eval-every", 0, INT_MAX, &n.eval_every);
+  number("checkpoint-every", 0, INT_MAX, &n.ckpt_every);
+  number("export-every", 0, INT_MAX, &n.export_every);
+  number("log-every", 1, INT_MAX, &n.log_every);
+  number("time-limit", 0, 1LL << 40, &n.time_limit);
+  number("threads", 0, 4096, &n.threads);
+  return n;
+}
+
+// The options of the run: the checkpoint's on a resume from one, else the preset
+// (--agent / --preset), --scale and the --config files; then the flags over them.
+// "auto" precision is decided here, on this machine (options.yaml and the
+// checkpoint record the result; *precision_why says why). Throws UsageError.
+MsprOptions RunOptions(const RunRecord& run, bool from_checkpoint, const std::string& ckpt,
+                       const NumericFlags& n, std::string* precision_why) {
+  auto flag = [&run](const std::string& k) {
+    return run.flags.count(k) ? run.flags.at(k) : std::string();
+  };
+  MsprOptions options;
+  if (from_checkpoint) {
+    options = ReadCheckpointOptions(ckpt);
+  } else {
+    std::vector<std::string> notes;
+    std::string preset = flag("preset");
+    if (const std::string agent = flag("agent"); !agent.empty()) {
+      const std::vector<std::string> agents = AgentNames();
+      if (std::find(agents.begin(), agents.end(), agent) == agents.end())
+        throw UsageError("--agent: unknown agent '" + agent +
+                         "' (expected mspr, gcbc, gcivl, gciql, qrl, crl or hiql)");
+      const std::vector<std::string> mspr_presets{"mspr", "D", "DI", "DIR"};
+      const bool preset_is_mspr =
+          std::find(mspr_presets.begin(), mspr_presets.end(), preset) != mspr_presets.end();
+      if (!preset.empty() && (agent == "mspr" ? !preset_is_mspr : preset != agent))
+        throw UsageError("--agent " + agent + " conflicts with --preset " + preset);
+      if (agent != "mspr") preset = agent;
+    }
+    options = ResolveOptions(preset, flag("scale"), run.configs, &notes);
+    for (const std::string& note : notes) std::cerr << "msspr_train: " << note << "\n";
+  }
+  TrainerOptions& t = options.trainer;
+  if (n.steps >= 0) t.steps = n.steps;
+  if (n.batch > 0) t.batch_size = static_cast<int>(n.batch);
+  if (!flag("device").empty()) t.device = flag("device");
+  if (!flag("precision").empty()) t.precision = flag("precision");
+  if (n.seed >= 0 && !from_checkpoint) t.seed = static_cast<uint64_t>(n.seed);
+  if (n.eval_every >= 0) t.eval_every = static_cast<int>(n.eval_every);
+  if (n.ckpt_every >= 0) t.checkpoint_every = static_cast<int>(n.ckpt_every);
+  if (n.export_every >= 0) t.export_every = static_cast<int>(n.export_every);
+  if (n.log_every > 0) t.log_every = static_cast<int>(n.log_every);
+  if (n.time_limit >= 0) t.time_limit_s = static_cast<double>(n.time_limit);
+  if (!flag("obs-mode").empty()) options.network.obs_mode = flag("obs-mode");
+  t.precision = EffectivePrecision(t, precision_why);
+  return options;
+}
+
+// Validation losses on the same fixed batches each time, then the extra (simulator)
+// evaluator; empty when there is neither.
+Evaluator CombinedEvaluator(Trainer& trainer, std::shared_ptr<const Dataset> val,
+                            Evaluator sim_eval) {
+  if (!val && !sim_eval) return Evaluator();
+  const int b = std::min(trainer.options().trainer.batch_size, 1024);
+  return [&trainer, val, b, sim_eval](Policy& policy, int64_t step) -> EvalResult {
+    EvalResult r;
+    if (val)
+      for (const auto& kv : trainer.ValidationLosses(*val, b, 12345).Named())
+        r.emplace_back("val_" + kv.first, kv.second);
+    if (sim_eval)
+      for (auto& kv : sim_eval(policy, step)) r.push_back(std::move(kv));
+    return r;
+  };
+}
+
+// Loads, trains and reports a run whose directory and options are settled.
+// Returns the exit status; throws cli::CliError, UsageError and std::exception.
+int TrainRun(const CliRequest& req, const RunDir& dir, const DistributedOptions& dist_options,
+             const TrainCliExtensions& ext) {
+  const bool follower = dist_options.enabled() && dist_options.rank != 0;
+  const RunRecord& run = dir.run;
+  auto flag = [&run](const std::string& k) {
+    return run.flags.count(k) ? run.flags.at(k) : std::string();
+  };
+  const NumericFlags n = ParseNumbers(run.flags);
+  const std::string precision = flag("precision");
+  if (!precision.empty() && precision != "fp32" && precision != "bf16" && precision != "auto")
+    throw UsageError("--precision must be fp32, bf16 or auto, got '" + precision + "'");
+  std::map<std::string, std::string> extra;
+  for (const auto& k : ext.extra_options)
+    if (run.flags.count(k)) extra[k] = run.flags.at(k);
+  if (n.threads > 0) torch::set_num_threads(static_cast<int>(n.threads));
+  const bool from_checkpoint = req.resume && dir.have_checkpoint;
+  std::string precision_why;
+  MsprOptions options = RunOptions(run, from_checkpoint, dir.ckpt, n, &precision_why);
+  const std::string data_path = flag("data"), val_path = flag("val");
+  if (req.print_options && data_path.empty()) {
+    std::cout << OptionsToYaml(options);
+    return 0;
+  }
+  if (data_path.empty())
+    throw UsageError(std::string("--data FILE is required (see --help)") +
+                     (req.resume ? "; " + dir.run_file + " has none either" : ""));
+  if (dir.out_dir.empty() && !req.print_options)
+    throw UsageError("--out DIR is required (see --help)");
+
+  auto load = [&](const std::string& path, bool validation) -> std::shared_ptr<const Dataset> {
+    if (ext.load_dataset) {
+      auto d = ext.load_dataset(path, validation, options);
+      if (d) return d;
+    }
+    return std::make_shared<const Dataset>(LoadNpzDataset(path));
+  };
+  auto data = load(data_path, false);
+  std::cerr << ext.program << ": " << data_path << ": " << data->size() << " steps, "
+            << data->num_trajectories() << " trajectories, obs_dim " << data->obs_dim()
+            << (data->has_images() ? ", images" : "") << ", action_dim " << data->action_dim()
+            << "\n";
+  if (flag("obs-mode").empty() && !data->has_states()) options.network.obs_mode = "pixels";
+
+  Trainer trainer(options, data);
+  if (req.print_options) {
+    std::cout << OptionsToYaml(trainer.options());
+    return 0;
+  }
+  if (dist_options.enabled()) {
+    auto dist = std::make_shared<Distributed>(dist_options,
+                                              torch::Device(trainer.options().trainer.device));
+    trainer.SetDistributed(dist);
+    std::cerr << ext.program << ": rank " << dist->rank() << " of " << dist->world_size() << " ("
+              << dist->backend() << ", master " << dist_options.master_addr << ":"
+              << dist_options.master_port << "): batch " << trainer.local_batch() << " of "
+              << trainer.options().trainer.batch_size << "\n";
+  }
+  // Once the data has loaded: from here on --resume --out DIR needs nothing else.
+  if (!follower) WriteRunRecord(dir.run_file, run);
+  if (from_checkpoint) {
+    trainer.LoadCheckpoint(dir.ckpt);
+    std::cerr << ext.program << ": resumed " << dir.ckpt << " at step " << trainer.step() << "\n";
+  } else if (req.resume) {
+    std::cerr << ext.program << ": resumed " << dir.out_dir
+              << " before its first checkpoint: from step 0\n";
+  }
+  // The resolved options, for the record.
+  if (!follower) {
+    WriteTextAtomically(dir.out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
+    WriteTextAtomically(dir.out_dir + "/host.yaml", HostRecord(precision_why));
+  }
+  std::cerr << ext.program << ": precision " << trainer.options().trainer.precision << " ("
+            << precision_why << "), " << torch::get_num_threads() << " torch thread(s) on "
+            << HostCpu().Summary() << "\n";
+
+  // Rank 0 alone validates and evaluates.
+  std::shared_ptr<const Dataset> val;
+  if (!follower && !val_path.empty())
+    val = load(val_path, true);
+  else if (!follower && ext.default_validation)
+    val = ext.default_validation(data_path, trainer.options());
+  if (val)
+    std::cerr << ext.program << ": validation: " << val->size() << " steps, "
+              << val->num_trajectories() << " trajectories\n";
+  Evaluator sim_eval = ext.make_evaluator && !follower
+                           ? ext.make_evaluator(trainer, extra, dir.out_dir)
+                           : Evaluator();
+  const Evaluator evaluator = CombinedEvaluator(trainer, val, sim_eval);
+  TrainLoopOptions loop;
+  loop.out_dir = dir.out_dir;
+  loop.quiet = req.quiet || follower;
+  const std::string out_dir = dir.out_dir;
+  if (ext.after_eval) loop.on_eval_written = [&ext, out_dir] { ext.after_eval(out_dir); };
+  StopOnSignals signals;
+  loop.stop_requested = signals.flag();
+  if (trainer.Train(loop, evaluator) == TrainEnd::kStopRequested) {
+    const int sig = signals.signal();
+    std::cerr << ext.program << ": "
+              << (sig == SIGINT    ? "SIGINT"
+                  : sig == SIGTERM ? "SIGTERM"
+                                   : "a signal")
+              << ": stopped at step " << trainer.step() << "; "
+              << (follower
+                      ? ""
+                      : "wrote " + out_dir + "/checkpoint.ckpt and " + out_dir + "/policy.pt; ")
+              << "continue with --resume --out " << out_dir << "\n";
+    return 128 + (sig > 0 ? sig : SIGTERM);
+  }
+  if (follower)
+    std::cerr << ext.program << ": rank " << dist_options.rank << " done at step " << trainer.step()
+              << "\n";
+  else
+    std::cerr << ext.program << ": done at step " << trainer.step() << "; wrote " << out_dir
+              << "/checkpoint.ckpt and " << out_dir << "/policy.pt\n";
+  return 0;
+}
+
+}  // namespace
+
+int RunTrainCli(int argc, char** argv, const TrainCliExtensions& ext) {
   auto usage_error = [&](const std::string& msg) {
     std::cerr << ext.program << ": " << msg << "\n";
     return 2;
   };
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      const std::string key = a.rfind("--", 0) == 0 ? a.substr(2) : "";
-      if (a == "--help" || a == "-h") {
-        std::cout << Usage(ext);
-        return 0;
-      } else if (a == "--resume")
-        resume = true;
-      else if (a == "--print-options")
-        print_options = true;
-      else if (a == "--quiet")
-        quiet = true;
-      else if (kValued.count(key) || key == "config" || ext.extra_options.count(key)) {
-        if (i + 1 >= argc) throw cli::CliError("missing value after " + a);
-        if (key == "config")
-          given.configs.push_back(argv[++i]);
-        else
-          given.flags[key] = argv[++i];
-      } else if (a.find(":=") != std::string::npos)
-        continue;  // ROS remappings (rosrun, roslaunch)
-      else
-        throw cli::CliError("unknown argument '" + a + "' (see --help)");
-    }
-  } catch (const cli::CliError& e) {
-    return usage_error(e.what());
-  }
-  // Data-parallel group: flags over torchrun's environment variables.
+  auto error = [&](const std::string& msg) {
+    std::cerr << ext.program << ": error: " << msg << "\n";
+    return 1;
+  };
+  CliRequest req;
   DistributedOptions dist_options;
   try {
-    dist_options = DistributedOptions::FromEnvironment();
-    dist_options.timeout_s = 1800;
-    if (given.flags.count("world-size"))
-      dist_options.world_size =
-          static_cast<int>(cli::ParseInt("world-size", given.flags["world-size"], 1, 4096));
-    if (given.flags.count("rank"))
-      dist_options.rank = static_cast<int>(cli::ParseInt("rank", given.flags["rank"], 0, 4095));
-    if (given.flags.count("master")) {
-      const std::string m = given.flags["master"];
-      const size_t colon = m.rfind(':');
-      if (colon == std::string::npos || colon == 0)
-        throw cli::CliError("--master: expected HOST:PORT, got '" + m + "'");
-      dist_options.master_addr = m.substr(0, colon);
-      dist_options.master_port =
-          static_cast<int>(cli::ParseInt("master port", m.substr(colon + 1), 1, 65535));
+    req = ParseCommandLine(argc, argv, ext);
+    if (req.help) {
+      std::cout << Usage(ext);
+      return 0;
     }
-    if (given.flags.count("dist-timeout"))
-      dist_options.timeout_s = static_cast<double>(
-          cli::ParseInt("dist-timeout", given.flags["dist-timeout"], 1, 1 << 30));
-    dist_options.Validate();
+    dist_options = ParseDistributed(req.given.flags);
   } catch (const cli::CliError& e) {
     return usage_error(e.what());
   } catch (const DistributedError& e) {
     return usage_error(e.what());
   }
-  // Ranks other than 0 read the run directory but never write to it (no lock either).
   const bool follower = dist_options.enabled() && dist_options.rank != 0;
-  if (follower) quiet = true;
-  const std::string out_dir = given.flags.count("out") ? given.flags["out"] : "";
-  const std::string ckpt = out_dir + "/checkpoint.ckpt", run_file = out_dir + "/run.yaml";
-  std::unique_ptr<RunDirLock> lock;
-  RunRecord run = given;  // the flags in force: saved ones, then allowed changes
-  for (const char* k : {"data", "val"})
-    if (run.flags.count(k)) run.flags[k] = Absolute(run.flags[k]);
-  for (auto& c : run.configs) c = Absolute(c);
-  bool have_checkpoint = false;
+  RunDir dir;
   try {
-    // --resume of a directory that is not there: refused below, without creating it.
-    if (!out_dir.empty() && !print_options && (!resume || std::filesystem::is_directory(out_dir))) {
-      if (!follower) {
-        std::filesystem::create_directories(out_dir);
-        lock = std::make_unique<RunDirLock>(out_dir);  // held until we return
-      }
-      have_checkpoint = FileExists(ckpt) || FileExists(ckpt + ".prev");
-    }
-    if (resume) {
-      if (out_dir.empty()) return usage_error("--resume needs --out DIR");
-      const bool have_record = FileExists(run_file);
-      if (!have_record && !have_checkpoint)
-        return usage_error("--resume: " + out_dir +
-                           " holds no run (no run.yaml, no checkpoint.ckpt)");
-      if (have_record) {
-        RunRecord saved = ReadRunRecord(run_file);
-        for (const auto& [k, v] : run.flags) {
-          if (kResumeMayChange.count(k) || k == "out") continue;
-          auto it = saved.flags.find(k);
-          if (it == saved.flags.end() || it->second != v)
-            return usage_error(
-                "--resume: --" + k + " " + given.flags[k] + " differs from the run in " + run_file +
-                " (" + (it == saved.flags.end() ? "not given" : it->second) + ")" + kResumeRule);
-        }
-        if (!given.configs.empty() && run.configs != saved.configs)
-          return usage_error("--resume: --config differs from the run in " + run_file +
-                             kResumeRule);
-        for (const auto& [k, v] : run.flags) saved.flags[k] = v;
-        run = saved;
-      }
-    } else if (!follower && !out_dir.empty() && !print_options &&
-               (have_checkpoint || FileExists(run_file))) {
-      return usage_error(
-          out_dir + " already holds a training run (" + (have_checkpoint ? ckpt : run_file) +
-          "); continue it with --resume --out " + out_dir + ", or choose another --out");
-    }
-  } catch (const std::exception& e) {
-    std::cerr << ext.program << ": error: " << e.what() << "\n";
-    return 1;
-  }
-  auto flag = [&run](const std::string& k) {
-    return run.flags.count(k) ? run.flags.at(k) : std::string();
-  };
-  long long threads = 0, steps = -1, batch = -1, seed = -1, eval_every = -1, ckpt_every = -1,
-            export_every = -1, log_every = -1, time_limit = -1;
-  try {
-    auto number = [&](const std::string& k, long long lo, long long hi, long long* v) {
-      if (run.flags.count(k)) *v = cli::ParseInt(k, run.flags.at(k), lo, hi);
-    };
-    number("steps", 0, 1LL << 40, &steps);
-    number("batch", 1, 1 << 20, &batch);
-    number("seed", 0, LLONG_MAX, &seed);
-    number("eval-every", 0, INT_MAX, &eval_every);
-    number("checkpoint-every", 0, INT_MAX, &ckpt_every);
-    number("export-every", 0, INT_MAX, &export_every);
-    number("log-every", 1, INT_MAX, &log_every);
-    number("time-limit", 0, 1LL << 40, &time_limit);
-    number("threads", 0, 4096, &threads);
-  } catch (const cli::CliError& e) {
+    dir = OpenRunDir(req, follower);
+  } catch (const UsageError& e) {
     return usage_error(e.what());
+  } catch (const std::exception& e) {
+    return error(e.what());
   }
-  const std::string data_path = flag("data"), val_path = flag("val"), device = flag("device"),
-                    obs_mode = flag("obs-mode"), precision = flag("precision");
-  if (!precision.empty() && precision != "fp32" && precision != "bf16" && precision != "auto")
-    return usage_error("--precision must be fp32, bf16 or auto, got '" + precision + "'");
-  std::map<std::string, std::string> extra;
-  for (const auto& k : ext.extra_options)
-    if (run.flags.count(k)) extra[k] = run.flags.at(k);
-
   try {
-    if (threads > 0) torch::set_num_threads(static_cast<int>(threads));
-    MsprOptions options;
-    const bool from_checkpoint = resume && have_checkpoint;
-    if (from_checkpoint) {
-      options = ReadCheckpointOptions(ckpt);
-    } else {
-      std::vector<std::string> notes;
-      std::string preset = run.flags.count("preset") ? run.flags["preset"] : "";
-      if (run.flags.count("agent")) {
-        const std::string agent = run.flags["agent"];
-        const std::vector<std::string> agents = AgentNames();
-        if (std::find(agents.begin(), agents.end(), agent) == agents.end())
-          return usage_error("--agent: unknown agent '" + agent +
-                             "' (expected mspr, gcbc, gcivl, gciql, qrl, crl or hiql)");
-        const std::vector<std::string> mspr_presets{"mspr", "D", "DI", "DIR"};
-        const bool preset_is_mspr =
-            std::find(mspr_presets.begin(), mspr_presets.end(), preset) != mspr_presets.end();
-        if (!preset.empty() && (agent == "mspr" ? !preset_is_mspr : preset != agent))
-          return usage_error("--agent " + agent + " conflicts with --preset " + preset);
-        if (agent != "mspr") preset = agent;
-      }
-      options = ResolveOptions(preset, run.flags.count("scale") ? run.flags["scale"] : "",
-                               run.configs, &notes);
-      for (const std::string& n : notes) std::cerr << "msspr_train: " << n << "\n";
-    }
-    if (steps >= 0) options.trainer.steps = steps;
-    if (batch > 0) options.trainer.batch_size = static_cast<int>(batch);
-    if (!device.empty()) options.trainer.device = device;
-    if (!precision.empty()) options.trainer.precision = precision;
-    if (seed >= 0 && !from_checkpoint) options.trainer.seed = static_cast<uint64_t>(seed);
-    if (eval_every >= 0) options.trainer.eval_every = static_cast<int>(eval_every);
-    if (ckpt_every >= 0) options.trainer.checkpoint_every = static_cast<int>(ckpt_every);
-    if (export_every >= 0) options.trainer.export_every = static_cast<int>(export_every);
-    if (log_every > 0) options.trainer.log_every = static_cast<int>(log_every);
-    if (time_limit >= 0) options.trainer.time_limit_s = static_cast<double>(time_limit);
-    if (!obs_mode.empty()) options.network.obs_mode = obs_mode;
-    // "auto" is decided here, on this machine; options.yaml and the checkpoint
-    // record the result.
-    std::string precision_why;
-    options.trainer.precision = EffectivePrecision(options.trainer, &precision_why);
-    if (print_options && data_path.empty()) {
-      std::cout << OptionsToYaml(options);
-      return 0;
-    }
-    if (data_path.empty())
-      return usage_error(std::string("--data FILE is required (see --help)") +
-                         (resume ? "; " + run_file + " has none either" : ""));
-    if (out_dir.empty() && !print_options) return usage_error("--out DIR is required (see --help)");
-
-    auto load = [&](const std::string& path, bool validation) -> std::shared_ptr<const Dataset> {
-      if (ext.load_dataset) {
-        auto d = ext.load_dataset(path, validation, options);
-        if (d) return d;
-      }
-      return std::make_shared<const Dataset>(LoadNpzDataset(path));
-    };
-    auto data = load(data_path, false);
-    std::cerr << ext.program << ": " << data_path << ": " << data->size() << " steps, "
-              << data->num_trajectories() << " trajectories, obs_dim " << data->obs_dim()
-              << (data->has_images() ? ", images" : "") << ", action_dim " << data->action_dim()
-              << "\n";
-    if (obs_mode.empty() && !data->has_states()) options.network.obs_mode = "pixels";
-
-    Trainer trainer(options, data);
-    if (print_options) {
-      std::cout << OptionsToYaml(trainer.options());
-      return 0;
-    }
-    if (dist_options.enabled()) {
-      auto dist = std::make_shared<Distributed>(dist_options,
-                                                torch::Device(trainer.options().trainer.device));
-      trainer.SetDistributed(dist);
-      std::cerr << ext.program << ": rank " << dist->rank() << " of " << dist->world_size() << " ("
-                << dist->backend() << ", master " << dist_options.master_addr << ":"
-                << dist_options.master_port << "): batch " << trainer.local_batch() << " of "
-                << trainer.options().trainer.batch_size << "\n";
-    }
-    // Once the data has loaded: from here on --resume --out DIR needs nothing else.
-    if (!follower) WriteRunRecord(run_file, run);
-    if (from_checkpoint) {
-      trainer.LoadCheckpoint(ckpt);
-      std::cerr << ext.program << ": resumed " << ckpt << " at step " << trainer.step() << "\n";
-    } else if (resume) {
-      std::cerr << ext.program << ": resumed " << out_dir
-                << " before its first checkpoint: from step 0\n";
-    }
-    // The resolved options, for the record.
-    if (!follower) {
-      WriteTextAtomically(out_dir + "/options.yaml", OptionsToYaml(trainer.options()));
-      WriteTextAtomically(out_dir + "/host.yaml", HostRecord(precision_why));
-    }
-    std::cerr << ext.program << ": precision " << trainer.options().trainer.precision << " ("
-              << precision_why << "), " << torch::get_num_threads() << " torch thread(s) on "
-              << HostCpu().Summary() << "\n";
-
-    // Rank 0 alone validates and evaluates.
-    std::shared_ptr<const Dataset> val;
-    if (!follower && !val_path.empty())
-      val = load(val_path, true);
-    else if (!follower && ext.default_validation)
-      val = ext.default_validation(data_path, trainer.options());
-    if (val)
-      std::cerr << ext.program << ": validation: " << val->size() << " steps, "
-                << val->num_trajectories() << " trajectories\n";
-    Evaluator sim_eval =
-        ext.make_evaluator && !follower ? ext.make_evaluator(trainer, extra, out_dir) : Evaluator();
-    Evaluator evaluator;
-    if (val || sim_eval) {
-      // Validation losses on the same fixed batches each time, then the extra evaluator.
-      const int b = std::min(trainer.options().trainer.batch_size, 1024);
-      evaluator = [&trainer, val, b, sim_eval](Policy& policy, int64_t step) -> EvalResult {
-        EvalResult r;
-        if (val)
-          for (const auto& kv : trainer.ValidationLosses(*val, b, 12345).Named())
-            r.emplace_back("val_" + kv.first, kv.second);
-        if (sim_eval)
-          for (auto& kv : sim_eval(policy, step)) r.push_back(std::move(kv));
-        return r;
-      };
-    }
-    TrainLoopOptions loop;
-    loop.out_dir = out_dir;
-    loop.quiet = quiet;
-    if (ext.after_eval) loop.on_eval_written = [&ext, out_dir] { ext.after_eval(out_dir); };
-    StopOnSignals signals;
-    loop.stop_requested = signals.flag();
-    if (trainer.Train(loop, evaluator) == TrainEnd::kStopRequested) {
-      const int sig = signals.signal();
-      std::cerr << ext.program << ": "
-                << (sig == SIGINT    ? "SIGINT"
-                    : sig == SIGTERM ? "SIGTERM"
-                                     : "a signal")
-                << ": stopped at step " << trainer.step() << "; "
-                << (follower
-                        ? ""
-                        : "wrote " + out_dir + "/checkpoint.ckpt and " + out_dir + "/policy.pt; ")
-                << "continue with --resume --out " << out_dir << "\n";
-      return 128 + (sig > 0 ? sig : SIGTERM);
-    }
-    if (follower)
-      std::cerr << ext.program << ": rank " << dist_options.rank << " done at step "
-                << trainer.step() << "\n";
-    else
-      std::cerr << ext.program << ": done at step " << trainer.step() << "; wrote " << out_dir
-                << "/checkpoint.ckpt and " << out_dir << "/policy.pt\n";
+    return TrainRun(req, dir, dist_options, ext);
+  } catch (const UsageError& e) {
+    return usage_error(e.what());
   } catch (const cli::CliError& e) {
     return usage_error(e.what());
   } catch (const std::exception& e) {
-    std::cerr << ext.program << ": error: " << e.what() << "\n";
-    return 1;
+    return error(e.what());
   }
-  return 0;
 }
 
 }  // namespace core
