@@ -289,42 +289,175 @@ void SpecBagReader::AddFieldProblems(const std::string& path,
   }
 }
 
-void SpecBagReader::ReadMessages(const std::string& path, bool first_bag, Recording* rec) {
-  const RobotSpec& spec = spec_;
-  const SpecLayout& layout = rec->layout;
-  const auto& cmd_topics = rec->cmd_topics;
-  rosbag::Bag bag;
-  try {
-    bag.open(path, rosbag::bagmode::Read);
-  } catch (const rosbag::BagException& e) {
-    throw BagError(path + ": cannot open as a rosbag: " + e.what());
-  }
-  std::map<std::string, std::string> bag_topics;  // topic -> type
-  {
-    rosbag::View all(bag);
-    for (const auto* c : all.getConnections()) bag_topics[c->topic] = c->datatype;
-  }
-  const BagTopics topics = ResolveTopics(path, bag_topics, *rec);
-  const std::vector<std::string>& obs_topics = topics.obs;
-  const std::vector<std::string>& cmd_bag_topics = topics.commands;
-  const std::vector<std::string>& image_bag_topics = topics.images;
-  const std::string &tf_topic = topics.tf, &tf_static_topic = topics.tf_static;
-  const std::string &episode_topic = topics.episode, &episode_type = topics.episode_type;
+// One bag's messages, each decoded into the recording and counted in the report's rows
+// (observation fields, then cameras, then commands).
+class SpecBagReader::MessagePass {
+ public:
+  MessagePass(const RobotSpec& spec, const BagTopics& topics, SpecBagReport& report, Recording& rec,
+              bool first_bag)
+      : spec_(spec),
+        topics_(topics),
+        report_(report),
+        rec_(rec),
+        first_bag_(first_bag),
+        image_row_(static_cast<int>(spec.observation.size())),
+        cmd_row_(static_cast<int>(report.fields.size() - rec.cmd_topics.size())) {}
 
-  const std::vector<SpecFieldReport> before = report_.fields;
-  std::vector<TopicHistory>& histories = rec->histories;
-  std::vector<TopicHistory>& commands = rec->commands;
-  std::vector<TopicHistory>& images = rec->images;
-  const int image_index = static_cast<int>(spec.observation.size());  // the first camera row
-  const ros::Duration stale(spec.stale_after);
-  const int cmd_index =
-      static_cast<int>(report_.fields.size() - cmd_topics.size());  // the first command row
-  tf2::BufferCore& tf_buffer = rec->tf_buffer;
-  bool first_episode_message = true;
+  // The topics to read, in the bag's order.
+  std::vector<std::string> Query() const {
+    std::vector<std::string> q;
+    for (const auto& t : topics_.obs)
+      if (!t.empty()) q.push_back(t);
+    q.insert(q.end(), topics_.commands.begin(), topics_.commands.end());
+    q.insert(q.end(), topics_.images.begin(), topics_.images.end());
+    for (const std::string* t : {&topics_.tf, &topics_.tf_static, &topics_.episode, &topics_.goal})
+      if (!t->empty()) q.push_back(*t);
+    return q;
+  }
+
+  void Read(const rosbag::MessageInstance& m) {
+    const std::string& topic = m.getTopic();
+    const ros::Time receipt = m.getTime();
+    if (topic == topics_.goal) {
+      Goal(m, receipt);
+      if (topic != topics_.episode) return;
+    }
+    if (topic == topics_.episode) {
+      Episode(m, receipt);
+      if (!IsObservationOrCommand(topic)) return;
+    }
+    if (topic == topics_.tf || topic == topics_.tf_static) {
+      Tf(m, receipt, topic == topics_.tf_static);
+      return;
+    }
+    for (size_t c = 0; c < topics_.images.size(); ++c)
+      if (topic == topics_.images[c]) Image(c, m, receipt);
+    for (size_t c = 0; c < topics_.commands.size(); ++c)
+      if (topic == topics_.commands[c]) Command(c, m, receipt);
+    for (size_t k = 0; k < topics_.obs.size(); ++k)
+      if (!topics_.obs[k].empty() && topic == topics_.obs[k]) Observation(k, m, receipt);
+  }
+
+ private:
+  bool IsObservationOrCommand(const std::string& topic) const {
+    const auto& c = topics_.commands;
+    const auto& o = topics_.obs;
+    return std::find(c.begin(), c.end(), topic) != c.end() ||
+           std::find(o.begin(), o.end(), topic) != o.end();
+  }
+
+  // A vector goal, for the episodes' goal rows; a goal that does not decode is skipped.
+  void Goal(const rosbag::MessageInstance& m, const ros::Time& receipt) {
+    std::vector<double> goal;
+    std::string why;
+    ros::Time stamp = receipt;
+    Dispatch(spec_.goal.type, m, [&](const auto& msg) {
+      using M = std::decay_t<decltype(msg)>;
+      if constexpr (std::is_same_v<M, geometry_msgs::PoseStamped> ||
+                    std::is_same_v<M, std_msgs::Float64MultiArray>) {
+        const ros::Time h = HeaderStamp(msg);
+        if (!h.isZero()) stamp = h;
+        if (!DecodeGoal(spec_, msg, &goal, &why)) goal.clear();
+      }
+    });
+    if (!goal.empty()) rec_.goals.push_back({stamp, std::vector<float>(goal.begin(), goal.end())});
+  }
+
+  // An episode boundary. `rosbag record --split --repeat-latched` opens each file with the
+  // latched messages again: the previous file's last episode message, repeated, starts no
+  // episode.
+  void Episode(const rosbag::MessageInstance& m, const ros::Time& receipt) {
+    ros::Time stamp = receipt;
+    Dispatch(topics_.episode_type, m, [&](const auto& msg) {
+      const ros::Time h = HeaderStamp(msg);
+      if (!h.isZero()) stamp = h;
+    });
+    std::vector<uint8_t> bytes = MessageBytes(m);
+    const bool repeat = first_episode_message_ && !first_bag_ && bytes == rec_.last_episode_message;
+    first_episode_message_ = false;
+    rec_.last_episode_message = std::move(bytes);
+    if (repeat)
+      ++report_.latched_repeats;
+    else
+      rec_.boundaries.push_back(stamp);
+  }
+
+  // tf2 fields read /tf (and /tf_static) into the buffer, sampled after each message (a
+  // static transform can complete a chain too).
+  void Tf(const rosbag::MessageInstance& m, const ros::Time& receipt, bool is_static) {
+    auto tfm = m.instantiate<tf2_msgs::TFMessage>();
+    if (!tfm) return;
+    for (const auto& t : tfm->transforms) {
+      try {
+        rec_.tf_buffer.setTransform(t, "bag", is_static);
+      } catch (const std::exception&) {
+      }
+    }
+    const SpecLayout& layout = rec_.layout;
+    for (size_t k = 0; k < layout.topics.size(); ++k) {
+      if (layout.topics[k].type != kTf2Type) continue;
+      TopicSample s;
+      std::string why;
+      bool nonfinite = false;
+      const bool ok =
+          DecodeTf(spec_, layout.topics[k], rec_.tf_buffer, receipt, &s, &why, &nonfinite);
+      if (!ok && !nonfinite) continue;  // the frames are not connected (yet)
+      auto& history = rec_.histories[k];
+      if (ok && !history.samples().empty() && s.stamp == history.samples().back().stamp) continue;
+      const bool in_order = ok ? history.Add(s) : true;
+      Account(layout.topics[k].fields, s, ok, nonfinite, why, in_order);
+    }
+  }
+
+  void Image(size_t c, const rosbag::MessageInstance& m, const ros::Time& receipt) {
+    TopicSample s;
+    std::string why;
+    bool ok = false;
+    const SpecImage& im = spec_.images[c];
+    if (im.type == kImageType) {
+      if (auto msg = m.instantiate<sensor_msgs::Image>())
+        ok = DecodeImageSample(im, *msg, receipt, &s, &why);
+    } else if (auto msg = m.instantiate<sensor_msgs::CompressedImage>()) {
+      ok = DecodeImageSample(im, *msg, receipt, &s, &why);
+    }
+    s.receipt = receipt;
+    TopicSample head;  // the stamps, for the statistics (the pixels move into the history)
+    head.stamp = s.stamp;
+    head.receipt = s.receipt;
+    const bool in_order = ok ? rec_.images[c].Add(std::move(s)) : true;
+    Account({image_row_ + static_cast<int>(c)}, head, ok, false, why, in_order);
+  }
+
+  void Command(size_t c, const rosbag::MessageInstance& m, const ros::Time& receipt) {
+    TopicSample s;
+    std::string why;
+    bool ok = false, nonfinite = false;
+    const auto& cmd = rec_.cmd_topics[c];
+    Dispatch(cmd.type, m, [&](const auto& msg) {
+      ok = DecodeAction(spec_, msg, receipt, &s, &why, &nonfinite, cmd.topic);
+    });
+    s.receipt = receipt;
+    const bool in_order = ok ? rec_.commands[c].Add(s) : true;
+    Account({cmd_row_ + static_cast<int>(c)}, s, ok, nonfinite, why, in_order);
+  }
+
+  void Observation(size_t k, const rosbag::MessageInstance& m, const ros::Time& receipt) {
+    const auto& topic = rec_.layout.topics[k];
+    TopicSample s;
+    std::string why;
+    bool ok = false, nonfinite = false;
+    Dispatch(topic.type, m, [&](const auto& msg) {
+      ok = DecodeObservation(spec_, topic, msg, receipt, &s, &why, &nonfinite);
+    });
+    s.receipt = receipt;
+    const bool in_order = ok ? rec_.histories[k].Add(s) : true;
+    Account(topic.fields, s, ok, nonfinite, why, in_order);
+  }
+
   // Per-field statistics of one decoded (or rejected) message.
-  auto account = [&](const std::vector<int>& report_fields, const TopicSample& s, bool ok,
-                     bool nonfinite, const std::string& why, bool in_order) {
-    for (int idx : report_fields) {
+  void Account(const std::vector<int>& rows, const TopicSample& s, bool ok, bool nonfinite,
+               const std::string& why, bool in_order) {
+    for (int idx : rows) {
       SpecFieldReport& r = report_.fields[idx];
       if (!ok) {
         (nonfinite ? r.nonfinite : r.image ? r.bad_images : r.unreadable)++;
@@ -340,148 +473,49 @@ void SpecBagReader::ReadMessages(const std::string& path, bool first_bag, Record
       }
       if (r.messages > 0) {
         const double gap = s.stamp.toSec() - r.last;
-        if (gap > spec.stale_after) ++r.gaps;
+        if (gap > spec_.stale_after) ++r.gaps;
         r.max_gap_s = std::max(r.max_gap_s, gap);
       } else {
         r.first = s.stamp.toSec();
       }
       r.last = s.stamp.toSec();
       ++r.messages;
-      if (!s.stamp.isZero() && s.receipt - s.stamp > stale) ++r.late;
+      if (!s.stamp.isZero() && s.receipt - s.stamp > ros::Duration(spec_.stale_after)) ++r.late;
     }
-  };
-  std::vector<std::string> query;
-  for (const auto& t : obs_topics)
-    if (!t.empty()) query.push_back(t);
-  for (const auto& t : cmd_bag_topics) query.push_back(t);
-  for (const auto& t : image_bag_topics) query.push_back(t);
-  if (!tf_topic.empty()) query.push_back(tf_topic);
-  if (!tf_static_topic.empty()) query.push_back(tf_static_topic);
-  if (!episode_topic.empty()) query.push_back(episode_topic);
-  if (!topics.goal.empty()) query.push_back(topics.goal);
+  }
+
+  const RobotSpec& spec_;
+  const BagTopics& topics_;
+  SpecBagReport& report_;
+  Recording& rec_;
+  const bool first_bag_;
+  const int image_row_, cmd_row_;  // the report's first camera and first command rows
+  bool first_episode_message_ = true;
+};
+
+void SpecBagReader::ReadMessages(const std::string& path, bool first_bag, Recording* rec) {
+  rosbag::Bag bag;
   try {
-    rosbag::View view(bag, rosbag::TopicQuery(query));
-    for (const rosbag::MessageInstance& m : view) {
-      const std::string& topic = m.getTopic();
-      const ros::Time receipt = m.getTime();
-      if (topic == topics.goal) {
-        // The goals, for the episodes' goal rows; a goal that does not decode is skipped.
-        std::vector<double> goal;
-        std::string why;
-        ros::Time stamp = receipt;
-        Dispatch(spec.goal.type, m, [&](const auto& msg) {
-          using M = std::decay_t<decltype(msg)>;
-          if constexpr (std::is_same_v<M, geometry_msgs::PoseStamped> ||
-                        std::is_same_v<M, std_msgs::Float64MultiArray>) {
-            const ros::Time h = HeaderStamp(msg);
-            if (!h.isZero()) stamp = h;
-            if (!DecodeGoal(spec, msg, &goal, &why)) goal.clear();
-          }
-        });
-        if (!goal.empty())
-          rec->goals.push_back({stamp, std::vector<float>(goal.begin(), goal.end())});
-        if (topic != episode_topic) continue;
-      }
-      if (topic == episode_topic) {
-        ros::Time stamp = receipt;
-        Dispatch(episode_type, m, [&](const auto& msg) {
-          const ros::Time h = HeaderStamp(msg);
-          if (!h.isZero()) stamp = h;
-        });
-        // `rosbag record --split --repeat-latched` opens each file with the latched
-        // messages again: the previous file's last episode message, repeated, starts
-        // no episode.
-        std::vector<uint8_t> bytes = MessageBytes(m);
-        const bool repeat =
-            first_episode_message && !first_bag && bytes == rec->last_episode_message;
-        first_episode_message = false;
-        rec->last_episode_message = std::move(bytes);
-        if (repeat)
-          ++report_.latched_repeats;
-        else
-          rec->boundaries.push_back(stamp);
-        if (std::find(cmd_bag_topics.begin(), cmd_bag_topics.end(), topic) ==
-                cmd_bag_topics.end() &&
-            std::find(obs_topics.begin(), obs_topics.end(), topic) == obs_topics.end())
-          continue;
-      }
-      if (topic == tf_topic || topic == tf_static_topic) {
-        auto tfm = m.instantiate<tf2_msgs::TFMessage>();
-        if (!tfm) continue;
-        const bool is_static = topic == tf_static_topic;
-        for (const auto& t : tfm->transforms) {
-          try {
-            tf_buffer.setTransform(t, "bag", is_static);
-          } catch (const std::exception&) {
-          }
-        }
-        // (A static transform can complete a chain too: sample after either.)
-        for (size_t k = 0; k < layout.topics.size(); ++k) {
-          if (layout.topics[k].type != kTf2Type) continue;
-          TopicSample s;
-          std::string why;
-          bool nonfinite = false;
-          const bool ok =
-              DecodeTf(spec, layout.topics[k], tf_buffer, receipt, &s, &why, &nonfinite);
-          if (!ok && !nonfinite) continue;  // the frames are not connected (yet)
-          if (ok && !histories[k].samples().empty() &&
-              s.stamp == histories[k].samples().back().stamp)
-            continue;
-          const bool in_order = ok ? histories[k].Add(s) : true;
-          account(layout.topics[k].fields, s, ok, nonfinite, why, in_order);
-        }
-        continue;
-      }
-      for (size_t c = 0; c < image_bag_topics.size(); ++c) {
-        if (topic != image_bag_topics[c]) continue;
-        TopicSample s;
-        std::string why;
-        bool ok = false;
-        const SpecImage& im = spec.images[c];
-        if (im.type == kImageType) {
-          if (auto msg = m.instantiate<sensor_msgs::Image>())
-            ok = DecodeImageSample(im, *msg, receipt, &s, &why);
-        } else if (auto msg = m.instantiate<sensor_msgs::CompressedImage>()) {
-          ok = DecodeImageSample(im, *msg, receipt, &s, &why);
-        }
-        s.receipt = receipt;
-        TopicSample head;  // the stamps, for the statistics (the pixels move into the history)
-        head.stamp = s.stamp;
-        head.receipt = s.receipt;
-        const bool in_order = ok ? images[c].Add(std::move(s)) : true;
-        account({image_index + static_cast<int>(c)}, head, ok, false, why, in_order);
-      }
-      for (size_t c = 0; c < cmd_bag_topics.size(); ++c) {
-        if (topic != cmd_bag_topics[c]) continue;
-        TopicSample s;
-        std::string why;
-        bool ok = false, nonfinite = false;
-        Dispatch(cmd_topics[c].type, m, [&](const auto& msg) {
-          ok = DecodeAction(spec, msg, receipt, &s, &why, &nonfinite, cmd_topics[c].topic);
-        });
-        s.receipt = receipt;
-        const bool in_order = ok ? commands[c].Add(s) : true;
-        account({cmd_index + static_cast<int>(c)}, s, ok, nonfinite, why, in_order);
-      }
-      for (size_t k = 0; k < obs_topics.size(); ++k) {
-        if (obs_topics[k].empty() || topic != obs_topics[k]) continue;
-        TopicSample s;
-        std::string why;
-        bool ok = false, nonfinite = false;
-        Dispatch(layout.topics[k].type, m, [&](const auto& msg) {
-          ok = DecodeObservation(spec, layout.topics[k], msg, receipt, &s, &why, &nonfinite);
-        });
-        s.receipt = receipt;
-        const bool in_order = ok ? histories[k].Add(s) : true;
-        account(layout.topics[k].fields, s, ok, nonfinite, why, in_order);
-      }
-    }
+    bag.open(path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& e) {
+    throw BagError(path + ": cannot open as a rosbag: " + e.what());
+  }
+  std::map<std::string, std::string> bag_topics;  // topic -> type
+  {
+    rosbag::View all(bag);
+    for (const auto* c : all.getConnections()) bag_topics[c->topic] = c->datatype;
+  }
+  const BagTopics topics = ResolveTopics(path, bag_topics, *rec);
+  const std::vector<SpecFieldReport> before = report_.fields;
+  MessagePass pass(spec_, topics, report_, *rec, first_bag);
+  try {
+    rosbag::View view(bag, rosbag::TopicQuery(pass.Query()));
+    for (const rosbag::MessageInstance& m : view) pass.Read(m);
   } catch (const rosbag::BagException& e) {
     throw BagError(path + ": truncated or corrupt: " + e.what());
   } catch (const ros::Exception& e) {
     throw BagError(path + ": a message does not deserialize: " + e.what());
   }
-
   AddFieldProblems(path, before);
 }
 

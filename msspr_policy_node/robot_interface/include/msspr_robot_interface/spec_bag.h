@@ -88,7 +88,8 @@ class SpecBagReader {
   void set_namespace(const std::string& ns) { ns_ = ns; }
 
  private:
-  struct Recording;  // the decoded messages of every bag (spec_bag_recording.h)
+  struct Recording;   // the decoded messages of every bag (spec_bag_recording.h)
+  class MessagePass;  // one bag's messages into the recording (spec_bag.cc)
   // The bag topics of the spec's topics in one bag, resolved under the namespace.
   struct BagTopics {
     std::vector<std::string> obs;  // per layout topic ("" for tf2 fields)
