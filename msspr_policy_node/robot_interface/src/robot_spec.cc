@@ -406,6 +406,200 @@ std::vector<std::string> RobotSpec::ObservationTopics() const {
   return out;
 }
 
+namespace {
+
+// control_rate, alignment and episodes.
+void ReadTiming(MapReader& top, const std::string& source, RobotSpec* s) {
+  top.Get("control_rate", &s->control_rate);
+  if (!(s->control_rate > 0 && std::isfinite(s->control_rate)))
+    throw RobotSpecError(source + ": control_rate must be > 0 (Hz)");
+  if (YAML::Node a = top.Child("alignment")) {
+    MapReader r(a, source + ": alignment: ");
+    r.Get("tolerance", &s->tolerance);
+    r.Get("stale_after", &s->stale_after);
+    r.CheckNoUnknownKeys();
+  }
+  const double dt = 1.0 / s->control_rate;
+  if (!(s->tolerance >= 0 && s->tolerance < dt / 2))
+    throw RobotSpecError(source + ": alignment: tolerance must be in [0, half a control period)");
+  if (!(s->stale_after > 0 && std::isfinite(s->stale_after)))
+    throw RobotSpecError(source + ": alignment: stale_after must be > 0 (s)");
+  if (YAML::Node e = top.Child("episodes")) {
+    MapReader r(e, source + ": episodes: ");
+    r.Get("split_by", &s->episodes.split_by);
+    r.Get("gap", &s->episodes.gap);
+    r.Get("topic", &s->episodes.topic);
+    r.CheckNoUnknownKeys();
+  }
+  const auto& ep = s->episodes;
+  if (ep.split_by != "gap" && ep.split_by != "topic" && ep.split_by != "bag")
+    throw RobotSpecError(source + ": episodes: split_by must be gap, topic or bag, got '" +
+                         ep.split_by + "'");
+  if (ep.split_by == "topic" && ep.topic.empty())
+    throw RobotSpecError(source + ": episodes: split_by topic needs a topic");
+  if (!(ep.gap > 0)) throw RobotSpecError(source + ": episodes: gap must be > 0 (s)");
+}
+
+// The images: section (one camera at most).
+void ReadImages(MapReader& top, const std::string& source, RobotSpec* s) {
+  if (const YAML::Node imgs = top.Child("images")) {
+    if (!imgs.IsSequence() || imgs.size() == 0)
+      throw RobotSpecError(source + ": images must be a non-empty list of cameras");
+    if (imgs.size() > 1)
+      throw RobotSpecError(source + ": images: " + std::to_string(imgs.size()) +
+                           " cameras, a pixels policy takes one");
+    for (size_t i = 0; i < imgs.size(); ++i)
+      s->images.push_back(ReadImage(imgs[i], source, static_cast<int>(i)));
+  }
+}
+
+// The observation fields, each named once.
+void ReadObservation(MapReader& top, const std::string& source, RobotSpec* s) {
+  const YAML::Node obs = top.Child("observation");
+  if (!obs || !obs.IsSequence() || obs.size() == 0)
+    throw RobotSpecError(source + ": observation must be a non-empty list of fields");
+  std::set<std::string> names;
+  for (size_t i = 0; i < obs.size(); ++i) {
+    SpecField f = ReadField(obs[i], source, "observation", static_cast<int>(i), "", "");
+    if (f.name.empty()) f.name = f.topic + ":" + f.field;
+    if (!names.insert(f.name).second)
+      throw RobotSpecError(source + ": observation field '" + f.name + "' is named twice");
+    s->observation.push_back(std::move(f));
+  }
+}
+
+// The command: its topic, type, stamp and fields (on one or more topics).
+void ReadAction(MapReader& top, const std::string& source, RobotSpec* s) {
+  const YAML::Node act = top.Child("action");
+  if (!act) throw RobotSpecError(source + ": no action");
+  {
+    MapReader r(act, source + ": action: ");
+    if (!r.Get("topic", &s->action_topic) || s->action_topic.empty())
+      throw RobotSpecError(source + ": action: no topic");
+    if (!r.Get("type", &s->action_type) || s->action_type.empty())
+      throw RobotSpecError(source + ": action (topic " + s->action_topic + "): no type");
+    if (s->action_type != kTwistType && s->action_type != kTwistStampedType &&
+        s->action_type != kFloat64MultiArrayType && s->action_type != kJointTrajectoryType)
+      throw RobotSpecError(source + ": action (topic " + s->action_topic +
+                           "): unsupported command type '" + s->action_type +
+                           "' (supported: geometry_msgs/Twist, geometry_msgs/TwistStamped, "
+                           "std_msgs/Float64MultiArray, trajectory_msgs/JointTrajectory)");
+    r.Get("stamp", &s->action_stamp);
+    const YAML::Node fields = r.Child("fields");
+    r.CheckNoUnknownKeys();
+    if (s->action_stamp.empty()) s->action_stamp = HasHeader(s->action_type) ? "header" : "receipt";
+    if (s->action_stamp != "header" && s->action_stamp != "receipt")
+      throw RobotSpecError(source + ": action (topic " + s->action_topic +
+                           "): stamp must be header or receipt");
+    if (s->action_stamp == "header" && !HasHeader(s->action_type))
+      throw RobotSpecError(source + ": action (topic " + s->action_topic + "): " + s->action_type +
+                           " has no header: stamp must be receipt");
+    if (!fields || !fields.IsSequence() || fields.size() == 0)
+      throw RobotSpecError(source + ": action (topic " + s->action_topic +
+                           "): fields must be a non-empty list");
+    std::set<std::string> anames;
+    for (size_t i = 0; i < fields.size(); ++i) {
+      SpecField f = ReadField(fields[i], source, "action", static_cast<int>(i), s->action_topic,
+                              s->action_type);
+      f.stamp =
+          f.topic == s->action_topic ? s->action_stamp : (HasHeader(f.type) ? "header" : "receipt");
+      for (const auto& g : s->action)
+        if (g.topic == f.topic && g.type != f.type)
+          throw RobotSpecError(source + ": action field '" + f.name + "' (topic " + f.topic +
+                               "): type " + f.type + ", but field '" + g.name + "' publishes " +
+                               g.type + " on that topic");
+      if (f.name.empty()) f.name = f.field;
+      if (!anames.insert(f.name).second)
+        throw RobotSpecError(source + ": action field '" + f.name + "' is named twice");
+      s->action.push_back(std::move(f));
+    }
+  }
+}
+
+// The goal: a pose filling observation fields, a full observation or an image; none
+// (goals from ~set_goal only) without a goal section.
+void ReadGoal(MapReader& top, const std::string& source, RobotSpec* s) {
+  if (YAML::Node g = top.Child("goal")) {
+    MapReader r(g, source + ": goal: ");
+    r.Get("source", &s->goal.source);
+    r.Get("topic", &s->goal.topic);
+    r.Get("type", &s->goal.type);
+    const YAML::Node fields = r.Child("fields");
+    r.CheckNoUnknownKeys();
+    if (!s->images.empty() && s->goal.source != "image")
+      throw RobotSpecError(
+          source +
+          ": goal: a spec with images serves pixels policies, whose goal is an image: "
+          "source image, got '" +
+          s->goal.source + "'");
+    if (s->goal.source == "image") {
+      if (!g["type"]) s->goal.type = kImageType;
+      if (!g["topic"]) s->goal.topic = "goal_image";
+      if (s->goal.type != kImageType && s->goal.type != kCompressedImageType)
+        throw RobotSpecError(source + ": goal (topic " + s->goal.topic + "): source image takes " +
+                             kImageType + " or " + kCompressedImageType + ", got '" + s->goal.type +
+                             "'");
+      if (fields)
+        throw RobotSpecError(source + ": goal (topic " + s->goal.topic +
+                             "): source image has no fields");
+      if (s->images.empty())
+        throw RobotSpecError(source + ": goal (topic " + s->goal.topic +
+                             "): source image needs a camera in the images: section (its size)");
+    } else if (s->goal.source == "observation") {
+      if (!g["type"]) s->goal.type = kFloat64MultiArrayType;
+      if (s->goal.type != kFloat64MultiArrayType)
+        throw RobotSpecError(
+            source + ": goal (topic " + s->goal.topic +
+            "): source observation takes std_msgs/Float64MultiArray (the full observation)");
+      if (fields)
+        throw RobotSpecError(source + ": goal (topic " + s->goal.topic +
+                             "): source observation has no fields");
+    } else if (s->goal.source == "pose") {
+      if (s->goal.type != kPoseStampedType)
+        throw RobotSpecError(source + ": goal (topic " + s->goal.topic +
+                             "): source pose takes geometry_msgs/PoseStamped");
+      if (!fields || !fields.IsSequence() || fields.size() == 0)
+        throw RobotSpecError(source + ": goal (topic " + s->goal.topic +
+                             "): fields must be a non-empty list");
+      for (size_t i = 0; i < fields.size(); ++i) {
+        SpecGoal::Part p;
+        if (!fields[i].IsMap() || !fields[i]["observation"])
+          throw RobotSpecError(source + ": goal (topic " + s->goal.topic + ") field " +
+                               std::to_string(i) +
+                               ": no 'observation' (the observation field it fills)");
+        p.observation = fields[i]["observation"].as<std::string>();
+        p.field =
+            ReadField(fields[i], source, "goal", static_cast<int>(i), s->goal.topic, s->goal.type);
+        if (p.field.name.empty()) p.field.name = p.observation;
+        const SpecField* target = nullptr;
+        for (const auto& f : s->observation)
+          if (f.name == p.observation) target = &f;
+        if (!target)
+          throw RobotSpecError(source + ": goal (topic " + s->goal.topic + ", " + p.field.field +
+                               "): no observation field named '" + p.observation + "'");
+        if (target->size() != p.field.size())
+          throw RobotSpecError(source + ": goal (topic " + s->goal.topic + ", " + p.field.field +
+                               ") gives " + std::to_string(p.field.size()) +
+                               " numbers, observation field '" + p.observation + "' has " +
+                               std::to_string(target->size()));
+        s->goal.parts.push_back(std::move(p));
+      }
+    } else {
+      throw RobotSpecError(source + ": goal: source must be pose, observation or image, got '" +
+                           s->goal.source + "'");
+    }
+    if (s->goal.topic.empty()) throw RobotSpecError(source + ": goal: no topic");
+  } else {
+    if (!s->images.empty())
+      throw RobotSpecError(
+          source + ": a spec with images needs a goal (source image: the goal camera topic)");
+    s->goal.source = "";  // no goal topic: goals come from ~set_goal only
+    s->goal.topic = "";
+  }
+}
+
+}  // namespace
+
 RobotSpec ParseRobotSpec(const std::string& yaml, const std::string& source) {
   RobotSpec s;
   s.source = source;
@@ -421,178 +615,11 @@ RobotSpec ParseRobotSpec(const std::string& yaml, const std::string& source) {
     MapReader top(root, source + ": ");
     top.Get("name", &s.name);
     top.Get("namespace", &s.ns);
-    top.Get("control_rate", &s.control_rate);
-    if (!(s.control_rate > 0 && std::isfinite(s.control_rate)))
-      throw RobotSpecError(source + ": control_rate must be > 0 (Hz)");
-    if (YAML::Node a = top.Child("alignment")) {
-      MapReader r(a, source + ": alignment: ");
-      r.Get("tolerance", &s.tolerance);
-      r.Get("stale_after", &s.stale_after);
-      r.CheckNoUnknownKeys();
-    }
-    const double dt = 1.0 / s.control_rate;
-    if (!(s.tolerance >= 0 && s.tolerance < dt / 2))
-      throw RobotSpecError(source + ": alignment: tolerance must be in [0, half a control period)");
-    if (!(s.stale_after > 0 && std::isfinite(s.stale_after)))
-      throw RobotSpecError(source + ": alignment: stale_after must be > 0 (s)");
-    if (YAML::Node e = top.Child("episodes")) {
-      MapReader r(e, source + ": episodes: ");
-      r.Get("split_by", &s.episodes.split_by);
-      r.Get("gap", &s.episodes.gap);
-      r.Get("topic", &s.episodes.topic);
-      r.CheckNoUnknownKeys();
-    }
-    const auto& ep = s.episodes;
-    if (ep.split_by != "gap" && ep.split_by != "topic" && ep.split_by != "bag")
-      throw RobotSpecError(source + ": episodes: split_by must be gap, topic or bag, got '" +
-                           ep.split_by + "'");
-    if (ep.split_by == "topic" && ep.topic.empty())
-      throw RobotSpecError(source + ": episodes: split_by topic needs a topic");
-    if (!(ep.gap > 0)) throw RobotSpecError(source + ": episodes: gap must be > 0 (s)");
-    if (const YAML::Node imgs = top.Child("images")) {
-      if (!imgs.IsSequence() || imgs.size() == 0)
-        throw RobotSpecError(source + ": images must be a non-empty list of cameras");
-      if (imgs.size() > 1)
-        throw RobotSpecError(source + ": images: " + std::to_string(imgs.size()) +
-                             " cameras, a pixels policy takes one");
-      for (size_t i = 0; i < imgs.size(); ++i)
-        s.images.push_back(ReadImage(imgs[i], source, static_cast<int>(i)));
-    }
-
-    const YAML::Node obs = top.Child("observation");
-    if (!obs || !obs.IsSequence() || obs.size() == 0)
-      throw RobotSpecError(source + ": observation must be a non-empty list of fields");
-    std::set<std::string> names;
-    for (size_t i = 0; i < obs.size(); ++i) {
-      SpecField f = ReadField(obs[i], source, "observation", static_cast<int>(i), "", "");
-      if (f.name.empty()) f.name = f.topic + ":" + f.field;
-      if (!names.insert(f.name).second)
-        throw RobotSpecError(source + ": observation field '" + f.name + "' is named twice");
-      s.observation.push_back(std::move(f));
-    }
-
-    const YAML::Node act = top.Child("action");
-    if (!act) throw RobotSpecError(source + ": no action");
-    {
-      MapReader r(act, source + ": action: ");
-      if (!r.Get("topic", &s.action_topic) || s.action_topic.empty())
-        throw RobotSpecError(source + ": action: no topic");
-      if (!r.Get("type", &s.action_type) || s.action_type.empty())
-        throw RobotSpecError(source + ": action (topic " + s.action_topic + "): no type");
-      if (s.action_type != kTwistType && s.action_type != kTwistStampedType &&
-          s.action_type != kFloat64MultiArrayType && s.action_type != kJointTrajectoryType)
-        throw RobotSpecError(source + ": action (topic " + s.action_topic +
-                             "): unsupported command type '" + s.action_type +
-                             "' (supported: geometry_msgs/Twist, geometry_msgs/TwistStamped, "
-                             "std_msgs/Float64MultiArray, trajectory_msgs/JointTrajectory)");
-      r.Get("stamp", &s.action_stamp);
-      const YAML::Node fields = r.Child("fields");
-      r.CheckNoUnknownKeys();
-      if (s.action_stamp.empty()) s.action_stamp = HasHeader(s.action_type) ? "header" : "receipt";
-      if (s.action_stamp != "header" && s.action_stamp != "receipt")
-        throw RobotSpecError(source + ": action (topic " + s.action_topic +
-                             "): stamp must be header or receipt");
-      if (s.action_stamp == "header" && !HasHeader(s.action_type))
-        throw RobotSpecError(source + ": action (topic " + s.action_topic + "): " + s.action_type +
-                             " has no header: stamp must be receipt");
-      if (!fields || !fields.IsSequence() || fields.size() == 0)
-        throw RobotSpecError(source + ": action (topic " + s.action_topic +
-                             "): fields must be a non-empty list");
-      std::set<std::string> anames;
-      for (size_t i = 0; i < fields.size(); ++i) {
-        SpecField f = ReadField(fields[i], source, "action", static_cast<int>(i), s.action_topic,
-                                s.action_type);
-        f.stamp =
-            f.topic == s.action_topic ? s.action_stamp : (HasHeader(f.type) ? "header" : "receipt");
-        for (const auto& g : s.action)
-          if (g.topic == f.topic && g.type != f.type)
-            throw RobotSpecError(source + ": action field '" + f.name + "' (topic " + f.topic +
-                                 "): type " + f.type + ", but field '" + g.name + "' publishes " +
-                                 g.type + " on that topic");
-        if (f.name.empty()) f.name = f.field;
-        if (!anames.insert(f.name).second)
-          throw RobotSpecError(source + ": action field '" + f.name + "' is named twice");
-        s.action.push_back(std::move(f));
-      }
-    }
-
-    if (YAML::Node g = top.Child("goal")) {
-      MapReader r(g, source + ": goal: ");
-      r.Get("source", &s.goal.source);
-      r.Get("topic", &s.goal.topic);
-      r.Get("type", &s.goal.type);
-      const YAML::Node fields = r.Child("fields");
-      r.CheckNoUnknownKeys();
-      if (!s.images.empty() && s.goal.source != "image")
-        throw RobotSpecError(
-            source +
-            ": goal: a spec with images serves pixels policies, whose goal is an image: "
-            "source image, got '" +
-            s.goal.source + "'");
-      if (s.goal.source == "image") {
-        if (!g["type"]) s.goal.type = kImageType;
-        if (!g["topic"]) s.goal.topic = "goal_image";
-        if (s.goal.type != kImageType && s.goal.type != kCompressedImageType)
-          throw RobotSpecError(source + ": goal (topic " + s.goal.topic + "): source image takes " +
-                               kImageType + " or " + kCompressedImageType + ", got '" +
-                               s.goal.type + "'");
-        if (fields)
-          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
-                               "): source image has no fields");
-        if (s.images.empty())
-          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
-                               "): source image needs a camera in the images: section (its size)");
-      } else if (s.goal.source == "observation") {
-        if (!g["type"]) s.goal.type = kFloat64MultiArrayType;
-        if (s.goal.type != kFloat64MultiArrayType)
-          throw RobotSpecError(
-              source + ": goal (topic " + s.goal.topic +
-              "): source observation takes std_msgs/Float64MultiArray (the full observation)");
-        if (fields)
-          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
-                               "): source observation has no fields");
-      } else if (s.goal.source == "pose") {
-        if (s.goal.type != kPoseStampedType)
-          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
-                               "): source pose takes geometry_msgs/PoseStamped");
-        if (!fields || !fields.IsSequence() || fields.size() == 0)
-          throw RobotSpecError(source + ": goal (topic " + s.goal.topic +
-                               "): fields must be a non-empty list");
-        for (size_t i = 0; i < fields.size(); ++i) {
-          SpecGoal::Part p;
-          if (!fields[i].IsMap() || !fields[i]["observation"])
-            throw RobotSpecError(source + ": goal (topic " + s.goal.topic + ") field " +
-                                 std::to_string(i) +
-                                 ": no 'observation' (the observation field it fills)");
-          p.observation = fields[i]["observation"].as<std::string>();
-          p.field =
-              ReadField(fields[i], source, "goal", static_cast<int>(i), s.goal.topic, s.goal.type);
-          if (p.field.name.empty()) p.field.name = p.observation;
-          const SpecField* target = nullptr;
-          for (const auto& f : s.observation)
-            if (f.name == p.observation) target = &f;
-          if (!target)
-            throw RobotSpecError(source + ": goal (topic " + s.goal.topic + ", " + p.field.field +
-                                 "): no observation field named '" + p.observation + "'");
-          if (target->size() != p.field.size())
-            throw RobotSpecError(source + ": goal (topic " + s.goal.topic + ", " + p.field.field +
-                                 ") gives " + std::to_string(p.field.size()) +
-                                 " numbers, observation field '" + p.observation + "' has " +
-                                 std::to_string(target->size()));
-          s.goal.parts.push_back(std::move(p));
-        }
-      } else {
-        throw RobotSpecError(source + ": goal: source must be pose, observation or image, got '" +
-                             s.goal.source + "'");
-      }
-      if (s.goal.topic.empty()) throw RobotSpecError(source + ": goal: no topic");
-    } else {
-      if (!s.images.empty())
-        throw RobotSpecError(
-            source + ": a spec with images needs a goal (source image: the goal camera topic)");
-      s.goal.source = "";  // no goal topic: goals come from ~set_goal only
-      s.goal.topic = "";
-    }
+    ReadTiming(top, source, &s);
+    ReadImages(top, source, &s);
+    ReadObservation(top, source, &s);
+    ReadAction(top, source, &s);
+    ReadGoal(top, source, &s);
     top.CheckNoUnknownKeys();
   } catch (const YAML::Exception& e) {
     throw RobotSpecError(source + ": " + e.what());
