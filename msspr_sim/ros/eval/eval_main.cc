@@ -195,122 +195,110 @@ std::vector<SimClient*> WaitForAll(std::vector<std::unique_ptr<SimClient>>& clie
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  ros::init(argc, argv, "msspr_eval", ros::init_options::AnonymousName);
-  using msspr::ros_bridge::CliArgs;
-  // Every flag is checked before anything else runs: a bad one is a usage error (exit 2).
-  std::unique_ptr<CliArgs> args;
-  std::unique_ptr<msspr::sim::MazeMap> map_ptr;
+// What the command line asks for. Every flag is checked before anything else runs.
+struct EvalRequest {
+  msspr::sim::EnvId env = msspr::sim::EnvId::kPointMaze;
   std::string maze;
-  using msspr::sim::EnvId;
-  EnvId env = EnvId::kPointMaze;
+  std::unique_ptr<msspr::sim::MazeMap> map;
   std::vector<int> tasks;
   std::map<int, std::pair<std::vector<float>, std::vector<float>>> custom;  // id -> start, goal
   int episodes = 0, max_steps = 0;
   uint64_t seed = 0;
   double step_timeout = 0, wait_s = 0;
   std::vector<std::string> namespaces;  // one per sim; {""}: msspr_eval's own namespace
-  try {
-    args = std::make_unique<CliArgs>(
-        argc, argv, std::set<std::string>{"help"},
-        std::set<std::string>{"env", "maze", "tasks", "episodes", "max-steps", "seed", "agent",
-                              "out", "plot", "success-plot", "step-timeout", "tasks-file", "sims",
-                              "sim-ns", "wait", "robot", "observation-mode"});
-    if (args->Has("help")) {
-      std::cout << kUsage;
-      return 0;
-    }
-    if (!args->positional().empty())
-      throw std::invalid_argument("unexpected argument '" + args->positional()[0] + "'");
-    if (const std::string m = args->Get("observation-mode", "");
-        !m.empty() && m != "state" && m != "pixels")
-      throw std::invalid_argument("--observation-mode must be state or pixels, got '" + m + "'");
-    std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
-    env = msspr::sim::ParseEnvFlag(args->Get("env", msspr::sim::EnvIdName(env)),
-                                   args->Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
-    const bool ant = msspr::sim::IsAntMaze(env);
-    for (const char* f : {"maze", "plot", "tasks-file"})
-      if ((env == EnvId::kCubeSingle || (ant && std::string(f) != "plot")) && args->Has(f))
-        throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
-                                    msspr::sim::EnvIdName(env));
-    maze = ant ? msspr::sim::AntMazeName(env) : msspr::sim::PointMazeOrDefault(maze_arg);
-    map_ptr = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
-    if (args->Has("tasks-file")) {
-      for (const auto& t :
-           msspr::sim::LoadCustomTasks(args->Get("tasks-file", ""), map_ptr.get())) {
-        custom[t.id] = {{static_cast<float>(t.start.x()), static_cast<float>(t.start.y())},
-                        {static_cast<float>(t.goal.x()), static_cast<float>(t.goal.y())}};
-        tasks.push_back(t.id);
-      }
-    } else {
-      for (long id :
-           args->GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map_ptr->Tasks().size())))
-        tasks.push_back(static_cast<int>(id));
-    }
-    episodes = static_cast<int>(args->GetInt("episodes", 50, 1, 1000000));
-    max_steps = static_cast<int>(
-        args->GetInt("max-steps", env == EnvId::kCubeSingle ? 200 : 1000, 1, 100000000));
-    seed = static_cast<uint64_t>(args->GetInt("seed", 0, 0));
-    step_timeout = args->GetDouble("step-timeout", 10.0, 1e-3, 1e6);
-    wait_s = args->GetDouble("wait", 60.0, 0.0, 1e6);
-    const int sims = static_cast<int>(args->GetInt("sims", 1, 1, 256));
-    if (sims == 1 && !args->Has("sim-ns")) {
-      namespaces.push_back("");
-    } else {
-      const std::string prefix = args->Get("sim-ns", "msspr_");
-      for (int i = 0; i < sims; ++i) {
-        const std::string ns = prefix + std::to_string(i);
-        std::string why;
-        if (!ros::names::validate(ns, why))
-          throw std::invalid_argument("--sim-ns '" + prefix + "' gives the namespace '" + ns +
-                                      "', not a valid ROS name: " + why);
-        namespaces.push_back(ns);
-      }
-    }
-  } catch (const std::exception& e) {
-    std::cerr << "msspr_eval: " << e.what() << "\n" << kUsage;
-    return 2;
-  }
-  const msspr::sim::MazeMap& map = *map_ptr;
-  const bool parallel = namespaces.size() > 1;
+};
 
-  std::vector<std::unique_ptr<SimClient>> clients;
-  for (const auto& ns : namespaces) clients.push_back(std::make_unique<SimClient>(ns, parallel));
+// Throws std::invalid_argument (and CliArgs' errors) for a bad flag.
+EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
+  using msspr::sim::EnvId;
+  EvalRequest q;
+  if (!args.positional().empty())
+    throw std::invalid_argument("unexpected argument '" + args.positional()[0] + "'");
+  if (const std::string m = args.Get("observation-mode", "");
+      !m.empty() && m != "state" && m != "pixels")
+    throw std::invalid_argument("--observation-mode must be state or pixels, got '" + m + "'");
+  std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
+  q.env = msspr::sim::ParseEnvFlag(args.Get("env", msspr::sim::EnvIdName(q.env)),
+                                   args.Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
+  const bool ant = msspr::sim::IsAntMaze(q.env);
+  for (const char* f : {"maze", "plot", "tasks-file"})
+    if ((q.env == EnvId::kCubeSingle || (ant && std::string(f) != "plot")) && args.Has(f))
+      throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
+                                  msspr::sim::EnvIdName(q.env));
+  q.maze = ant ? msspr::sim::AntMazeName(q.env) : msspr::sim::PointMazeOrDefault(maze_arg);
+  q.map = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(q.maze));
+  if (args.Has("tasks-file")) {
+    for (const auto& t : msspr::sim::LoadCustomTasks(args.Get("tasks-file", ""), q.map.get())) {
+      q.custom[t.id] = {{static_cast<float>(t.start.x()), static_cast<float>(t.start.y())},
+                        {static_cast<float>(t.goal.x()), static_cast<float>(t.goal.y())}};
+      q.tasks.push_back(t.id);
+    }
+  } else {
+    for (long id :
+         args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(q.map->Tasks().size())))
+      q.tasks.push_back(static_cast<int>(id));
+  }
+  q.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
+  q.max_steps = static_cast<int>(
+      args.GetInt("max-steps", q.env == EnvId::kCubeSingle ? 200 : 1000, 1, 100000000));
+  q.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+  q.step_timeout = args.GetDouble("step-timeout", 10.0, 1e-3, 1e6);
+  q.wait_s = args.GetDouble("wait", 60.0, 0.0, 1e6);
+  const int sims = static_cast<int>(args.GetInt("sims", 1, 1, 256));
+  if (sims == 1 && !args.Has("sim-ns")) {
+    q.namespaces.push_back("");
+  } else {
+    const std::string prefix = args.Get("sim-ns", "msspr_");
+    for (int i = 0; i < sims; ++i) {
+      const std::string ns = prefix + std::to_string(i);
+      std::string why;
+      if (!ros::names::validate(ns, why))
+        throw std::invalid_argument("--sim-ns '" + prefix + "' gives the namespace '" + ns +
+                                    "', not a valid ROS name: " + why);
+      q.namespaces.push_back(ns);
+    }
+  }
+  return q;
+}
+
+// Waits for every sim's reset service and observations (fatal when missing) and
+// for its agent (a warning). False when the evaluation cannot start.
+bool ConnectSims(std::vector<std::unique_ptr<SimClient>>& clients, double wait_s) {
   for (auto& c : clients)
     ROS_INFO("msspr_eval: waiting for the sim's reset service %s", c->ResetService().c_str());
   const auto no_reset = WaitForAll(clients, wait_s, [](SimClient& c) { return c.HasReset(); });
   for (SimClient* c : no_reset)
     ROS_FATAL("msspr_eval: no reset service %s after %.0f s (is msspr_sim_node running in %s?)",
               c->ResetService().c_str(), wait_s, c->Namespace().c_str());
-  if (!no_reset.empty() || !ros::ok()) return 1;
-  const auto wall0 = std::chrono::steady_clock::now();
+  if (!no_reset.empty() || !ros::ok()) return false;
   const auto silent = WaitForAll(clients, wait_s, [](SimClient& c) { return c.HasObservations(); });
   for (SimClient* c : silent)
     ROS_FATAL("msspr_eval: nothing publishes %s after %.0f s", c->ObservationTopic().c_str(),
               wait_s);
-  if (!silent.empty() || !ros::ok()) return 1;
+  if (!silent.empty() || !ros::ok()) return false;
   // An agent still loading (a policy checkpoint) would leave the first episode unanswered.
   for (SimClient* c : WaitForAll(clients, wait_s, [](SimClient& c) { return c.HasAgent(); }))
     ROS_WARN(
         "msspr_eval: nothing publishes %s after %.0f s (is the agent under test running there?); "
         "going on",
         c->ActionTopic().c_str(), wait_s);
-  if (!ros::ok()) return 1;
+  if (!ros::ok()) return false;
   ros::WallDuration(0.5).sleep();  // let the agents connect too
+  return true;
+}
 
-  // The (task, episode) pairs in the serial order; each sim's thread takes the next one.
+// Runs every (task, episode) pair, in the serial order, each sim's thread taking the
+// next one: results[task][episode]. False (and *error) when an episode could not run.
+bool RunAllEpisodes(const EvalRequest& q, std::vector<std::unique_ptr<SimClient>>& clients,
+                    std::vector<std::vector<EpisodeResult>>* results, std::string* error) {
   std::vector<std::pair<size_t, int>> work;
-  for (size_t ti = 0; ti < tasks.size(); ++ti)
-    for (int e = 0; e < episodes; ++e) work.emplace_back(ti, e);
-  std::vector<std::vector<EpisodeResult>> results(tasks.size(),
-                                                  std::vector<EpisodeResult>(episodes));
+  for (size_t ti = 0; ti < q.tasks.size(); ++ti)
+    for (int e = 0; e < q.episodes; ++e) work.emplace_back(ti, e);
+  results->assign(q.tasks.size(), std::vector<EpisodeResult>(q.episodes));
   std::atomic<size_t> next{0};
   std::atomic<bool> failed{false};
   std::mutex mu;  // guards error and done
-  std::string error;
-  std::vector<int> done(tasks.size(), 0);
+  std::vector<int> done(q.tasks.size(), 0);
   auto serve = [&](SimClient* client) {
     for (;;) {
       if (failed || !ros::ok()) return;
@@ -318,55 +306,54 @@ int main(int argc, char** argv) {
       if (k >= work.size()) return;
       const auto [ti, e] = work[k];
       msspr::Reset::Request req;
-      req.task_id = tasks[ti];
-      req.seed = msspr::sim::EvalEpisodeSeed(seed, tasks[ti], e);
-      if (auto it = custom.find(tasks[ti]); it != custom.end()) {
+      req.task_id = q.tasks[ti];
+      req.seed = msspr::sim::EvalEpisodeSeed(q.seed, q.tasks[ti], e);
+      if (auto it = q.custom.find(q.tasks[ti]); it != q.custom.end()) {
         req.start = it->second.first;
         req.goal = it->second.second;
       }
       EpisodeResult r;
       std::string why;
-      if (!client->RunEpisode(req, e, max_steps, step_timeout, failed, &r, &why)) {
+      if (!client->RunEpisode(req, e, q.max_steps, q.step_timeout, failed, &r, &why)) {
         std::lock_guard<std::mutex> lock(mu);
-        if (!failed.exchange(true)) error = why;
+        if (!failed.exchange(true)) *error = why;
         return;
       }
-      results[ti][static_cast<size_t>(e)] = std::move(r);
+      (*results)[ti][static_cast<size_t>(e)] = std::move(r);
       std::lock_guard<std::mutex> lock(mu);
-      if (++done[ti] == episodes) {  // the task's last episode, whichever sim ran it
+      if (++done[ti] == q.episodes) {  // the task's last episode, whichever sim ran it
         int ok = 0;
-        for (auto& x : results[ti]) ok += x.success;
-        ROS_INFO("msspr_eval: task %d done: %d/%zu", tasks[ti], ok, results[ti].size());
+        for (auto& x : (*results)[ti]) ok += x.success;
+        ROS_INFO("msspr_eval: task %d done: %d/%zu", q.tasks[ti], ok, (*results)[ti].size());
       }
     }
   };
-  if (parallel) {
+  if (clients.size() > 1) {
     std::vector<std::thread> threads;
     for (auto& c : clients) threads.emplace_back(serve, c.get());
     for (auto& t : threads) t.join();
   } else {
     serve(clients[0].get());
   }
-  if (failed) {
-    ROS_FATAL("msspr_eval: %s", error.c_str());
-    return 1;
-  }
-  if (!ros::ok()) return 1;
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return !failed;
+}
 
+// The results in the report format shared with the in-process evaluators.
+msspr::sim::EvalReport MakeReport(const EvalRequest& q, const msspr::ros_bridge::CliArgs& args,
+                                  const std::vector<std::vector<EpisodeResult>>& results,
+                                  double wall) {
   msspr::sim::EvalReport report;
-  report.env = msspr::sim::EnvLabel(env, maze);
-  report.agent = args->Get("agent", "agent");
-  report.robot = args->Get("robot", "");
-  report.observation_mode = args->Get("observation-mode", "");
-  report.episodes_per_task = episodes;
-  report.max_steps = max_steps;
-  report.seed = seed;
+  report.env = msspr::sim::EnvLabel(q.env, q.maze);
+  report.agent = args.Get("agent", "agent");
+  report.robot = args.Get("robot", "");
+  report.observation_mode = args.Get("observation-mode", "");
+  report.episodes_per_task = q.episodes;
+  report.max_steps = q.max_steps;
+  report.seed = q.seed;
   report.wall_time_s = wall;
-  for (size_t ti = 0; ti < tasks.size(); ++ti) {
+  for (size_t ti = 0; ti < q.tasks.size(); ++ti) {
     msspr::sim::TaskResult t;
-    t.task_id = tasks[ti];
+    t.task_id = q.tasks[ti];
     t.episodes = static_cast<int>(results[ti].size());
     int ok = 0;
     double steps = 0;
@@ -377,10 +364,10 @@ int main(int argc, char** argv) {
     }
     t.success = t.episodes ? double(ok) / t.episodes : 0.0;
     t.mean_steps_successful = ok ? steps / ok : 0.0;
-    if (auto it = custom.find(t.task_id); it != custom.end()) {
+    if (auto it = q.custom.find(t.task_id); it != q.custom.end()) {
       t.start.assign(it->second.first.begin(), it->second.first.end());
       t.goal.assign(it->second.second.begin(), it->second.second.end());
-    } else if (env == EnvId::kCubeSingle) {  // the cube's start and goal xy (m)
+    } else if (q.env == msspr::sim::EnvId::kCubeSingle) {  // the cube's start and goal xy (m)
       const auto& ct = msspr::sim::CubeSingleTasks()[static_cast<size_t>(t.task_id - 1)];
       t.start = {ct.start.x(), ct.start.y()};
       t.goal = {ct.goal.x(), ct.goal.y()};
@@ -388,7 +375,74 @@ int main(int argc, char** argv) {
     report.tasks.push_back(t);
   }
   msspr::sim::FinalizeReport(&report);
-  std::cout << msspr::sim::EvalReportTable(map, report);
+  return report;
+}
+
+// --out, --success-plot and --plot. Throws std::runtime_error naming a path.
+void WriteOutputs(const EvalRequest& q, const msspr::ros_bridge::CliArgs& args,
+                  const msspr::sim::EvalReport& report,
+                  const std::vector<std::vector<EpisodeResult>>& results) {
+  if (args.Has("out")) {
+    msspr::sim::WriteTextFile(args.Get("out", ""), msspr::sim::EvalReportJson(*q.map, report));
+    std::cout << "  results: " << args.Get("out", "") << "\n";
+  }
+  if (args.Has("success-plot")) {
+    msspr::sim::SaveSuccessPlot(report, args.Get("success-plot", ""));
+    std::cout << "  success per task: " << args.Get("success-plot", "") << "\n";
+  }
+  if (args.Has("plot")) {
+    std::vector<std::vector<Eigen::Vector2d>> paths;
+    std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
+    std::vector<bool> ok;
+    for (auto& task_results : results)
+      for (size_t k = 0; k < task_results.size() && k < 5; ++k) {  // 5 per task keeps it readable
+        paths.push_back(task_results[k].path);
+        sg.emplace_back(task_results[k].start, task_results[k].goal);
+        ok.push_back(task_results[k].success);
+      }
+    const std::string png = args.Get("plot", "");
+    msspr::sim::SaveTrajectoryPlot(*q.map, paths, sg, ok, png);
+    std::cout << "  picture: " << png << "\n";
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "msspr_eval", ros::init_options::AnonymousName);
+  std::unique_ptr<msspr::ros_bridge::CliArgs> args;
+  EvalRequest q;
+  try {
+    args = std::make_unique<msspr::ros_bridge::CliArgs>(
+        argc, argv, std::set<std::string>{"help"},
+        std::set<std::string>{"env", "maze", "tasks", "episodes", "max-steps", "seed", "agent",
+                              "out", "plot", "success-plot", "step-timeout", "tasks-file", "sims",
+                              "sim-ns", "wait", "robot", "observation-mode"});
+    if (args->Has("help")) {
+      std::cout << kUsage;
+      return 0;
+    }
+    q = ParseRequest(*args);
+  } catch (const std::exception& e) {
+    std::cerr << "msspr_eval: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  const bool parallel = q.namespaces.size() > 1;
+  std::vector<std::unique_ptr<SimClient>> clients;
+  for (const auto& ns : q.namespaces) clients.push_back(std::make_unique<SimClient>(ns, parallel));
+  if (!ConnectSims(clients, q.wait_s)) return 1;
+  const auto wall0 = std::chrono::steady_clock::now();
+  std::vector<std::vector<EpisodeResult>> results;
+  std::string error;
+  if (!RunAllEpisodes(q, clients, &results, &error)) {
+    ROS_FATAL("msspr_eval: %s", error.c_str());
+    return 1;
+  }
+  if (!ros::ok()) return 1;
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  const msspr::sim::EvalReport report = MakeReport(q, *args, results, wall);
+  std::cout << msspr::sim::EvalReportTable(*q.map, report);
   if (parallel) {
     std::cout << "  episodes per sim:";
     for (auto& c : clients) std::cout << " " << c->Namespace() << " " << c->episodes_run();
@@ -396,28 +450,7 @@ int main(int argc, char** argv) {
   }
   std::cout << std::flush;
   try {
-    if (args->Has("out")) {
-      msspr::sim::WriteTextFile(args->Get("out", ""), msspr::sim::EvalReportJson(map, report));
-      std::cout << "  results: " << args->Get("out", "") << "\n";
-    }
-    if (args->Has("success-plot")) {
-      msspr::sim::SaveSuccessPlot(report, args->Get("success-plot", ""));
-      std::cout << "  success per task: " << args->Get("success-plot", "") << "\n";
-    }
-    if (args->Has("plot")) {
-      std::vector<std::vector<Eigen::Vector2d>> paths;
-      std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
-      std::vector<bool> ok;
-      for (auto& task_results : results)
-        for (size_t k = 0; k < task_results.size() && k < 5; ++k) {  // 5 per task keeps it readable
-          paths.push_back(task_results[k].path);
-          sg.emplace_back(task_results[k].start, task_results[k].goal);
-          ok.push_back(task_results[k].success);
-        }
-      const std::string png = args->Get("plot", "");
-      msspr::sim::SaveTrajectoryPlot(map, paths, sg, ok, png);
-      std::cout << "  picture: " << png << "\n";
-    }
+    WriteOutputs(q, *args, report, results);
   } catch (const std::exception& e) {
     std::cout << std::flush;
     ROS_FATAL("msspr_eval: %s", e.what());
