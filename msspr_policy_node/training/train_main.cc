@@ -126,6 +126,183 @@ std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list,
 
 }  // namespace
 
+namespace {
+
+const char kEvalUsage[] =
+    "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
+    "maze, or the 5 tasks of cube-single or an ant maze for those envs' bags (state policies)\n"
+    "  --eval-env ENV     env to evaluate in: pointmaze-NAME, cube-single, antmaze-medium,\n"
+    "                     antmaze-large (default: the bags' env; give it for .npz data, e.g.\n"
+    "                     OGBench's antmaze-medium-navigate-v0.npz with --eval-env "
+    "antmaze-medium)\n"
+    "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
+    "  --eval-episodes N  episodes per task (default 50)\n"
+    "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
+    "  --eval-seed S      evaluation seed (default 0; same episodes as msspr_eval --seed S)\n"
+    "  --eval-max-steps N step limit (default 1000; cube-single 200)\n"
+    "  --eval-tasks-file YAML  also evaluate custom start/goal pairs (msspr_eval --tasks-file\n"
+    "                     format; msspr_make_tasks draws random ones), --eval-episodes each\n"
+    "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
+    "DIR/eval/step_<N>.json (the msspr_eval results format); with --eval-tasks-file also\n"
+    "success_custom<id> and mean_success_custom, and DIR/eval/step_<N>_custom.json.\n"
+    "\nA robot's own bags: --robot SPEC.yaml reads --data's bags of standard messages\n"
+    "  (nav_msgs/Odometry, geometry_msgs/Twist, ...) through the robot interface spec (see\n"
+    "  docs/bring_your_own_robot.md); checkpoints and policy.pt store the spec. The bags are\n"
+    "  one recording in time order (rosbag record --split files join). --ns NS resolves the\n"
+    "  spec's relative topics under NS (default: the spec's namespace:, else the one\n"
+    "  namespace of the recording that holds them all).\n"
+    "Example: rosrun msspr msspr_train --data medium-navigate.bag --scale cpu --steps 20000 \\\n"
+    "           --eval-every 2000 --out runs/medium\n";
+
+// The in-simulator evaluation flags (checked even when no evaluation runs: CliError, exit 2).
+struct EvalFlags {
+  msspr::agent::MazeEvalOptions maze;  // episodes, seed, max_steps, tasks (and maze, if one)
+  std::optional<msspr::sim::EnvLabelParts> env;  // --eval-env, else the bags' env
+  bool cube = false, ant = false;
+  std::string tasks_file;
+};
+
+EvalFlags ParseEvalFlags(const std::map<std::string, std::string>& extra) {
+  auto get = [&](const std::string& k, const std::string& def) {
+    auto it = extra.find(k);
+    return it == extra.end() ? def : it->second;
+  };
+  using msspr::cli::ParseInt;
+  EvalFlags f;
+  msspr::agent::MazeEvalOptions& eo = f.maze;
+  eo.episodes = static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
+  eo.seed = static_cast<uint64_t>(ParseInt("eval-seed", get("eval-seed", "0"), 0));
+  // The env to evaluate in: --eval-env, else the bags' env label ("pointmaze-medium",
+  // "cube-single", "antmaze-medium"); none for a robot's own bags or .npz data without
+  // --eval-env.
+  f.env = msspr::sim::ParseEnvLabel(g_env);
+  if (extra.count("eval-env")) {
+    if (extra.count("eval-maze"))
+      throw msspr::cli::CliError("give --eval-env or --eval-maze, not both");
+    f.env = msspr::sim::ParseEnvLabel(get("eval-env", ""));
+    if (!f.env)
+      throw msspr::cli::CliError("--eval-env: '" + get("eval-env", "") +
+                                 "' is not an env (pointmaze-arena|medium|large|giant, "
+                                 "cube-single, antmaze-medium, antmaze-large)");
+  }
+  const bool no_maze = get("eval-maze", "").empty();
+  f.cube = no_maze && f.env && f.env->id == msspr::sim::EnvId::kCubeSingle;
+  f.ant = no_maze && f.env && msspr::sim::IsAntMaze(f.env->id);
+  eo.max_steps = static_cast<int>(
+      ParseInt("eval-max-steps", get("eval-max-steps", f.cube ? "200" : "1000"), 1, 100000000));
+  eo.tasks.clear();
+  for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5")))
+    eo.tasks.push_back(static_cast<int>(ParseInt("eval-tasks", t, 1, 5)));
+  if (eo.tasks.empty()) throw msspr::cli::CliError("--eval-tasks needs at least one task id");
+  eo.maze = get("eval-maze", "");
+  if (eo.maze.empty() && f.env && f.env->id == msspr::sim::EnvId::kPointMaze) eo.maze = f.env->maze;
+  if (!eo.maze.empty()) {
+    try {
+      msspr::sim::MazeMap::FromName(eo.maze);
+    } catch (const std::exception& e) {
+      throw msspr::cli::CliError("--eval-maze: " + std::string(e.what()));
+    }
+  }
+  f.tasks_file = get("eval-tasks-file", "");
+  if ((f.cube || f.ant) && extra.count("eval-tasks-file"))
+    throw msspr::cli::CliError(
+        "--eval-tasks-file: custom tasks are point-maze tasks (these bags are " +
+        msspr::sim::EnvIdName(f.env->id) + ")");
+  return f;
+}
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// cube-single and the ant mazes: the env's tasks through `evaluate`, the results of each
+// evaluation written by `write` to DIR/eval/step_<N>.json.
+template <class Options, class Evaluate, class Write>
+msspr::core::Evaluator TaskEvaluator(Options options, const EvalFlags& f, Evaluate evaluate,
+                                     Write write, const std::string& out_dir,
+                                     Clock::time_point start) {
+  options.tasks = f.maze.tasks;
+  options.episodes = f.maze.episodes;
+  options.max_steps = f.maze.max_steps;
+  options.seed = f.maze.seed;
+  return [options, evaluate, write, out_dir, start](msspr::core::Policy& policy,
+                                                    int64_t step) -> msspr::core::EvalResult {
+    const auto result = evaluate(policy, options);
+    msspr::core::EvalResult r;
+    AddSuccessRows(result, "task", "", &r);
+    r.emplace_back("eval_s", result.seconds);
+    r.emplace_back("wall_s", Since(start));
+    if (!out_dir.empty())
+      write(result, options, "msspr step " + std::to_string(step), StepJsonPath(out_dir, step, ""));
+    return r;
+  };
+}
+
+// A point maze: its tasks, and with --eval-tasks-file the custom ones too.
+msspr::core::Evaluator MazeEvaluator(const EvalFlags& f, const std::string& out_dir,
+                                     Clock::time_point start) {
+  const msspr::agent::MazeEvalOptions eo = f.maze;
+  msspr::agent::MazeEvalOptions custom = eo;
+  if (!f.tasks_file.empty()) {
+    const auto map = msspr::sim::MazeMap::FromName(eo.maze);
+    try {
+      custom.custom_tasks = msspr::sim::LoadCustomTasks(f.tasks_file, &map);
+    } catch (const std::runtime_error& e) {
+      throw msspr::cli::CliError("--eval-tasks-file: " + std::string(e.what()));
+    }
+  }
+  return [eo, custom, out_dir, start](msspr::core::Policy& policy,
+                                      int64_t step) -> msspr::core::EvalResult {
+    const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
+    msspr::core::EvalResult r;
+    AddSuccessRows(result, "task", "", &r);
+    double eval_s = result.seconds;
+    if (!custom.custom_tasks.empty()) {
+      const auto cr = msspr::agent::EvaluateOnMaze(policy, custom);
+      AddSuccessRows(cr, "custom", "_custom", &r);
+      eval_s += cr.seconds;
+      if (!out_dir.empty())
+        msspr::agent::WriteResultsJson(cr, custom, "msspr step " + std::to_string(step),
+                                       StepJsonPath(out_dir, step, "_custom"));
+    }
+    r.emplace_back("eval_s", eval_s);
+    r.emplace_back("wall_s", Since(start));
+    if (!out_dir.empty())
+      msspr::agent::WriteResultsJson(result, eo, "msspr step " + std::to_string(step),
+                                     StepJsonPath(out_dir, step, ""));
+    return r;
+  };
+}
+
+// The success evaluation in the simulator of the bags' (or --eval-env's) env; none when
+// eval_every is 0 or there is no simulated env.
+msspr::core::Evaluator MakeSimEvaluator(msspr::core::Trainer& trainer,
+                                        const std::map<std::string, std::string>& extra,
+                                        const std::string& out_dir) {
+  const EvalFlags f = ParseEvalFlags(extra);
+  if (trainer.options().trainer.eval_every <= 0) return nullptr;
+  const auto start = Clock::now();
+  if (f.cube)
+    return TaskEvaluator(msspr::agent::CubeEvalOptions(), f, msspr::agent::EvaluateOnCube,
+                         msspr::agent::WriteCubeResultsJson, out_dir, start);
+  if (f.ant) {
+    msspr::agent::AntEvalOptions ao;
+    ao.maze = msspr::sim::AntMazeName(f.env->id);
+    return TaskEvaluator(ao, f, msspr::agent::EvaluateOnAntMaze, msspr::agent::WriteAntResultsJson,
+                         out_dir, start);
+  }
+  if (f.maze.maze.empty()) {
+    std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no "
+                 "success evaluation\n";
+    return nullptr;
+  }
+  return MazeEvaluator(f, out_dir, start);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   msspr::core::ReexecWithPassiveOpenMpWait(
       argv);  // see process_env.h: spinning threads on shared cores
@@ -144,31 +321,7 @@ int main(int argc, char** argv) {
   ext.extra_options = {"robot",          "ns",         "eval-env",  "eval-maze",
                        "eval-episodes",  "eval-tasks", "eval-seed", "eval-max-steps",
                        "eval-tasks-file"};
-  ext.extra_usage =
-      "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
-      "maze, or the 5 tasks of cube-single or an ant maze for those envs' bags (state policies)\n"
-      "  --eval-env ENV     env to evaluate in: pointmaze-NAME, cube-single, antmaze-medium,\n"
-      "                     antmaze-large (default: the bags' env; give it for .npz data, e.g.\n"
-      "                     OGBench's antmaze-medium-navigate-v0.npz with --eval-env "
-      "antmaze-medium)\n"
-      "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
-      "  --eval-episodes N  episodes per task (default 50)\n"
-      "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
-      "  --eval-seed S      evaluation seed (default 0; same episodes as msspr_eval --seed S)\n"
-      "  --eval-max-steps N step limit (default 1000; cube-single 200)\n"
-      "  --eval-tasks-file YAML  also evaluate custom start/goal pairs (msspr_eval --tasks-file\n"
-      "                     format; msspr_make_tasks draws random ones), --eval-episodes each\n"
-      "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
-      "DIR/eval/step_<N>.json (the msspr_eval results format); with --eval-tasks-file also\n"
-      "success_custom<id> and mean_success_custom, and DIR/eval/step_<N>_custom.json.\n"
-      "\nA robot's own bags: --robot SPEC.yaml reads --data's bags of standard messages\n"
-      "  (nav_msgs/Odometry, geometry_msgs/Twist, ...) through the robot interface spec (see\n"
-      "  docs/bring_your_own_robot.md); checkpoints and policy.pt store the spec. The bags are\n"
-      "  one recording in time order (rosbag record --split files join). --ns NS resolves the\n"
-      "  spec's relative topics under NS (default: the spec's namespace:, else the one\n"
-      "  namespace of the recording that holds them all).\n"
-      "Example: rosrun msspr msspr_train --data medium-navigate.bag --scale cpu --steps 20000 \\\n"
-      "           --eval-every 2000 --out runs/medium\n";
+  ext.extra_usage = kEvalUsage;
   ext.load_dataset =
       [](const std::string& path, bool validation,
          const msspr::core::MsprOptions& options) -> std::shared_ptr<const msspr::core::Dataset> {
@@ -192,125 +345,7 @@ int main(int argc, char** argv) {
     msspr::sim::SaveLearningCurvePlot(out_dir + "/eval.csv", out_dir + "/metrics.csv",
                                       out_dir + "/learning_curve.png");
   };
-  ext.make_evaluator = [](msspr::core::Trainer& trainer,
-                          const std::map<std::string, std::string>& extra,
-                          const std::string& out_dir) -> msspr::core::Evaluator {
-    // The evaluation flags are checked even when no evaluation runs (CliError: exit 2).
-    msspr::agent::MazeEvalOptions eo;
-    auto get = [&](const std::string& k, const std::string& def) {
-      auto it = extra.find(k);
-      return it == extra.end() ? def : it->second;
-    };
-    using msspr::cli::ParseInt;
-    eo.episodes =
-        static_cast<int>(ParseInt("eval-episodes", get("eval-episodes", "50"), 1, 1000000));
-    eo.seed = static_cast<uint64_t>(ParseInt("eval-seed", get("eval-seed", "0"), 0));
-    // The env to evaluate in: --eval-env, else the bags' env label ("pointmaze-medium",
-    // "cube-single", "antmaze-medium"); none for a robot's own bags or .npz data without
-    // --eval-env.
-    std::optional<msspr::sim::EnvLabelParts> bags = msspr::sim::ParseEnvLabel(g_env);
-    if (extra.count("eval-env")) {
-      if (extra.count("eval-maze"))
-        throw msspr::cli::CliError("give --eval-env or --eval-maze, not both");
-      bags = msspr::sim::ParseEnvLabel(get("eval-env", ""));
-      if (!bags)
-        throw msspr::cli::CliError(
-            "--eval-env: '" + get("eval-env", "") +
-            "' is not an env (pointmaze-arena|medium|large|giant, cube-single, "
-            "antmaze-medium, antmaze-large)");
-    }
-    const bool cube =
-        get("eval-maze", "").empty() && bags && bags->id == msspr::sim::EnvId::kCubeSingle;
-    eo.max_steps = static_cast<int>(
-        ParseInt("eval-max-steps", get("eval-max-steps", cube ? "200" : "1000"), 1, 100000000));
-    eo.tasks.clear();
-    for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5")))
-      eo.tasks.push_back(static_cast<int>(ParseInt("eval-tasks", t, 1, 5)));
-    if (eo.tasks.empty()) throw msspr::cli::CliError("--eval-tasks needs at least one task id");
-    std::string maze = get("eval-maze", "");
-    if (maze.empty() && bags && bags->id == msspr::sim::EnvId::kPointMaze) maze = bags->maze;
-    if (!maze.empty()) {
-      try {
-        msspr::sim::MazeMap::FromName(maze);
-      } catch (const std::exception& e) {
-        throw msspr::cli::CliError("--eval-maze: " + std::string(e.what()));
-      }
-    }
-    const bool ant = get("eval-maze", "").empty() && bags && msspr::sim::IsAntMaze(bags->id);
-    if ((cube || ant) && extra.count("eval-tasks-file"))
-      throw msspr::cli::CliError(
-          "--eval-tasks-file: custom tasks are point-maze tasks (these bags are " +
-          msspr::sim::EnvIdName(bags->id) + ")");
-    if (trainer.options().trainer.eval_every <= 0) return nullptr;
-    const auto start = std::chrono::steady_clock::now();
-    // cube-single and the ant mazes: the env's 5 tasks (no custom tasks).
-    auto task_evaluator = [&](auto options, auto evaluate, auto write) -> msspr::core::Evaluator {
-      options.tasks = eo.tasks;
-      options.episodes = eo.episodes;
-      options.max_steps = eo.max_steps;
-      options.seed = eo.seed;
-      return [options, evaluate, write, out_dir, start](msspr::core::Policy& policy,
-                                                        int64_t step) -> msspr::core::EvalResult {
-        const auto result = evaluate(policy, options);
-        msspr::core::EvalResult r;
-        AddSuccessRows(result, "task", "", &r);
-        r.emplace_back("eval_s", result.seconds);
-        r.emplace_back(
-            "wall_s",
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-        if (!out_dir.empty())
-          write(result, options, "msspr step " + std::to_string(step),
-                StepJsonPath(out_dir, step, ""));
-        return r;
-      };
-    };
-    if (cube)
-      return task_evaluator(msspr::agent::CubeEvalOptions(), msspr::agent::EvaluateOnCube,
-                            msspr::agent::WriteCubeResultsJson);
-    if (ant) {
-      msspr::agent::AntEvalOptions ao;
-      ao.maze = msspr::sim::AntMazeName(bags->id);
-      return task_evaluator(ao, msspr::agent::EvaluateOnAntMaze, msspr::agent::WriteAntResultsJson);
-    }
-    if (maze.empty()) {
-      std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no "
-                   "success evaluation\n";
-      return nullptr;
-    }
-    eo.maze = maze;
-    msspr::agent::MazeEvalOptions custom = eo;
-    if (extra.count("eval-tasks-file")) {
-      const auto map = msspr::sim::MazeMap::FromName(maze);
-      try {
-        custom.custom_tasks = msspr::sim::LoadCustomTasks(get("eval-tasks-file", ""), &map);
-      } catch (const std::runtime_error& e) {
-        throw msspr::cli::CliError("--eval-tasks-file: " + std::string(e.what()));
-      }
-    }
-    return [eo, custom, out_dir, start](msspr::core::Policy& policy,
-                                        int64_t step) -> msspr::core::EvalResult {
-      const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
-      msspr::core::EvalResult r;
-      AddSuccessRows(result, "task", "", &r);
-      double eval_s = result.seconds;
-      if (!custom.custom_tasks.empty()) {
-        const auto cr = msspr::agent::EvaluateOnMaze(policy, custom);
-        AddSuccessRows(cr, "custom", "_custom", &r);
-        eval_s += cr.seconds;
-        if (!out_dir.empty())
-          msspr::agent::WriteResultsJson(cr, custom, "msspr step " + std::to_string(step),
-                                         StepJsonPath(out_dir, step, "_custom"));
-      }
-      r.emplace_back("eval_s", eval_s);
-      r.emplace_back(
-          "wall_s",
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-      if (!out_dir.empty())
-        msspr::agent::WriteResultsJson(result, eo, "msspr step " + std::to_string(step),
-                                       StepJsonPath(out_dir, step, ""));
-      return r;
-    };
-  };
+  ext.make_evaluator = MakeSimEvaluator;
   std::vector<char*> cargv;
   for (auto& a : args) cargv.push_back(a.data());
   cargv.push_back(nullptr);
