@@ -103,12 +103,11 @@ uint32_t RgbSide(const sensor_msgs::Image& img) {
   return img.width;
 }
 
-BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
-  BagEpisode ep = std::move(p.ep);
-  const std::string who = "episode " + std::to_string(ep.meta.episode_id) + ": ";
-  // Step indices come from the data: one far beyond the episode's observed
-  // length (twice the number of distinct steps it carries) is rejected, so a
-  // corrupt `step` never drives an allocation.
+// Step indices come from the data: one far beyond the episode's observed length (twice
+// the number of distinct steps it carries) is rejected, so a corrupt `step` never drives an
+// allocation. Drops those steps' messages; returns the number of steps (0: none).
+int CheckStepRange(PartialEpisode& p, const std::string& who, BagEpisode* ep,
+                   BagReadReport* report) {
   std::map<uint32_t, int> distinct;
   for (auto& kv : p.obs) distinct[kv.first] = 1;
   for (auto& kv : p.actions) distinct[kv.first] = 1;
@@ -118,8 +117,8 @@ BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
   for (auto& [t, one] : distinct) {
     if (t >= limit) {
       ++report->out_of_range_steps;
-      ep.problems.push_back(who + "step " + std::to_string(t) + " out of range (episode has " +
-                            std::to_string(distinct.size()) + " steps)");
+      ep->problems.push_back(who + "step " + std::to_string(t) + " out of range (episode has " +
+                             std::to_string(distinct.size()) + " steps)");
       continue;
     }
     max_step = std::max(max_step, t), any = true;
@@ -128,93 +127,104 @@ BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
     it = it->first >= limit ? p.obs.erase(it) : std::next(it);
   for (auto it = p.actions.begin(); it != p.actions.end();)
     it = it->first >= limit ? p.actions.erase(it) : std::next(it);
-  ep.num_steps = any ? static_cast<int>(max_step) + 1 : 0;
-  const int n = ep.num_steps;
-  ep.has_obs.assign(n, 0);
-  ep.has_action.assign(n, 0);
-  ep.has_image.assign(n, 0);
-  if (!p.obs.empty()) ep.obs_dim = static_cast<int>(p.obs.begin()->second->state.size());
-  if (!p.actions.empty()) ep.act_dim = static_cast<int>(p.actions.begin()->second->action.size());
-  ep.observations.assign(static_cast<size_t>(n) * ep.obs_dim, 0.f);
-  ep.actions.assign(static_cast<size_t>(n) * ep.act_dim, 0.f);
-  // NaN / Inf: the step is rejected (counted, and it splits the episode as a gap would).
+  return any ? static_cast<int>(max_step) + 1 : 0;
+}
+
+// The observations and actions into their arrays. A wrong size is a problem; NaN / Inf
+// rejects the step (counted, and it splits the episode as a gap would).
+void FillStatesAndActions(const PartialEpisode& p, const std::string& who, BagEpisode* ep,
+                          BagReadReport* report) {
+  const int n = ep->num_steps;
+  if (!p.obs.empty()) ep->obs_dim = static_cast<int>(p.obs.begin()->second->state.size());
+  if (!p.actions.empty()) ep->act_dim = static_cast<int>(p.actions.begin()->second->action.size());
+  ep->observations.assign(static_cast<size_t>(n) * ep->obs_dim, 0.f);
+  ep->actions.assign(static_cast<size_t>(n) * ep->act_dim, 0.f);
+  // Copies one message's numbers into step t's row, or says why not.
+  auto fill = [&](uint32_t t, const std::vector<float>& values, int dim, const char* what,
+                  std::vector<float>* rows, std::vector<uint8_t>* has,
+                  std::vector<uint32_t>* nonfinite) {
+    if (static_cast<int>(values.size()) != dim) {
+      ep->problems.push_back(who + what + " at step " + std::to_string(t) + " has " +
+                             std::to_string(values.size()) + " numbers, expected " +
+                             std::to_string(dim));
+      return;
+    }
+    if (!AllFinite(values)) {
+      nonfinite->push_back(t);
+      return;
+    }
+    std::copy(values.begin(), values.end(), rows->begin() + t * dim);
+    (*has)[t] = 1;
+  };
   std::vector<uint32_t> bad_obs, bad_act;
-  for (auto& [t, m] : p.obs) {
-    if (static_cast<int>(m->state.size()) != ep.obs_dim) {
-      ep.problems.push_back(who + "observation at step " + std::to_string(t) + " has " +
-                            std::to_string(m->state.size()) + " numbers, expected " +
-                            std::to_string(ep.obs_dim));
-      continue;
-    }
-    if (!AllFinite(m->state)) {
-      bad_obs.push_back(t);
-      continue;
-    }
-    std::copy(m->state.begin(), m->state.end(), ep.observations.begin() + t * ep.obs_dim);
-    ep.has_obs[t] = 1;
-  }
-  for (auto& [t, m] : p.actions) {
-    if (static_cast<int>(m->action.size()) != ep.act_dim) {
-      ep.problems.push_back(who + "action at step " + std::to_string(t) + " has " +
-                            std::to_string(m->action.size()) + " numbers, expected " +
-                            std::to_string(ep.act_dim));
-      continue;
-    }
-    if (!AllFinite(m->action)) {
-      bad_act.push_back(t);
-      continue;
-    }
-    std::copy(m->action.begin(), m->action.end(), ep.actions.begin() + t * ep.act_dim);
-    ep.has_action[t] = 1;
-  }
+  for (auto& [t, m] : p.obs)
+    fill(t, m->state, ep->obs_dim, "observation", &ep->observations, &ep->has_obs, &bad_obs);
+  for (auto& [t, m] : p.actions)
+    fill(t, m->action, ep->act_dim, "action", &ep->actions, &ep->has_action, &bad_act);
   auto describe = [&](const std::vector<uint32_t>& steps, const char* what, uint64_t* count) {
     if (steps.empty()) return;
     *count += steps.size();
     std::string list;
     for (size_t i = 0; i < steps.size() && i < 4; ++i)
       list += (i ? ", " : "") + std::to_string(steps[i]);
-    ep.problems.push_back(who + std::to_string(steps.size()) + " " + what +
-                          " with NaN or Inf rejected (step" + (steps.size() > 1 ? "s " : " ") +
-                          list + (steps.size() > 4 ? ", ..." : "") + ")");
+    ep->problems.push_back(who + std::to_string(steps.size()) + " " + what +
+                           " with NaN or Inf rejected (step" + (steps.size() > 1 ? "s " : " ") +
+                           list + (steps.size() > 4 ? ", ..." : "") + ")");
   };
   describe(bad_obs, "observations", &report->nonfinite_observations);
   describe(bad_act, "actions", &report->nonfinite_actions);
-  // The image size is the most common one among self-consistent rgb8 images;
-  // the rest are reported per step below.
+}
+
+// The images of the steps: the size is the most common one among self-consistent rgb8
+// images; the rest are reported per step.
+void FillImages(const PartialEpisode& p, const std::string& who, BagEpisode* ep,
+                BagReadReport* report) {
+  const int n = ep->num_steps;
   std::map<uint32_t, int> sides;
   for (auto& kv : p.images)
     if (const uint32_t side = RgbSide(*kv.second)) ++sides[side];
   if (!p.images.empty() && sides.empty())
-    ep.problems.push_back(who + std::to_string(p.images.size()) +
-                          " images, none a consistent rgb8 image (size, step and data disagree)");
+    ep->problems.push_back(who + std::to_string(p.images.size()) +
+                           " images, none a consistent rgb8 image (size, step and data disagree)");
   if (!sides.empty()) {
     const auto best = std::max_element(sides.begin(), sides.end(),
                                        [](auto& a, auto& b) { return a.second < b.second; });
-    ep.image_size = static_cast<int>(best->first);
-    const size_t bytes = static_cast<size_t>(ep.image_size) * ep.image_size * 3;
+    ep->image_size = static_cast<int>(best->first);
+    const size_t bytes = static_cast<size_t>(ep->image_size) * ep->image_size * 3;
     if (bytes * n > kMaxEpisodeImageBytes) {
-      ep.problems.push_back(who + "images of " + std::to_string(ep.image_size) + "x" +
-                            std::to_string(ep.image_size) + " for " + std::to_string(n) +
-                            " steps exceed the per-episode limit; images dropped");
-      ep.image_size = 0;
+      ep->problems.push_back(who + "images of " + std::to_string(ep->image_size) + "x" +
+                             std::to_string(ep->image_size) + " for " + std::to_string(n) +
+                             " steps exceed the per-episode limit; images dropped");
+      ep->image_size = 0;
     }
   }
-  if (ep.image_size > 0) {
-    const size_t bytes = static_cast<size_t>(ep.image_size) * ep.image_size * 3;
-    ep.images.assign(bytes * n, 0);
-    for (auto& [t, m] : p.obs) {
-      auto it = p.images.find(m->header.stamp);
-      if (it == p.images.end()) continue;
-      const std::string bad = CheckRgbImage(*it->second, ep.image_size);
-      if (!bad.empty()) {
-        ++report->bad_images;
-        ep.problems.push_back(who + "image at step " + std::to_string(t) + ": " + bad);
-        continue;
-      }
-      std::memcpy(ep.images.data() + bytes * t, it->second->data.data(), bytes);
-      ep.has_image[t] = 1;
+  if (ep->image_size <= 0) return;
+  const size_t bytes = static_cast<size_t>(ep->image_size) * ep->image_size * 3;
+  ep->images.assign(bytes * n, 0);
+  for (auto& [t, m] : p.obs) {
+    auto it = p.images.find(m->header.stamp);
+    if (it == p.images.end()) continue;
+    const std::string bad = CheckRgbImage(*it->second, ep->image_size);
+    if (!bad.empty()) {
+      ++report->bad_images;
+      ep->problems.push_back(who + "image at step " + std::to_string(t) + ": " + bad);
+      continue;
     }
+    std::memcpy(ep->images.data() + bytes * t, it->second->data.data(), bytes);
+    ep->has_image[t] = 1;
   }
+}
+
+BagEpisode Finalize(PartialEpisode&& p, BagReadReport* report) {
+  BagEpisode ep = std::move(p.ep);
+  const std::string who = "episode " + std::to_string(ep.meta.episode_id) + ": ";
+  ep.num_steps = CheckStepRange(p, who, &ep, report);
+  const int n = ep.num_steps;
+  ep.has_obs.assign(n, 0);
+  ep.has_action.assign(n, 0);
+  ep.has_image.assign(n, 0);
+  FillStatesAndActions(p, who, &ep, report);
+  FillImages(p, who, &ep, report);
   if (!ep.has_meta) ep.problems.push_back(who + std::string("no message on ") + kEpisodeTopic);
   std::string miss = DescribeMissing(ep.has_obs, n, &report->missing_observations);
   if (!miss.empty()) ep.problems.push_back(who + "missing observations: " + miss);
