@@ -270,146 +270,181 @@ uint64_t DatasetBagReader::CountObservations() const {
   }
 }
 
-void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& fn) {
-  report_ = BagReadReport{};
-  std::map<uint32_t, PartialEpisode> open;
-  uint32_t max_id = 0;
-  bool any = false;
-  std::map<ros::Time, uint32_t> stamp_owner;  // observation stamp -> episode id
-  std::map<ros::Time, sensor_msgs::Image::ConstPtr> pending_images;  // image before its obs
-  // Episodes two ids behind the newest are complete: live recordings can interleave
-  // the tail of one episode with the head of the next, never more.
-  bool in_callback = false;  // exceptions of fn pass through unchanged
-  auto flush = [&](bool all) {
-    while (!open.empty() && (all || open.begin()->first + 2 <= max_id)) {
-      auto node = open.extract(open.begin());
-      for (auto& kv : node.mapped().obs) stamp_owner.erase(kv.second->header.stamp);
-      BagEpisode ep = Finalize(std::move(node.mapped()), &report_);
-      in_callback = true;
-      fn(std::move(ep));
-      in_callback = false;
+namespace {
+
+// Assembles episodes from a bag's messages in time order and hands each one, finalized, to
+// `fn` once no later message can belong to it: live recordings can interleave the tail of
+// one episode with the head of the next, never more, so episodes two ids behind the newest
+// are complete.
+class EpisodeAssembler {
+ public:
+  EpisodeAssembler(const std::string& path, BagReadReport& report,
+                   const std::function<void(BagEpisode&&)>& fn)
+      : path_(path), report_(report), fn_(fn) {}
+
+  void Read(const rosbag::MessageInstance& m) {
+    ++report_.messages;
+    const std::string& topic = m.getTopic();
+    if (topic == kObservationTopic) {
+      if (auto o = Typed<msspr::Observation>(m)) AddObservation(o);
+    } else if (topic == kActionTopic) {
+      if (auto a = Typed<msspr::Action>(m)) AddAction(a);
+    } else if (topic == kEpisodeTopic) {
+      if (auto e = Typed<msspr::EpisodeInfo>(m)) AddEpisodeInfo(*e);
+    } else if (topic == kImageTopic) {
+      if (auto img = Typed<sensor_msgs::Image>(m)) AddImage(img);
     }
-  };
+    Flush(false);
+  }
+
+  // Finalizes and hands over the open episodes: all, or those two ids behind the newest.
+  void Flush(bool all) {
+    while (!open_.empty() && (all || open_.begin()->first + 2 <= max_id_)) {
+      auto node = open_.extract(open_.begin());
+      for (auto& kv : node.mapped().obs) stamp_owner_.erase(kv.second->header.stamp);
+      BagEpisode ep = Finalize(std::move(node.mapped()), &report_);
+      in_callback_ = true;
+      fn_(std::move(ep));
+      in_callback_ = false;
+    }
+  }
+
+  // Whether an exception comes from fn (it passes through unchanged).
+  bool in_callback() const { return in_callback_; }
+
+  // The problems of the whole bag, after the last Flush.
+  void AddBagProblems() {
+    if (!pending_images_.empty())
+      report_.problems.push_back(std::to_string(pending_images_.size()) +
+                                 " images match no observation stamp");
+    for (const auto& [type, seen] : other_definitions_)
+      report_.problems.push_back(std::to_string(seen.first) + " " + type +
+                                 " messages were written with another definition of " + type +
+                                 " (" + seen.second +
+                                 "): the bag comes from another version of msspr's messages");
+    if (report_.foreign_messages > 0)
+      report_.problems.push_back(std::to_string(report_.foreign_messages) +
+                                 " messages of an unexpected type on msspr topics");
+  }
+
+ private:
+  // The message as M; null for a message of another type on the topic, counted (those
+  // of the expected type but another definition, from another version of the .msg, are
+  // named apart).
+  template <class M>
+  boost::shared_ptr<M> Typed(const rosbag::MessageInstance& m) {
+    auto msg = Instantiate<M>(m, path_, report_.messages);
+    if (msg) return msg;
+    ++report_.foreign_messages;
+    const char* type = ros::message_traits::datatype<M>();
+    if (m.getDataType() == type) {
+      auto& [n, md5s] = other_definitions_[type];
+      if (n++ == 0)
+        md5s =
+            "md5 " + m.getMD5Sum() + "; this build reads md5 " + ros::message_traits::md5sum<M>();
+    }
+    return nullptr;
+  }
+
   // A step index beyond kMaxEpisodeSteps is rejected as it is read.
-  auto step_ok = [&](uint32_t id, uint32_t step, const char* what) {
+  bool StepOk(uint32_t id, uint32_t step, const char* what) {
     if (step < kMaxEpisodeSteps) return true;
     ++report_.out_of_range_steps;
     report_.problems.push_back("episode " + std::to_string(id) + ": " + what + " step " +
                                std::to_string(step) + " out of range (limit " +
                                std::to_string(kMaxEpisodeSteps) + " steps)");
     return false;
-  };
-  auto slot = [&](uint32_t id) -> PartialEpisode& {
-    auto& p = open[id];
+  }
+
+  PartialEpisode& Slot(uint32_t id) {
+    auto& p = open_[id];
     p.ep.meta.episode_id = id;
-    if (!any || id > max_id) max_id = id;
-    any = true;
+    if (!any_ || id > max_id_) max_id_ = id;
+    any_ = true;
     return p;
-  };
-  // Messages of another type on an msspr topic; those of the expected type but
-  // another definition (written by another version of the .msg) are named apart.
-  std::map<std::string, std::pair<uint64_t, std::string>> other_definitions;  // type -> n, md5s
-  auto foreign = [&](const rosbag::MessageInstance& m, const char* type, const char* md5) {
-    ++report_.foreign_messages;
-    if (m.getDataType() != type) return;
-    auto& [n, md5s] = other_definitions[type];
-    if (n++ == 0) md5s = "md5 " + m.getMD5Sum() + "; this build reads md5 " + md5;
-  };
+  }
+
+  void AddObservation(const msspr::Observation::ConstPtr& o) {
+    if (!StepOk(o->episode_id, o->step, "observation")) return;
+    auto& p = Slot(o->episode_id);
+    auto [it_o, fresh] = p.obs.emplace(o->step, o);
+    if (!fresh && it_o->second->state != o->state) ++p.duplicates;  // re-sends are identical
+    stamp_owner_[o->header.stamp] = o->episode_id;
+    auto it = pending_images_.find(o->header.stamp);
+    if (it != pending_images_.end()) {
+      p.images.emplace(it->first, it->second);
+      pending_images_.erase(it);
+    }
+  }
+
+  void AddAction(const msspr::Action::ConstPtr& a) {
+    if (!StepOk(a->episode_id, a->step, "action")) return;
+    auto& p = Slot(a->episode_id);
+    auto [it_a, fresh] = p.actions.emplace(a->step, a);
+    if (!fresh && it_a->second->action != a->action) ++p.duplicates;
+  }
+
+  void AddEpisodeInfo(const msspr::EpisodeInfo& e) {
+    auto& p = Slot(e.episode_id);
+    p.ep.has_meta = true;
+    p.ep.meta.env = e.env;
+    p.ep.meta.split = e.split.empty() ? "train" : e.split;
+    p.ep.meta.task_id = e.task_id;
+    p.ep.meta.seed = e.seed;
+    p.ep.meta.start = e.start;
+    p.ep.meta.goal = e.goal;
+  }
+
+  // The image shares its stamp with its observation; it may come first.
+  void AddImage(const sensor_msgs::Image::ConstPtr& img) {
+    auto owner = stamp_owner_.find(img->header.stamp);
+    if (owner != stamp_owner_.end() && open_.count(owner->second))
+      open_[owner->second].images.emplace(img->header.stamp, img);
+    else
+      pending_images_.emplace(img->header.stamp, img);
+  }
+
+  const std::string& path_;
+  BagReadReport& report_;
+  const std::function<void(BagEpisode&&)>& fn_;
+  std::map<uint32_t, PartialEpisode> open_;
+  uint32_t max_id_ = 0;
+  bool any_ = false;
+  bool in_callback_ = false;
+  std::map<ros::Time, uint32_t> stamp_owner_;                         // observation stamp -> id
+  std::map<ros::Time, sensor_msgs::Image::ConstPtr> pending_images_;  // image before its obs
+  std::map<std::string, std::pair<uint64_t, std::string>> other_definitions_;  // type -> n, md5s
+};
+
+}  // namespace
+
+void DatasetBagReader::ForEachEpisode(const std::function<void(BagEpisode&&)>& fn) {
+  report_ = BagReadReport{};
+  EpisodeAssembler assembler(path_, report_, fn);
   try {
     rosbag::View view(
         *bag_, rosbag::TopicQuery({kEpisodeTopic, kObservationTopic, kActionTopic, kImageTopic}));
     if (view.size() == 0)
       throw BagError(path_ + ": no messages on " + kObservationTopic + " / " + kActionTopic +
                      " (not an msspr dataset bag?)");
-    for (const rosbag::MessageInstance& m : view) {
-      ++report_.messages;
-      const std::string& topic = m.getTopic();
-      if (topic == kObservationTopic) {
-        auto o = Instantiate<msspr::Observation>(m, path_, report_.messages);
-        if (!o) {
-          foreign(m, ros::message_traits::datatype<msspr::Observation>(),
-                  ros::message_traits::md5sum<msspr::Observation>());
-          continue;
-        }
-        if (!step_ok(o->episode_id, o->step, "observation")) continue;
-        auto& p = slot(o->episode_id);
-        auto [it_o, fresh] = p.obs.emplace(o->step, o);
-        if (!fresh && it_o->second->state != o->state) ++p.duplicates;  // re-sends are identical
-        stamp_owner[o->header.stamp] = o->episode_id;
-        auto it = pending_images.find(o->header.stamp);
-        if (it != pending_images.end()) {
-          p.images.emplace(it->first, it->second);
-          pending_images.erase(it);
-        }
-      } else if (topic == kActionTopic) {
-        auto a = Instantiate<msspr::Action>(m, path_, report_.messages);
-        if (!a) {
-          foreign(m, ros::message_traits::datatype<msspr::Action>(),
-                  ros::message_traits::md5sum<msspr::Action>());
-          continue;
-        }
-        if (!step_ok(a->episode_id, a->step, "action")) continue;
-        auto& p = slot(a->episode_id);
-        auto [it_a, fresh] = p.actions.emplace(a->step, a);
-        if (!fresh && it_a->second->action != a->action) ++p.duplicates;
-      } else if (topic == kEpisodeTopic) {
-        auto e = Instantiate<msspr::EpisodeInfo>(m, path_, report_.messages);
-        if (!e) {
-          foreign(m, ros::message_traits::datatype<msspr::EpisodeInfo>(),
-                  ros::message_traits::md5sum<msspr::EpisodeInfo>());
-          continue;
-        }
-        auto& p = slot(e->episode_id);
-        p.ep.has_meta = true;
-        p.ep.meta.env = e->env;
-        p.ep.meta.split = e->split.empty() ? "train" : e->split;
-        p.ep.meta.task_id = e->task_id;
-        p.ep.meta.seed = e->seed;
-        p.ep.meta.start = e->start;
-        p.ep.meta.goal = e->goal;
-      } else if (topic == kImageTopic) {
-        auto img = Instantiate<sensor_msgs::Image>(m, path_, report_.messages);
-        if (!img) {
-          foreign(m, ros::message_traits::datatype<sensor_msgs::Image>(),
-                  ros::message_traits::md5sum<sensor_msgs::Image>());
-          continue;
-        }
-        // The image shares its stamp with its observation; it may come first.
-        auto owner = stamp_owner.find(img->header.stamp);
-        if (owner != stamp_owner.end() && open.count(owner->second))
-          open[owner->second].images.emplace(img->header.stamp, img);
-        else
-          pending_images.emplace(img->header.stamp, img);
-      }
-      flush(false);
-    }
+    for (const rosbag::MessageInstance& m : view) assembler.Read(m);
   } catch (const std::exception& e) {
     // rosbag errors, corrupt messages, and deserialization errors (ros::Exception);
     // the episodes read so far are delivered first.
-    if (in_callback) throw;
+    if (assembler.in_callback()) throw;
     const bool named = dynamic_cast<const BagError*>(&e) != nullptr;
     const std::string what = e.what();
     try {
-      flush(true);
+      assembler.Flush(true);
     } catch (...) {
-      if (in_callback) throw;
+      if (assembler.in_callback()) throw;
     }
     if (named) throw BagError(what);
     throw BagError(path_ + ": truncated or corrupt after " + std::to_string(report_.messages) +
                    " messages: " + what);
   }
-  flush(true);
-  if (!pending_images.empty())
-    report_.problems.push_back(std::to_string(pending_images.size()) +
-                               " images match no observation stamp");
-  for (const auto& [type, seen] : other_definitions)
-    report_.problems.push_back(std::to_string(seen.first) + " " + type +
-                               " messages were written with another definition of " + type + " (" +
-                               seen.second +
-                               "): the bag comes from another version of msspr's messages");
-  if (report_.foreign_messages > 0)
-    report_.problems.push_back(std::to_string(report_.foreign_messages) +
-                               " messages of an unexpected type on msspr topics");
+  assembler.Flush(true);
+  assembler.AddBagProblems();
 }
 
 }  // namespace msspr::ros_bridge
