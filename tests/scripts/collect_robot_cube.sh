@@ -14,9 +14,12 @@ timeout 240 roslaunch -p "$MSSPR_PORT" msspr collect.launch env:=cube-single rob
   episodes:=3 val_episodes:=0 episode_length:=60 seed:=3 bag:="$TMP/arm.bag" >"$TMP/launch.log" 2>&1 ||
   { tail -20 "$TMP/launch.log" >&2; fail "collect.launch exited $?"; }
 [ -s "$TMP/arm.bag" ] || { tail -20 "$TMP/launch.log" >&2; fail "no bag written"; }
-INFO=$(rosrun msspr msspr_bag_info --robot config/robots/ur5e_cube.yaml "$TMP/arm.bag" 2>&1) ||
-  { echo "$INFO" >&2; fail "msspr_bag_info exited $?"; }
+# Exit 1 (problems, e.g. a command that missed its tick in real time) still reads the bag;
+# 2 is nothing usable.
+STATUS=0
+INFO=$(rosrun msspr msspr_bag_info --robot config/robots/ur5e_cube.yaml "$TMP/arm.bag" 2>&1) || STATUS=$?
 echo "$INFO"
+[ "$STATUS" -le 1 ] || fail "msspr_bag_info exited $STATUS"
 # 3 episodes of 60 steps, each found by the gap; in real time on a loaded machine a command
 # may miss its tick, so at least 95% of the ticks are complete.
 LINE=$(grep "^episodes:" <<<"$INFO")

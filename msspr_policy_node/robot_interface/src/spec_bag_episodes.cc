@@ -160,72 +160,141 @@ class CommandTrack {
 
 }  // namespace
 
-void SpecBagReader::EmitEpisodes(Recording* rec, uint64_t* next_id,
-                                 const std::function<void(BagEpisode&&)>& fn) {
-  const RobotSpec& spec = spec_;
-  const SpecLayout& layout = rec->layout;
-  const auto& cmd_topics = rec->cmd_topics;
-  const auto& histories = rec->histories;
-  const auto& primary = histories[0].samples();
-  if (primary.empty()) {
-    report_.problems.push_back(rec->label + ": topic " + layout.topics[0].name +
-                               ": no usable message");
-    return;
+// Samples a recording's episodes at the control ticks: each tick's observation, commands
+// and image, counted per field, per bag and per episode.
+class SpecBagReader::EpisodeSampler {
+ public:
+  EpisodeSampler(const RobotSpec& spec, Recording& rec, SpecBagReport& report)
+      : spec_(spec),
+        rec_(rec),
+        report_(report),
+        dt_(1.0 / spec.control_rate),
+        obs_dim_(spec.obs_dim()),
+        act_dim_(spec.action_dim()),
+        image_row_(static_cast<int>(spec.observation.size())),
+        cmd_row_(static_cast<int>(report.fields.size() - rec.cmd_topics.size())),
+        camera_(spec.images.empty() ? nullptr : &spec.images[0]),
+        usage_(rec.bags.size()),
+        aligned_(rec.cmd_topics.size(), 0),
+        ambiguous_(rec.cmd_topics.size(), 0),
+        act_(static_cast<size_t>(spec.action_dim()), 0.f) {}
+
+  // The episode of ticks begin, begin + dt, ... up to `last`, as episode `id`; false
+  // (nothing counted) when its length is out of range.
+  bool Sample(const ros::Time& begin, const ros::Time& last, uint64_t id, BagEpisode* ep) {
+    const int64_t n = static_cast<int64_t>(std::floor((last - begin).toSec() / dt_ + 1e-9)) + 1;
+    if (n <= 0 || n > static_cast<int64_t>(kMaxEpisodeSteps)) return false;
+    Allocate(id, begin, n, ep);
+    std::vector<CommandTrack> tracks = Tracks(begin, n);
+    Missing obs, cmd, img;
+    for (int64_t k = 0; k < n; ++k) {
+      const ros::Time t = begin + ros::Duration(dt_ * static_cast<double>(k));
+      Usage& u = usage_[BagOf(t)];
+      ++u.ticks;
+      const bool have_obs = ObservationAt(k, t, begin, ep, &obs);
+      const bool have_cmd = CommandsAt(k, t, tracks, ep, &cmd);
+      const bool have_img = !camera_ || ImageAt(k, t, begin, ep, &img);
+      u.no_obs += !have_obs;
+      u.no_cmd += !have_cmd;
+      u.no_image += !have_img;
+      if (have_obs && have_cmd && have_img) {
+        ++report_.complete_ticks;
+        ++u.complete;
+      }
+    }
+    report_.ticks += static_cast<uint64_t>(n);
+    ++report_.episodes;
+    const std::string who =
+        rec_.label + ": episode " + std::to_string(id) + " (from " + Stamp(begin) + "): ";
+    obs.Report(who, "observation", &ep->problems);
+    cmd.Report(who, "command", &ep->problems);
+    img.Report(who, "image", &ep->problems);
+    for (const auto& p : ep->problems) report_.problems.push_back(p);
+    FillGoals(rec_.goals, obs_dim_, spec_.tolerance, ep);
+    return true;
   }
-  const std::vector<std::pair<ros::Time, ros::Time>> episodes = EpisodeSpans(rec);
-  const int image_index = static_cast<int>(spec.observation.size());  // the first camera row
-  const int cmd_index = static_cast<int>(report_.fields.size() - cmd_topics.size());
+
+  // After the last episode: the commands whose ticks are ambiguous, and a usage line per bag.
+  void AddRecordingProblems() {
+    for (size_t c = 0; c < rec_.cmd_topics.size(); ++c) {
+      const SpecFieldReport& r = report_.fields[cmd_row_ + c];
+      if (ambiguous_[c])
+        report_.problems.push_back(
+            rec_.label + ": topic " + r.topic + " (" + r.name +
+            "): " + std::to_string(ambiguous_[c]) + " of " + std::to_string(aligned_[c]) +
+            " commands arrived more than a quarter period off the others' phase: their ticks "
+            "are ambiguous");
+    }
+    for (size_t b = 0; b < rec_.bags.size(); ++b) {
+      const Usage& u = usage_[b];
+      report_.usage.push_back(
+          rec_.bags[b].path + ": " + std::to_string(u.ticks) + " ticks in episodes, " +
+          std::to_string(u.complete) + " complete; not used: " + std::to_string(u.no_obs) +
+          " without a fresh observation, " + std::to_string(u.no_cmd) + " without a command, " +
+          std::to_string(u.no_image) + " without an image");
+    }
+  }
+
+ private:
   // Per bag (by the time of the tick): ticks, complete ones, and why the others are not.
   struct Usage {
     uint64_t ticks = 0, complete = 0, no_obs = 0, no_cmd = 0, no_image = 0;
   };
-  std::vector<Usage> usage(rec->bags.size());
-  auto bag_of = [&](const ros::Time& t) {
-    size_t b = 0;
-    while (b + 1 < rec->bags.size() && rec->bags[b + 1].begin <= t) ++b;
-    return b;
+  // An episode's ticks without a fresh input of one kind: the count and the first's reason.
+  struct Missing {
+    uint64_t count = 0;
+    std::string first;
+    void Note(const std::string& why, int64_t k, const ros::Time& t) {
+      if (count++ == 0) first = why + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
+    }
+    void Report(const std::string& who, const char* what, std::vector<std::string>* problems) {
+      if (count)
+        problems->push_back(who + std::to_string(count) + " ticks without a fresh " + what +
+                            " (first: " + first + ")");
+    }
   };
 
-  // This recording's commands without stamps, and the ambiguous ones among them.
-  std::vector<uint64_t> aligned(cmd_topics.size(), 0), ambiguous(cmd_topics.size(), 0);
-  const double dt = 1.0 / spec.control_rate;
-  const int obs_dim = spec.obs_dim(), act_dim = spec.action_dim();
-  std::vector<float> obs, act(static_cast<size_t>(act_dim), 0.f);
-  std::stable_sort(rec->goals.begin(), rec->goals.end(),
-                   [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (const auto& [begin, last] : episodes) {
-    BagEpisode ep;
-    ep.meta.episode_id = (*next_id)++;
-    ep.meta.env = spec.name;
-    ep.meta.split = "train";
-    ep.has_meta = true;
-    ep.obs_dim = obs_dim;
-    ep.act_dim = act_dim;
-    ep.t0 = begin.toSec();
-    ep.step_period = dt;
-    const int64_t n = static_cast<int64_t>(std::floor((last - begin).toSec() / dt + 1e-9)) + 1;
-    if (n <= 0 || n > static_cast<int64_t>(kMaxEpisodeSteps)) continue;
-    ep.num_steps = static_cast<int>(n);
-    ep.observations.assign(static_cast<size_t>(n) * obs_dim, 0.f);
-    ep.actions.assign(static_cast<size_t>(n) * act_dim, 0.f);
-    ep.has_obs.assign(n, 0);
-    ep.has_action.assign(n, 0);
-    ep.has_image.assign(n, 0);
-    // The camera's images (one camera: the network's input).
-    const SpecImage* camera = spec.images.empty() ? nullptr : &spec.images[0];
-    const size_t image_bytes = camera ? static_cast<size_t>(camera->size) * camera->size * 3 : 0;
-    if (camera) {
-      ep.image_size = camera->size;
-      ep.images.assign(static_cast<size_t>(n) * image_bytes, 0);
+  void Allocate(uint64_t id, const ros::Time& begin, int64_t n, BagEpisode* ep) const {
+    ep->meta.episode_id = id;
+    ep->meta.env = spec_.name;
+    ep->meta.split = "train";
+    ep->has_meta = true;
+    ep->obs_dim = obs_dim_;
+    ep->act_dim = act_dim_;
+    ep->t0 = begin.toSec();
+    ep->step_period = dt_;
+    ep->num_steps = static_cast<int>(n);
+    ep->observations.assign(static_cast<size_t>(n) * obs_dim_, 0.f);
+    ep->actions.assign(static_cast<size_t>(n) * act_dim_, 0.f);
+    ep->has_obs.assign(n, 0);
+    ep->has_action.assign(n, 0);
+    ep->has_image.assign(n, 0);
+    if (camera_) {  // one camera: the network's input
+      ep->image_size = camera_->size;
+      ep->images.assign(static_cast<size_t>(n) * ImageBytes(), 0);
     }
+  }
+
+  size_t ImageBytes() const {
+    return camera_ ? static_cast<size_t>(camera_->size) * camera_->size * 3 : 0;
+  }
+
+  size_t BagOf(const ros::Time& t) const {
+    size_t b = 0;
+    while (b + 1 < rec_.bags.size() && rec_.bags[b + 1].begin <= t) ++b;
+    return b;
+  }
+
+  // Each command topic's track over the episode; the alignment of unstamped commands is
+  // counted (its phase commands-weighted over the episodes).
+  std::vector<CommandTrack> Tracks(const ros::Time& begin, int64_t n) {
     std::vector<CommandTrack> tracks;
-    tracks.reserve(cmd_topics.size());
-    for (size_t c = 0; c < cmd_topics.size(); ++c) {
-      tracks.emplace_back(spec, cmd_topics[c], rec->commands[c], begin, n);
+    tracks.reserve(rec_.cmd_topics.size());
+    for (size_t c = 0; c < rec_.cmd_topics.size(); ++c) {
+      tracks.emplace_back(spec_, rec_.cmd_topics[c], rec_.commands[c], begin, n);
       if (!tracks.back().aligned()) continue;
       const CommandAlignment& a = tracks.back().alignment();
-      SpecFieldReport& r = report_.fields[cmd_index + c];
-      // (The phase: commands-weighted over the episodes.)
+      SpecFieldReport& r = report_.fields[cmd_row_ + c];
       const uint64_t before = r.aligned_commands;
       r.aligned_commands += a.commands;
       if (r.aligned_commands)
@@ -233,114 +302,105 @@ void SpecBagReader::EmitEpisodes(Recording* rec, uint64_t* next_id,
             (r.phase_s * static_cast<double>(before) + a.phase * static_cast<double>(a.commands)) /
             static_cast<double>(r.aligned_commands);
       r.ambiguous += a.ambiguous;
-      ambiguous[c] += a.ambiguous;
-      aligned[c] += a.commands;
+      ambiguous_[c] += a.ambiguous;
+      aligned_[c] += a.commands;
       r.shifted += a.shifted;
       r.dropped += a.dropped;
       r.spread_s = std::max(r.spread_s, a.spread);
     }
-    uint64_t missing_obs = 0, missing_act = 0, missing_img = 0;
-    std::string first_obs_why, first_act_why, first_img_why;
-    for (int64_t k = 0; k < n; ++k) {
-      const ros::Time t = begin + ros::Duration(dt * static_cast<double>(k));
-      Usage& u = usage[bag_of(t)];
-      ++u.ticks;
-      std::vector<int> stale_topics;
-      const std::string why =
-          SampleObservation(spec, layout, histories, t, begin, &obs, &stale_topics);
-      for (size_t j = 0; j < layout.topics.size(); ++j) {
-        const bool bad = std::find(stale_topics.begin(), stale_topics.end(), static_cast<int>(j)) !=
-                         stale_topics.end();
-        for (int idx : layout.topics[j].fields) {
-          ++report_.fields[idx].ticks;
-          (bad ? report_.fields[idx].stale_ticks : report_.fields[idx].covered_ticks)++;
-        }
-      }
-      if (why.empty()) {
-        std::copy(obs.begin(), obs.end(), ep.observations.begin() + k * obs_dim);
-        ep.has_obs[k] = 1;
-      } else {
-        ++u.no_obs;
-        if (missing_obs++ == 0)
-          first_obs_why = why + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
-      }
-      std::string awhy;
-      for (size_t c = 0; c < cmd_topics.size(); ++c) {
-        const TopicSample* s = nullptr;
-        const std::string cwhy = tracks[c].At(k, t, &s);
-        SpecFieldReport& r = report_.fields[cmd_index + c];
-        ++r.ticks;
-        (cwhy.empty() ? r.covered_ticks : r.stale_ticks)++;
-        if (cwhy.empty())
-          PutCommand(spec, cmd_topics[c], *s, &act);
-        else if (awhy.empty())
-          awhy = cwhy;
-      }
-      if (awhy.empty()) {
-        std::copy(act.begin(), act.end(), ep.actions.begin() + k * act_dim);
-        ep.has_action[k] = 1;
-      } else {
-        ++u.no_cmd;
-        if (missing_act++ == 0)
-          first_act_why = awhy + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
-      }
-      bool image_ok = true;
-      if (camera) {
-        const TopicSample* img = nullptr;
-        const std::string iwhy = SampleImage(spec, *camera, rec->images[0], t, begin, &img);
-        SpecFieldReport& ir = report_.fields[image_index];
-        ++ir.ticks;
-        if (iwhy.empty()) {
-          std::copy(img->pixels.begin(), img->pixels.end(), ep.images.begin() + k * image_bytes);
-          ep.has_image[k] = 1;
-          ++ir.covered_ticks;
-        } else {
-          image_ok = false;
-          ++ir.stale_ticks;
-          ++u.no_image;
-          if (missing_img++ == 0)
-            first_img_why = iwhy + " at tick " + std::to_string(k) + " (" + Stamp(t) + ")";
-        }
-      }
-      if (ep.has_obs[k] && ep.has_action[k] && image_ok) {
-        ++report_.complete_ticks;
-        ++u.complete;
+    return tracks;
+  }
+
+  bool ObservationAt(int64_t k, const ros::Time& t, const ros::Time& begin, BagEpisode* ep,
+                     Missing* missing) {
+    const SpecLayout& layout = rec_.layout;
+    std::vector<int> stale_topics;
+    const std::string why =
+        SampleObservation(spec_, layout, rec_.histories, t, begin, &obs_, &stale_topics);
+    for (size_t j = 0; j < layout.topics.size(); ++j) {
+      const bool bad = std::find(stale_topics.begin(), stale_topics.end(), static_cast<int>(j)) !=
+                       stale_topics.end();
+      for (int idx : layout.topics[j].fields) {
+        ++report_.fields[idx].ticks;
+        (bad ? report_.fields[idx].stale_ticks : report_.fields[idx].covered_ticks)++;
       }
     }
-    report_.ticks += static_cast<uint64_t>(n);
-    ++report_.episodes;
-    const std::string who = rec->label + ": episode " + std::to_string(ep.meta.episode_id) +
-                            " (from " + Stamp(begin) + "): ";
-    if (missing_obs)
-      ep.problems.push_back(who + std::to_string(missing_obs) +
-                            " ticks without a fresh observation (first: " + first_obs_why + ")");
-    if (missing_act)
-      ep.problems.push_back(who + std::to_string(missing_act) +
-                            " ticks without a fresh command (first: " + first_act_why + ")");
-    if (missing_img)
-      ep.problems.push_back(who + std::to_string(missing_img) +
-                            " ticks without a fresh image (first: " + first_img_why + ")");
-    for (const auto& p : ep.problems) report_.problems.push_back(p);
-    FillGoals(rec->goals, obs_dim, spec.tolerance, &ep);
-    fn(std::move(ep));
+    if (!why.empty()) {
+      missing->Note(why, k, t);
+      return false;
+    }
+    std::copy(obs_.begin(), obs_.end(), ep->observations.begin() + k * obs_dim_);
+    ep->has_obs[k] = 1;
+    return true;
   }
-  // Commands without stamps counted for another tick than the one they arrived in.
-  for (size_t c = 0; c < cmd_topics.size(); ++c) {
-    const SpecFieldReport& r = report_.fields[cmd_index + c];
-    if (ambiguous[c])
-      report_.problems.push_back(
-          rec->label + ": topic " + r.topic + " (" + r.name + "): " + std::to_string(ambiguous[c]) +
-          " of " + std::to_string(aligned[c]) +
-          " commands arrived more than a quarter period off the others' phase: their ticks are "
-          "ambiguous");
+
+  bool CommandsAt(int64_t k, const ros::Time& t, std::vector<CommandTrack>& tracks, BagEpisode* ep,
+                  Missing* missing) {
+    std::string awhy;
+    for (size_t c = 0; c < rec_.cmd_topics.size(); ++c) {
+      const TopicSample* s = nullptr;
+      const std::string cwhy = tracks[c].At(k, t, &s);
+      SpecFieldReport& r = report_.fields[cmd_row_ + c];
+      ++r.ticks;
+      (cwhy.empty() ? r.covered_ticks : r.stale_ticks)++;
+      if (cwhy.empty())
+        PutCommand(spec_, rec_.cmd_topics[c], *s, &act_);
+      else if (awhy.empty())
+        awhy = cwhy;
+    }
+    if (!awhy.empty()) {
+      missing->Note(awhy, k, t);
+      return false;
+    }
+    std::copy(act_.begin(), act_.end(), ep->actions.begin() + k * act_dim_);
+    ep->has_action[k] = 1;
+    return true;
   }
-  for (size_t b = 0; b < rec->bags.size(); ++b) {
-    const Usage& u = usage[b];
-    report_.usage.push_back(
-        rec->bags[b].path + ": " + std::to_string(u.ticks) + " ticks in episodes, " +
-        std::to_string(u.complete) + " complete; not used: " + std::to_string(u.no_obs) +
-        " without a fresh observation, " + std::to_string(u.no_cmd) + " without a command, " +
-        std::to_string(u.no_image) + " without an image");
+
+  bool ImageAt(int64_t k, const ros::Time& t, const ros::Time& begin, BagEpisode* ep,
+               Missing* missing) {
+    const TopicSample* img = nullptr;
+    const std::string why = SampleImage(spec_, *camera_, rec_.images[0], t, begin, &img);
+    SpecFieldReport& r = report_.fields[image_row_];
+    ++r.ticks;
+    if (!why.empty()) {
+      ++r.stale_ticks;
+      missing->Note(why, k, t);
+      return false;
+    }
+    std::copy(img->pixels.begin(), img->pixels.end(), ep->images.begin() + k * ImageBytes());
+    ep->has_image[k] = 1;
+    ++r.covered_ticks;
+    return true;
   }
+
+  const RobotSpec& spec_;
+  Recording& rec_;
+  SpecBagReport& report_;
+  const double dt_;
+  const int obs_dim_, act_dim_;
+  const int image_row_, cmd_row_;  // the report's first camera and first command rows
+  const SpecImage* camera_;
+  std::vector<Usage> usage_;
+  std::vector<uint64_t> aligned_, ambiguous_;  // per command topic: unstamped, ambiguous
+  std::vector<float> obs_, act_;               // one tick's numbers
+};
+
+void SpecBagReader::EmitEpisodes(Recording* rec, uint64_t* next_id,
+                                 const std::function<void(BagEpisode&&)>& fn) {
+  const auto& primary = rec->histories[0].samples();
+  if (primary.empty()) {
+    report_.problems.push_back(rec->label + ": topic " + rec->layout.topics[0].name +
+                               ": no usable message");
+    return;
+  }
+  std::stable_sort(rec->goals.begin(), rec->goals.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  EpisodeSampler sampler(spec_, *rec, report_);
+  for (const auto& [begin, last] : EpisodeSpans(rec)) {
+    BagEpisode ep;
+    if (sampler.Sample(begin, last, (*next_id)++, &ep)) fn(std::move(ep));
+  }
+  sampler.AddRecordingProblems();
 }
 }  // namespace msspr::ros_bridge

@@ -88,8 +88,9 @@ class SpecBagReader {
   void set_namespace(const std::string& ns) { ns_ = ns; }
 
  private:
-  struct Recording;   // the decoded messages of every bag (spec_bag_recording.h)
-  class MessagePass;  // one bag's messages into the recording (spec_bag.cc)
+  struct Recording;      // the decoded messages of every bag (spec_bag_recording.h)
+  class MessagePass;     // one bag's messages into the recording (spec_bag.cc)
+  class EpisodeSampler;  // a recording's episodes at the ticks (spec_bag_episodes.cc)
   // The bag topics of the spec's topics in one bag, resolved under the namespace.
   struct BagTopics {
     std::vector<std::string> obs;  // per layout topic ("" for tf2 fields)
