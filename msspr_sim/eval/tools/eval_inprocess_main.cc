@@ -5,6 +5,7 @@
 #include <torch/torch.h>
 
 #include <algorithm>
+#include <initializer_list>
 #include <iostream>
 #include <set>
 #include <string>
@@ -45,16 +46,149 @@ policies (pixels: the sim's 64x64 camera images and the goal's image); the ant
 mazes, state policies.
 )";
 
+// --episodes, --max-steps (default `max_steps`) and --seed into an env's options; and,
+// unless the caller reads them itself, --tasks (1..`tasks`).
+template <class Options>
+void ReadEpisodeFlags(const msspr::cli::CliArgs& args, int max_steps, long tasks, Options* o,
+                      bool read_tasks = true) {
+  if (read_tasks) {
+    o->tasks.clear();
+    for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, tasks))
+      o->tasks.push_back(static_cast<int>(t));
+  }
+  o->episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
+  o->max_steps = static_cast<int>(args.GetInt("max-steps", max_steps, 1, 100000000));
+  o->seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+}
+
+void RefuseFlags(const msspr::cli::CliArgs& args, std::initializer_list<const char*> flags,
+                 const std::string& env) {
+  for (const char* f : flags)
+    if (args.Has(f))
+      throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env " + env);
+}
+
+// What the command line asks for; throws CliError (and CliArgs' errors).
+struct Request {
+  msspr::sim::EnvId env = msspr::sim::EnvId::kPointMaze;
+  msspr::agent::MazeEvalOptions maze;
+  msspr::agent::CubeEvalOptions cube;
+  msspr::agent::AntEvalOptions ant;
+  std::string policy_path, out, plot, agent, device;
+  bool is_cube() const { return env == msspr::sim::EnvId::kCubeSingle; }
+  bool is_ant() const { return msspr::sim::IsAntMaze(env); }
+};
+
+Request ParseRequest(const msspr::cli::CliArgs& args) {
+  namespace sim = msspr::sim;
+  Request q;
+  if (!args.positional().empty())
+    throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+  q.policy_path = args.Get("policy", "");
+  if (q.policy_path.empty()) throw msspr::cli::CliError("--policy is required");
+  std::string maze;  // --env pointmaze-NAME or --maze NAME
+  q.env = sim::ParseEnvFlag(args.Get("env", sim::EnvIdName(sim::EnvId::kPointMaze)),
+                            args.Get("maze", ""), sim::AllEnvIds(), &maze);
+  if (q.is_ant()) {
+    RefuseFlags(args, {"maze", "tasks-file", "plot", "urdf"}, sim::EnvIdName(q.env));
+    q.ant.maze = sim::AntMazeName(q.env);
+    ReadEpisodeFlags(args, 1000, 5, &q.ant);
+  } else if (q.is_cube()) {
+    RefuseFlags(args, {"maze", "tasks-file", "plot"}, "cube-single");
+    q.cube.urdf_path = args.Get("urdf", "");
+    ReadEpisodeFlags(args, 200, 5, &q.cube);
+  } else {
+    if (args.Has("urdf")) throw msspr::cli::CliError("--urdf applies to --env cube-single only");
+    q.maze.maze = sim::PointMazeOrDefault(maze);
+    const auto map = sim::MazeMap::FromName(q.maze.maze);
+    if (args.Has("tasks-file") && args.Has("tasks"))
+      throw msspr::cli::CliError("give --tasks or --tasks-file, not both");
+    if (args.Has("tasks-file")) {
+      try {
+        q.maze.custom_tasks = sim::LoadCustomTasks(args.Get("tasks-file", ""), &map);
+      } catch (const std::runtime_error& e) {
+        throw msspr::cli::CliError("--tasks-file: " + std::string(e.what()));
+      }
+    }
+    ReadEpisodeFlags(args, 1000, static_cast<long>(map.Tasks().size()), &q.maze,
+                     !args.Has("tasks-file"));
+  }
+  const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
+  if (threads > 0) torch::set_num_threads(threads);
+  q.device = args.Get("device", "cpu");
+  try {
+    (void)torch::Device(q.device);
+  } catch (const std::exception&) {
+    throw msspr::cli::CliError("--device: '" + q.device + "' is not a device (cpu, cuda, cuda:N)");
+  }
+  q.out = args.Get("out", "");
+  q.plot = args.Get("plot", "");
+  q.maze.keep_paths = !q.plot.empty();
+  q.agent = args.Get("agent", q.policy_path.substr(q.policy_path.find_last_of('/') + 1));
+  return q;
+}
+
+void PrintMean(double mean_success, double seconds) {
+  std::cerr << "msspr_eval_inprocess: mean success " << mean_success << " in " << seconds << " s\n";
+}
+
+void RunAnt(msspr::core::Policy& policy, const Request& q) {
+  namespace sim = msspr::sim;
+  std::cerr << "msspr_eval_inprocess: " << q.policy_path << ", " << q.ant.tasks.size()
+            << " tasks x " << q.ant.episodes << " episodes on "
+            << sim::EnvLabel(sim::AntMazeEnvId(q.ant.maze)) << " ...\n";
+  const auto result = msspr::agent::EvaluateOnAntMaze(policy, q.ant);
+  const sim::EvalReport report = msspr::agent::MakeAntEvalReport(result, q.ant, q.agent);
+  std::cout << sim::EvalReportTable(sim::MazeMap::FromName(q.ant.maze), report);
+  if (!q.out.empty()) msspr::agent::WriteAntResultsJson(result, q.ant, q.agent, q.out);
+  PrintMean(report.mean_success, result.seconds);
+}
+
+void RunCube(msspr::core::Policy& policy, Request q) {
+  namespace sim = msspr::sim;
+  if (q.cube.urdf_path.empty()) q.cube.urdf_path = sim::DefaultArmUrdf();
+  std::cerr << "msspr_eval_inprocess: " << q.policy_path << ", " << q.cube.tasks.size()
+            << " tasks x " << q.cube.episodes << " episodes on cube-single ("
+            << (policy.pixels() ? "pixels" : "states") << "; arm " << q.cube.urdf_path << ") ...\n";
+  const auto result = msspr::agent::EvaluateOnCube(policy, q.cube);
+  const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, q.cube, q.agent);
+  std::cout << sim::EvalReportTable(report);
+  if (!q.out.empty()) msspr::agent::WriteCubeResultsJson(result, q.cube, q.agent, q.out);
+  PrintMean(report.mean_success, result.seconds);
+}
+
+void RunMaze(msspr::core::Policy& policy, const Request& q) {
+  namespace sim = msspr::sim;
+  const auto& eo = q.maze;
+  std::cerr << "msspr_eval_inprocess: " << q.policy_path << " ("
+            << (policy.pixels() ? "pixels" : "states") << "), "
+            << (eo.custom_tasks.empty() ? eo.tasks.size() : eo.custom_tasks.size()) << " tasks x "
+            << eo.episodes << " episodes on " << eo.maze << " ...\n";
+  const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
+  const auto map = sim::MazeMap::FromName(eo.maze);
+  const sim::EvalReport report = msspr::agent::MakeEvalReport(result, eo, q.agent);
+  std::cout << sim::EvalReportTable(map, report);
+  if (!q.out.empty()) sim::WriteTextFile(q.out, sim::EvalReportJson(map, report));
+  if (!q.plot.empty()) {  // up to 5 episodes per task
+    std::vector<std::vector<Eigen::Vector2d>> paths;
+    std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
+    std::vector<bool> ok;
+    for (size_t t = 0; t < result.paths.size(); ++t)
+      for (size_t e = 0; e < result.paths[t].size() && e < 5; ++e) {
+        paths.push_back(result.paths[t][e]);
+        sg.push_back(result.start_goal[t][e]);
+        ok.push_back(result.episode_success[t][e]);
+      }
+    sim::SaveTrajectoryPlot(map, paths, sg, ok, q.plot);
+  }
+  PrintMean(report.mean_success, result.seconds);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   msspr::core::ReexecWithPassiveOpenMpWait(argv);
-  namespace sim = msspr::sim;
-  msspr::agent::MazeEvalOptions eo;
-  msspr::agent::CubeEvalOptions co;
-  msspr::agent::AntEvalOptions ao;
-  bool cube = false, ant = false;
-  std::string policy_path, out, plot, agent, device;
+  Request q;
   try {
     msspr::cli::CliArgs args(
         argc, argv, {"help"},
@@ -64,128 +198,19 @@ int main(int argc, char** argv) {
       std::cout << kUsage;
       return 0;
     }
-    if (!args.positional().empty())
-      throw msspr::cli::CliError("unexpected argument '" + args.positional()[0] + "'");
-    policy_path = args.Get("policy", "");
-    if (policy_path.empty()) throw msspr::cli::CliError("--policy is required");
-    using sim::EnvId;
-    std::string maze;  // --env pointmaze-NAME or --maze NAME
-    const EnvId env = sim::ParseEnvFlag(args.Get("env", sim::EnvIdName(EnvId::kPointMaze)),
-                                        args.Get("maze", ""), sim::AllEnvIds(), &maze);
-    cube = env == EnvId::kCubeSingle;
-    ant = sim::IsAntMaze(env);
-    if (ant) {
-      for (const char* f : {"maze", "tasks-file", "plot", "urdf"})
-        if (args.Has(f))
-          throw msspr::cli::CliError(std::string("--") + f + " does not apply to --env " +
-                                     sim::EnvIdName(env));
-      ao.maze = sim::AntMazeName(env);
-      ao.tasks.clear();
-      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, 5))
-        ao.tasks.push_back(static_cast<int>(t));
-      ao.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
-      ao.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
-      ao.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
-    } else if (cube) {
-      for (const char* f : {"maze", "tasks-file", "plot"})
-        if (args.Has(f))
-          throw msspr::cli::CliError(std::string("--") + f +
-                                     " does not apply to --env cube-single");
-      co.urdf_path = args.Get("urdf", "");
-      co.tasks.clear();
-      for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, 5))
-        co.tasks.push_back(static_cast<int>(t));
-      co.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
-      co.max_steps = static_cast<int>(args.GetInt("max-steps", 200, 1, 100000000));
-      co.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
-    } else {
-      if (args.Has("urdf")) throw msspr::cli::CliError("--urdf applies to --env cube-single only");
-      eo.maze = sim::PointMazeOrDefault(maze);
-      const auto map = sim::MazeMap::FromName(eo.maze);
-      if (args.Has("tasks-file") && args.Has("tasks"))
-        throw msspr::cli::CliError("give --tasks or --tasks-file, not both");
-      if (args.Has("tasks-file")) {
-        try {
-          eo.custom_tasks = sim::LoadCustomTasks(args.Get("tasks-file", ""), &map);
-        } catch (const std::runtime_error& e) {
-          throw msspr::cli::CliError("--tasks-file: " + std::string(e.what()));
-        }
-      } else {
-        eo.tasks.clear();
-        for (long t :
-             args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(map.Tasks().size())))
-          eo.tasks.push_back(static_cast<int>(t));
-      }
-      eo.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
-      eo.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
-      eo.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
-    }
-    const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
-    if (threads > 0) torch::set_num_threads(threads);
-    device = args.Get("device", "cpu");
-    try {
-      (void)torch::Device(device);
-    } catch (const std::exception&) {
-      throw msspr::cli::CliError("--device: '" + device + "' is not a device (cpu, cuda, cuda:N)");
-    }
-    out = args.Get("out", "");
-    plot = args.Get("plot", "");
-    eo.keep_paths = !plot.empty();
-    agent = args.Get("agent", policy_path.substr(policy_path.find_last_of('/') + 1));
+    q = ParseRequest(args);
   } catch (const std::exception& e) {
     std::cerr << "msspr_eval_inprocess: " << e.what() << "\n" << kUsage;
     return 2;
   }
   try {
-    auto policy = msspr::core::Policy::Load(policy_path, torch::Device(device));
-    if (ant) {
-      std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << ao.tasks.size() << " tasks x "
-                << ao.episodes << " episodes on " << sim::EnvLabel(sim::AntMazeEnvId(ao.maze))
-                << " ...\n";
-      const auto result = msspr::agent::EvaluateOnAntMaze(policy, ao);
-      const sim::EvalReport report = msspr::agent::MakeAntEvalReport(result, ao, agent);
-      std::cout << sim::EvalReportTable(sim::MazeMap::FromName(ao.maze), report);
-      if (!out.empty()) msspr::agent::WriteAntResultsJson(result, ao, agent, out);
-      std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in "
-                << result.seconds << " s\n";
-      return 0;
-    }
-    if (cube) {
-      if (co.urdf_path.empty()) co.urdf_path = sim::DefaultArmUrdf();
-      std::cerr << "msspr_eval_inprocess: " << policy_path << ", " << co.tasks.size() << " tasks x "
-                << co.episodes << " episodes on cube-single ("
-                << (policy.pixels() ? "pixels" : "states") << "; arm " << co.urdf_path << ") ...\n";
-      const auto result = msspr::agent::EvaluateOnCube(policy, co);
-      const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, co, agent);
-      std::cout << sim::EvalReportTable(report);
-      if (!out.empty()) msspr::agent::WriteCubeResultsJson(result, co, agent, out);
-      std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in "
-                << result.seconds << " s\n";
-      return 0;
-    }
-    std::cerr << "msspr_eval_inprocess: " << policy_path << " ("
-              << (policy.pixels() ? "pixels" : "states") << "), "
-              << (eo.custom_tasks.empty() ? eo.tasks.size() : eo.custom_tasks.size()) << " tasks x "
-              << eo.episodes << " episodes on " << eo.maze << " ...\n";
-    const auto result = msspr::agent::EvaluateOnMaze(policy, eo);
-    const auto map = sim::MazeMap::FromName(eo.maze);
-    const sim::EvalReport report = msspr::agent::MakeEvalReport(result, eo, agent);
-    std::cout << sim::EvalReportTable(map, report);
-    if (!out.empty()) sim::WriteTextFile(out, sim::EvalReportJson(map, report));
-    if (!plot.empty()) {  // up to 5 episodes per task
-      std::vector<std::vector<Eigen::Vector2d>> paths;
-      std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> sg;
-      std::vector<bool> ok;
-      for (size_t t = 0; t < result.paths.size(); ++t)
-        for (size_t e = 0; e < result.paths[t].size() && e < 5; ++e) {
-          paths.push_back(result.paths[t][e]);
-          sg.push_back(result.start_goal[t][e]);
-          ok.push_back(result.episode_success[t][e]);
-        }
-      sim::SaveTrajectoryPlot(map, paths, sg, ok, plot);
-    }
-    std::cerr << "msspr_eval_inprocess: mean success " << report.mean_success << " in "
-              << result.seconds << " s\n";
+    auto policy = msspr::core::Policy::Load(q.policy_path, torch::Device(q.device));
+    if (q.is_ant())
+      RunAnt(policy, q);
+    else if (q.is_cube())
+      RunCube(policy, q);
+    else
+      RunMaze(policy, q);
   } catch (const std::exception& e) {
     std::cerr << "msspr_eval_inprocess: " << e.what() << "\n";
     return 1;
