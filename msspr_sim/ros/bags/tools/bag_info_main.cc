@@ -215,6 +215,104 @@ int SpecInfo(const std::string& spec_path, const std::vector<std::string>& bags,
   }
 }
 
+const char kUsage[] =
+    "usage: msspr_bag_info [--robot SPEC.yaml [--ns NS]] BAG [BAG...] [--max-problems "
+    "N]\n"
+    "Prints episodes, steps, observation/action dimensions, images and gaps of\n"
+    "msspr dataset bags. With --robot: what the robot interface spec extracts from\n"
+    "bags of standard messages, per field: coverage, rate, gaps, stale and late\n"
+    "samples, stamps out of order, rejected NaN/Inf, and per camera its images'\n"
+    "coverage, rate and bad images (undecodable or of a wrong encoding). The bags\n"
+    "are one recording in time order (rosbag record --split files join); commands\n"
+    "without stamps are timed against the ticks. --ns NS resolves the spec's\n"
+    "relative topics under NS (default: the spec's namespace:, else the one\n"
+    "namespace of the recording that holds them all).\n"
+    "Exit 0: whole; 1: inconsistent; 2: unreadable.\n";
+
+// msspr_bag_info BAG: one msspr dataset bag's episodes, steps, sizes, images, gaps and
+// rejected messages. Returns 0 whole, 1 inconsistent; throws on an unreadable bag.
+int DatasetInfo(const std::string& path, long max_problems) {
+  using namespace msspr::ros_bridge;
+  int status = 0;
+  DatasetBagReader reader(path);
+  std::map<std::string, uint64_t> splits;
+  std::set<std::string> envs;
+  std::set<int> obs_dims, act_dims, image_sizes;
+  uint64_t image_episodes = 0, image_steps = 0;
+  int min_len = 0, max_len = 0;
+  uint64_t n = 0, sum_len = 0;
+  reader.ForEachEpisode([&](BagEpisode&& ep) {
+    splits[ep.meta.split]++;
+    if (!ep.meta.env.empty()) envs.insert(ep.meta.env);
+    if (ep.obs_dim) obs_dims.insert(ep.obs_dim);
+    if (ep.act_dim) act_dims.insert(ep.act_dim);
+    if (ep.image_size) {
+      image_sizes.insert(ep.image_size);
+      ++image_episodes;
+      for (uint8_t h : ep.has_image) image_steps += h;
+    }
+    min_len = n == 0 ? ep.num_steps : std::min(min_len, ep.num_steps);
+    max_len = std::max(max_len, ep.num_steps);
+    sum_len += static_cast<uint64_t>(ep.num_steps);
+    ++n;
+  });
+  const BagReadReport& r = reader.report();
+  struct stat st {};
+  const double mb = stat(path.c_str(), &st) == 0 ? st.st_size / 1e6 : 0.0;
+  auto join = [](const auto& set) {
+    std::string s;
+    for (const auto& v : set) s += (s.empty() ? "" : ", ") + std::to_string(v);
+    return s.empty() ? std::string("-") : s;
+  };
+  std::string env_s;
+  for (const auto& e : envs) env_s += (env_s.empty() ? "" : ", ") + e;
+  std::string split_s;
+  for (const auto& [k, v] : splits)
+    split_s += (split_s.empty() ? "" : ", ") + k + " " + std::to_string(v);
+  std::printf("bag:          %s (%.1f MB, %lu messages)\n", path.c_str(), mb,
+              static_cast<unsigned long>(r.messages));
+  std::printf("env:          %s\n", env_s.empty() ? "-" : env_s.c_str());
+  std::printf("episodes:     %lu (%s), %lu complete\n", static_cast<unsigned long>(r.episodes),
+              split_s.c_str(), static_cast<unsigned long>(r.complete_episodes));
+  std::printf("steps:        %lu (episode length min %d, mean %.1f, max %d)\n",
+              static_cast<unsigned long>(r.steps), min_len, n ? double(sum_len) / n : 0.0, max_len);
+  std::printf("observation:  dim %s float32 on %s\n", join(obs_dims).c_str(), kObservationTopic);
+  std::printf("action:       dim %s float32 on %s\n", join(act_dims).c_str(), kActionTopic);
+  if (image_episodes)
+    std::printf("images:       %lu episodes, %lu frames, %sx%s rgb8 on %s\n",
+                static_cast<unsigned long>(image_episodes), static_cast<unsigned long>(image_steps),
+                join(image_sizes).c_str(), join(image_sizes).c_str(), kImageTopic);
+  else
+    std::printf("images:       none\n");
+  const uint64_t gaps = r.missing_observations + r.missing_actions + r.missing_images;
+  if (gaps == 0 && r.duplicates == 0)
+    std::printf("gaps:         none\n");
+  else
+    std::printf(
+        "gaps:         %lu missing observations, %lu missing actions, %lu missing images, %lu "
+        "duplicates\n",
+        static_cast<unsigned long>(r.missing_observations),
+        static_cast<unsigned long>(r.missing_actions), static_cast<unsigned long>(r.missing_images),
+        static_cast<unsigned long>(r.duplicates));
+  const uint64_t rejected =
+      r.out_of_range_steps + r.nonfinite_observations + r.nonfinite_actions + r.bad_images;
+  if (rejected > 0)
+    std::printf(
+        "rejected:     %lu steps out of range, %lu observations and %lu actions with NaN/Inf, "
+        "%lu bad images\n",
+        static_cast<unsigned long>(r.out_of_range_steps),
+        static_cast<unsigned long>(r.nonfinite_observations),
+        static_cast<unsigned long>(r.nonfinite_actions), static_cast<unsigned long>(r.bad_images));
+  const bool mixed = obs_dims.size() > 1 || act_dims.size() > 1 || image_sizes.size() > 1;
+  if (!r.problems.empty() || mixed) {
+    status = 1;
+    std::fprintf(stderr, "%s: inconsistent dataset bag:\n", path.c_str());
+    if (mixed) std::fprintf(stderr, "  episodes disagree on observation/action/image sizes\n");
+    PrintProblems(r.problems, max_problems);
+  }
+  return status;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -233,19 +331,7 @@ int main(int argc, char** argv) {
     if (!export_path.empty() && robot.empty())
       throw CliError("--export writes what --robot's spec extracts: give --robot SPEC.yaml");
     if (args.Has("help") || bags.empty()) {
-      std::cout
-          << "usage: msspr_bag_info [--robot SPEC.yaml [--ns NS]] BAG [BAG...] [--max-problems "
-             "N]\n"
-             "Prints episodes, steps, observation/action dimensions, images and gaps of\n"
-             "msspr dataset bags. With --robot: what the robot interface spec extracts from\n"
-             "bags of standard messages, per field: coverage, rate, gaps, stale and late\n"
-             "samples, stamps out of order, rejected NaN/Inf, and per camera its images'\n"
-             "coverage, rate and bad images (undecodable or of a wrong encoding). The bags\n"
-             "are one recording in time order (rosbag record --split files join); commands\n"
-             "without stamps are timed against the ticks. --ns NS resolves the spec's\n"
-             "relative topics under NS (default: the spec's namespace:, else the one\n"
-             "namespace of the recording that holds them all).\n"
-             "Exit 0: whole; 1: inconsistent; 2: unreadable.\n";
+      std::cout << kUsage;
       return bags.empty() && !args.Has("help") ? 2 : 0;
     }
   } catch (const std::exception& e) {
@@ -257,86 +343,7 @@ int main(int argc, char** argv) {
   int status = 0;
   for (const std::string& path : bags) {
     try {
-      DatasetBagReader reader(path);
-      std::map<std::string, uint64_t> splits;
-      std::set<std::string> envs;
-      std::set<int> obs_dims, act_dims, image_sizes;
-      uint64_t image_episodes = 0, image_steps = 0;
-      int min_len = 0, max_len = 0;
-      uint64_t n = 0, sum_len = 0;
-      reader.ForEachEpisode([&](BagEpisode&& ep) {
-        splits[ep.meta.split]++;
-        if (!ep.meta.env.empty()) envs.insert(ep.meta.env);
-        if (ep.obs_dim) obs_dims.insert(ep.obs_dim);
-        if (ep.act_dim) act_dims.insert(ep.act_dim);
-        if (ep.image_size) {
-          image_sizes.insert(ep.image_size);
-          ++image_episodes;
-          for (uint8_t h : ep.has_image) image_steps += h;
-        }
-        min_len = n == 0 ? ep.num_steps : std::min(min_len, ep.num_steps);
-        max_len = std::max(max_len, ep.num_steps);
-        sum_len += static_cast<uint64_t>(ep.num_steps);
-        ++n;
-      });
-      const BagReadReport& r = reader.report();
-      struct stat st {};
-      const double mb = stat(path.c_str(), &st) == 0 ? st.st_size / 1e6 : 0.0;
-      auto join = [](const auto& set) {
-        std::string s;
-        for (const auto& v : set) s += (s.empty() ? "" : ", ") + std::to_string(v);
-        return s.empty() ? std::string("-") : s;
-      };
-      std::string env_s;
-      for (const auto& e : envs) env_s += (env_s.empty() ? "" : ", ") + e;
-      std::string split_s;
-      for (const auto& [k, v] : splits)
-        split_s += (split_s.empty() ? "" : ", ") + k + " " + std::to_string(v);
-      std::printf("bag:          %s (%.1f MB, %lu messages)\n", path.c_str(), mb,
-                  static_cast<unsigned long>(r.messages));
-      std::printf("env:          %s\n", env_s.empty() ? "-" : env_s.c_str());
-      std::printf("episodes:     %lu (%s), %lu complete\n", static_cast<unsigned long>(r.episodes),
-                  split_s.c_str(), static_cast<unsigned long>(r.complete_episodes));
-      std::printf("steps:        %lu (episode length min %d, mean %.1f, max %d)\n",
-                  static_cast<unsigned long>(r.steps), min_len, n ? double(sum_len) / n : 0.0,
-                  max_len);
-      std::printf("observation:  dim %s float32 on %s\n", join(obs_dims).c_str(),
-                  kObservationTopic);
-      std::printf("action:       dim %s float32 on %s\n", join(act_dims).c_str(), kActionTopic);
-      if (image_episodes)
-        std::printf("images:       %lu episodes, %lu frames, %sx%s rgb8 on %s\n",
-                    static_cast<unsigned long>(image_episodes),
-                    static_cast<unsigned long>(image_steps), join(image_sizes).c_str(),
-                    join(image_sizes).c_str(), kImageTopic);
-      else
-        std::printf("images:       none\n");
-      const uint64_t gaps = r.missing_observations + r.missing_actions + r.missing_images;
-      if (gaps == 0 && r.duplicates == 0)
-        std::printf("gaps:         none\n");
-      else
-        std::printf(
-            "gaps:         %lu missing observations, %lu missing actions, %lu missing images, %lu "
-            "duplicates\n",
-            static_cast<unsigned long>(r.missing_observations),
-            static_cast<unsigned long>(r.missing_actions),
-            static_cast<unsigned long>(r.missing_images), static_cast<unsigned long>(r.duplicates));
-      const uint64_t rejected =
-          r.out_of_range_steps + r.nonfinite_observations + r.nonfinite_actions + r.bad_images;
-      if (rejected > 0)
-        std::printf(
-            "rejected:     %lu steps out of range, %lu observations and %lu actions with NaN/Inf, "
-            "%lu bad images\n",
-            static_cast<unsigned long>(r.out_of_range_steps),
-            static_cast<unsigned long>(r.nonfinite_observations),
-            static_cast<unsigned long>(r.nonfinite_actions),
-            static_cast<unsigned long>(r.bad_images));
-      const bool mixed = obs_dims.size() > 1 || act_dims.size() > 1 || image_sizes.size() > 1;
-      if (!r.problems.empty() || mixed) {
-        status = std::max(status, 1);
-        std::fprintf(stderr, "%s: inconsistent dataset bag:\n", path.c_str());
-        if (mixed) std::fprintf(stderr, "  episodes disagree on observation/action/image sizes\n");
-        PrintProblems(r.problems, max_problems);
-      }
+      status = std::max(status, DatasetInfo(path, max_problems));
     } catch (const std::exception& e) {
       std::fprintf(stderr, "msspr_bag_info: %s\n", e.what());
       status = 2;
