@@ -28,6 +28,42 @@ std::string BagLoadReport::Summary() const {
   return s.str();
 }
 
+namespace {
+
+// The episode's complete runs of steps (without images requested, its image gaps do not
+// split it) into `builder`, each a trajectory, but those shorter than min_segment_steps.
+// Returns the steps kept.
+int AddSegments(ros_bridge::BagEpisode& ep, const BagLoadOptions& options, int obs_dim, int act_dim,
+                int image_size, core::DatasetBuilder* builder, BagLoadReport* r) {
+  std::vector<std::pair<int, int>> runs;
+  if (options.images) {
+    runs = ep.Segments();
+  } else {
+    const int saved = ep.image_size;
+    ep.image_size = 0;
+    runs = ep.Segments();
+    ep.image_size = saved;
+  }
+  const size_t image_bytes = static_cast<size_t>(image_size) * image_size * 3;
+  int kept = 0;
+  for (const auto& [b, e] : runs) {
+    const int T = e - b;
+    if (T < options.min_segment_steps) {
+      ++r->short_segments;
+      continue;
+    }
+    builder->AddEpisode(ep.observations.data() + static_cast<size_t>(b) * obs_dim,
+                        ep.actions.data() + static_cast<size_t>(b) * act_dim, T,
+                        options.images ? ep.images.data() + b * image_bytes : nullptr);
+    ++r->trajectories;
+    r->steps += static_cast<uint64_t>(T);
+    kept += T;
+  }
+  return kept;
+}
+
+}  // namespace
+
 core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoadOptions& options,
                              BagLoadReport* report) {
   BagLoadReport local;
@@ -99,31 +135,7 @@ core::Dataset LoadBagDataset(const std::vector<std::string>& bags, const BagLoad
         ++r.incomplete_episodes;
         for (const auto& p : ep.problems) r.problems.push_back(path + ": " + p);
       }
-      int kept = 0;
-      const size_t image_bytes = static_cast<size_t>(image_size) * image_size * 3;
-      // Without images requested, an episode's image gaps do not split it.
-      std::vector<std::pair<int, int>> runs;
-      if (options.images) {
-        runs = ep.Segments();
-      } else {
-        const int saved = ep.image_size;
-        ep.image_size = 0;
-        runs = ep.Segments();
-        ep.image_size = saved;
-      }
-      for (const auto& [b, e] : runs) {
-        const int T = e - b;
-        if (T < options.min_segment_steps) {
-          ++r.short_segments;
-          continue;
-        }
-        builder->AddEpisode(ep.observations.data() + static_cast<size_t>(b) * obs_dim,
-                            ep.actions.data() + static_cast<size_t>(b) * act_dim, T,
-                            options.images ? ep.images.data() + b * image_bytes : nullptr);
-        ++r.trajectories;
-        r.steps += static_cast<uint64_t>(T);
-        kept += T;
-      }
+      const int kept = AddSegments(ep, options, obs_dim, act_dim, image_size, builder.get(), &r);
       r.dropped_steps += static_cast<uint64_t>(ep.num_steps - kept);
     };
     if (options.robot) {
