@@ -88,6 +88,55 @@ ArmModel ArmModel::FromFile(const std::string& path, const ArmModelOptions& opti
   return FromString(text.str(), path, options);
 }
 
+namespace {
+
+// A link and the joint to its parent (`parent`: the parent's index). Throws UrdfError
+// naming the joint for an unsupported type, a zero axis or a bad <limit>.
+ArmModel::Link LinkOf(const urdf::Link& child, int parent, const std::string& source) {
+  using JointType = ArmModel::JointType;
+  const urdf::JointConstSharedPtr joint = child.parent_joint;
+  const auto fail = [&](const std::string& what) {
+    throw UrdfError(source + ": joint '" + joint->name + "'" + what);
+  };
+  ArmModel::Link l;
+  l.name = child.name;
+  l.parent = parent;
+  l.joint = joint->name;
+  l.origin = ToEigen(joint->parent_to_joint_origin_transform);
+  switch (joint->type) {
+    case urdf::Joint::FIXED:
+      l.type = JointType::kFixed;
+      break;
+    case urdf::Joint::REVOLUTE:
+      l.type = JointType::kRevolute;
+      break;
+    case urdf::Joint::PRISMATIC:
+      l.type = JointType::kPrismatic;
+      break;
+    default:
+      fail(std::string(": type ") + TypeName(joint->type) +
+           " is not supported (use revolute, prismatic or fixed)");
+  }
+  if (l.type == JointType::kFixed) return l;
+  const Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
+  if (!(axis.norm() > 1e-9)) fail(": its axis is zero");
+  l.axis = axis.normalized();
+  // urdfdom already rejects a revolute or prismatic joint without <limit>; the
+  // simulation needs a proper range as well.
+  if (!joint->limits || !(joint->limits->lower < joint->limits->upper))
+    fail(": <limit> must have lower < upper");
+  l.lower = joint->limits->lower;
+  l.upper = joint->limits->upper;
+  if (joint->mimic) {
+    l.mimic = true;
+    l.multiplier = joint->mimic->multiplier;
+    l.offset = joint->mimic->offset;
+  }
+  return l;
+}
+
+}  // namespace
+
 ArmModel ArmModel::FromString(const std::string& urdf_xml, const std::string& source,
                               const ArmModelOptions& options) {
   ArmModel arm;
@@ -110,43 +159,7 @@ ArmModel ArmModel::FromString(const std::string& urdf_xml, const std::string& so
     std::sort(children.begin(), children.end(),
               [](const auto& a, const auto& b) { return a->name < b->name; });
     for (const auto& child : children) {
-      const urdf::JointConstSharedPtr joint = child->parent_joint;
-      const std::string where = "joint '" + joint->name + "'";
-      Link l;
-      l.name = child->name;
-      l.parent = static_cast<int>(i);
-      l.joint = joint->name;
-      l.origin = ToEigen(joint->parent_to_joint_origin_transform);
-      switch (joint->type) {
-        case urdf::Joint::FIXED:
-          l.type = JointType::kFixed;
-          break;
-        case urdf::Joint::REVOLUTE:
-          l.type = JointType::kRevolute;
-          break;
-        case urdf::Joint::PRISMATIC:
-          l.type = JointType::kPrismatic;
-          break;
-        default:
-          fail(where + ": type " + TypeName(joint->type) +
-               " is not supported (use revolute, prismatic or fixed)");
-      }
-      if (l.type != JointType::kFixed) {
-        const Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
-        if (!(axis.norm() > 1e-9)) fail(where + ": its axis is zero");
-        l.axis = axis.normalized();
-        // urdfdom already rejects a revolute or prismatic joint without
-        // <limit>; the simulation needs a proper range as well.
-        if (!joint->limits || !(joint->limits->lower < joint->limits->upper))
-          fail(where + ": <limit> must have lower < upper");
-        l.lower = joint->limits->lower;
-        l.upper = joint->limits->upper;
-        if (joint->mimic) {
-          l.mimic = true;
-          l.multiplier = joint->mimic->multiplier;
-          l.offset = joint->mimic->offset;
-        }
-      }
+      const Link l = LinkOf(*child, static_cast<int>(i), source);
       index[l.name] = static_cast<int>(arm.links_.size());
       arm.links_.push_back(l);
     }
