@@ -124,7 +124,7 @@ RESULTS=$WORK/run/demo/results.json
 [ -s "$RESULTS" ] || { show_log; fail "the demo wrote no results.json (roslaunch exit $rc)"; }
 grep -q "loaded $SHARE/msspr_policy_node/checkpoints/pointmaze-medium-state.pt" "$WORK/roslaunch.log" ||
   { show_log; fail "the policy node did not load the installed checkpoint"; }
-grep -q "(arm $SHARE/msspr_sim/urdf/ur5e_2f85.urdf)" "$WORK/run/cube_eval.log" &&
+grep -q "; arm $SHARE/msspr_sim/urdf/ur5e_2f85.urdf)" "$WORK/run/cube_eval.log" &&
   ! grep -q failed "$WORK/run/cube_eval.log" ||
   { cat "$WORK/run/cube_eval.log" >&2; fail "msspr_eval_inprocess --env cube-single did not run on the installed arm"; }
 python3 - "$RESULTS" <<'EOF' || { show_log; fail "results.json"; }
