@@ -25,8 +25,14 @@ void FillGoals(const std::vector<std::pair<ros::Time, std::vector<float>>>& goal
   if (goals.empty()) return;
   ep->goals.assign(static_cast<size_t>(ep->num_steps) * obs_dim,
                    std::numeric_limits<float>::quiet_NaN());
-  size_t next = 0;  // the first goal after the current tick
-  const std::vector<float>* current = nullptr;
+  // The first goal after the first tick (found by search: the recording's goals are
+  // shared by all its episodes), and the one in effect before it.
+  const double first_tick = ep->t0 + tolerance;
+  size_t next = static_cast<size_t>(
+      std::upper_bound(goals.begin(), goals.end(), first_tick,
+                       [](double t, const auto& g) { return t < g.first.toSec(); }) -
+      goals.begin());
+  const std::vector<float>* current = next > 0 ? &goals[next - 1].second : nullptr;
   for (int t = 0; t < ep->num_steps; ++t) {
     const double tick = ep->t0 + t * ep->step_period + tolerance;
     while (next < goals.size() && goals[next].first.toSec() <= tick)
