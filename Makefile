@@ -7,9 +7,11 @@ export PATH := /usr/bin:/bin:$(PATH)
 # The devel space (executables, setup.bash) lives at the package root: rosrun
 # ignores everything under <package>/build/.
 DEVEL ?= $(CURDIR)/devel
+# WERROR=ON: warnings in msspr's own code are errors (CI builds so).
+WERROR ?= OFF
 CMAKE_FLAGS ?= -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
                -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON \
-               -DCATKIN_DEVEL_PREFIX=$(DEVEL)
+               -DCATKIN_DEVEL_PREFIX=$(DEVEL) -DMSSPR_WERROR=$(WERROR)
 
 .PHONY: all deps configure build build-demo test demo bench core clean format
 
