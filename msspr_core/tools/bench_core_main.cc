@@ -139,8 +139,6 @@ LatencyResult TimeAct(const std::string& name, MsprOptions o, std::shared_ptr<co
   return r;
 }
 
-}  // namespace
-
 // Writes the JSON to `path` and prints it; 1 when the file cannot be written.
 int WriteJson(const std::string& path, const std::string& json) {
   std::ofstream f(path);
@@ -182,13 +180,161 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
   return WriteJson(out, j.str());
 }
 
-int main(int argc, char** argv) {
-  ReexecWithPassiveOpenMpWait(argv);
+struct BenchRequest {
   std::string out, device = "cpu", precision, profile;
   std::vector<std::string> configs;
   int threads = 0, steps = 200, warmup = 20, obs_dim = 2, action_dim = 2, episodes = 100,
       length = 1001;
   bool quick = false;
+};
+
+// Throws cli::CliError on a bad command line.
+BenchRequest ParseBench(const cli::CliArgs& args) {
+  BenchRequest r;
+  if (!args.positional().empty())
+    throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
+  r.out = args.Get("out", "");
+  if (r.out.empty()) throw cli::CliError("--out FILE.json is required");
+  r.device = args.Get("device", "cpu");
+  r.threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
+  r.quick = args.Has("quick");
+  r.precision =
+      args.Has("precision") ? args.GetChoice("precision", "fp32", {"fp32", "bf16", "auto"}) : "";
+  // --config a.yaml,b.yaml: layered in order.
+  std::stringstream list(args.Get("config", ""));
+  for (std::string item; std::getline(list, item, ',');) {
+    if (!item.empty()) r.configs.push_back(item);
+  }
+  r.profile = args.Get("profile", "");
+  r.steps = static_cast<int>(args.GetInt("steps", r.steps, 1, 100000000));
+  r.warmup = static_cast<int>(args.GetInt("warmup", r.warmup, 0, 100000000));
+  r.obs_dim = static_cast<int>(args.GetInt("obs-dim", r.obs_dim, 1, 1000000));
+  r.action_dim = static_cast<int>(args.GetInt("action-dim", r.action_dim, 1, 1000000));
+  r.episodes = static_cast<int>(args.GetInt("episodes", r.episodes, 1, 100000000));
+  r.length = static_cast<int>(args.GetInt("length", r.length, 2, 100000000));
+  return r;
+}
+
+// A preset on the request's device and precision.
+MsprOptions BenchPreset(const std::string& scale, const BenchRequest& r) {
+  MsprOptions o = MakePreset("mspr", scale);
+  o.trainer.device = r.device;
+  if (!r.precision.empty()) o.trainer.precision = r.precision;
+  return o;
+}
+
+// Where a CPU-scale step goes: ms of each update, timed alone.
+std::vector<std::pair<std::string, double>> StepBreakdown(const MsprOptions& o,
+                                                          std::shared_ptr<const Dataset> states,
+                                                          bool quick) {
+  std::vector<std::pair<std::string, double>> breakdown;
+  Trainer t(o, std::move(states));
+  t.Step();
+  const int reps = quick ? 2 : 10;
+  auto time_ms = [&](const std::function<void()>& f) {
+    const auto start = Clock::now();
+    for (int i = 0; i < reps; ++i) f();
+    if (t.device().is_cuda()) torch::cuda::synchronize();
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count() / reps;
+  };
+  const TransitionBatch tb = t.SampleTransitions();
+  const ChunkBatch cb = t.SampleChunks();
+  const torch::Tensor noise = torch::randn({tb.action.size(0), tb.action.size(1)});
+  breakdown.emplace_back("sample_and_gather", time_ms([&] {
+                           t.SampleTransitions();
+                           t.SampleChunks();
+                         }));
+  breakdown.emplace_back("representation_update", time_ms([&] { t.UpdateRepresentation(cb); }));
+  breakdown.emplace_back("critic_update", time_ms([&] { t.UpdateCritic(tb, noise); }));
+  breakdown.emplace_back("actor_update", time_ms([&] { t.UpdateActor(tb); }));
+  for (const auto& kv : breakdown) {
+    std::cerr << "  cpu_scale_states " << kv.first << ": " << kv.second << " ms\n";
+  }
+  return breakdown;
+}
+
+std::string SuiteJson(const BenchRequest& r, const std::string& precision,
+                      const std::vector<TrainResult>& train,
+                      const std::vector<std::pair<std::string, double>>& breakdown,
+                      const std::vector<LatencyResult>& act, double total_s) {
+  std::ostringstream j;
+  j.precision(6);
+  j << "{\n  \"device\": \"" << r.device << "\",\n  \"precision\": \"" << precision
+    << "\",\n  \"threads\": " << torch::get_num_threads() << ",\n  \"cpu\": " << HostCpu().ToJson()
+    << ",\n  \"state_dataset\": {\"obs_dim\": 29, \"action_dim\": 8},\n"
+    << "  \"pixel_dataset\": {\"image\": [64, 64, 3], \"action_dim\": 8},\n  \"train\": [\n";
+  for (size_t i = 0; i < train.size(); ++i) {
+    const TrainResult& t = train[i];
+    j << "    {\"name\": \"" << t.name << "\", \"batch\": " << t.batch
+      << ", \"timed_steps\": " << t.steps << ", \"steps_per_s\": " << t.steps_per_s
+      << ", \"ms_per_step\": " << t.ms_per_step
+      << ", \"pipelined\": " << (t.pipelined ? "true" : "false") << "}"
+      << (i + 1 < train.size() ? "," : "") << "\n";
+  }
+  j << "  ],\n  \"cpu_scale_states_breakdown_ms\": {";
+  for (size_t i = 0; i < breakdown.size(); ++i) {
+    j << (i ? ", " : "") << "\"" << breakdown[i].first << "\": " << breakdown[i].second;
+  }
+  j << "},\n  \"act_latency\": [\n";
+  for (size_t i = 0; i < act.size(); ++i) {
+    j << "    {\"name\": \"" << act[i].name << "\", \"median_ms\": " << act[i].median_ms
+      << ", \"p90_ms\": " << act[i].p90_ms << "}" << (i + 1 < act.size() ? "," : "") << "\n";
+  }
+  j << "  ],\n  \"peak_rss_mb\": " << PeakRssMb() << ",\n  \"bench_seconds\": " << total_s
+    << "\n}\n";
+  return j.str();
+}
+
+// The default suite: CPU- and paper-scale steps from states and pixels, a step's
+// breakdown, and Policy::Act's latency.
+int RunSuite(const BenchRequest& r) {
+  const auto t0 = Clock::now();
+  // Antmaze-like state sizes; pixels as OGBench's visual tasks.
+  auto states = SyntheticDataset(29, 8, false, 50, 200);
+  auto pixels = SyntheticDataset(0, 8, true, 10, 100);
+  const bool quick = r.quick;
+  const int n = quick ? 2 : 10;
+  std::vector<TrainResult> train;
+  std::cerr << "msspr_bench_core: training steps on " << r.device << " ("
+            << torch::get_num_threads() << " threads)\n";
+  const MsprOptions cpu_state = BenchPreset("cpu", r);
+  train.push_back(TimeTraining("cpu_scale_states", cpu_state, states, 2, n));
+  // Algorithm 1 read literally: one representation update every K = 250 steps.
+  MsprOptions cpu_state_sparse = cpu_state;
+  cpu_state_sparse.representation.updates_per_step = 1.0 / 250.0;
+  train.push_back(TimeTraining("cpu_scale_states_repr_every_250", cpu_state_sparse, states, 2, n));
+  MsprOptions paper_state = BenchPreset("paper", r);
+  paper_state.trainer.batch_size = 1024;
+  train.push_back(TimeTraining("paper_scale_states", paper_state, states, 1, quick ? 1 : 4));
+  MsprOptions cpu_pix = BenchPreset("cpu", r);
+  cpu_pix.network.obs_mode = "pixels";
+  cpu_pix.trainer.batch_size = 32;
+  train.push_back(TimeTraining("cpu_scale_pixels", cpu_pix, pixels, 1, quick ? 1 : 3));
+  MsprOptions paper_pix = BenchPreset("paper", r);
+  paper_pix.network.obs_mode = "pixels";
+  paper_pix.trainer.batch_size = 256;
+  paper_pix.representation.weight_rew = 0.5;
+  train.push_back(TimeTraining("paper_scale_pixels", paper_pix, pixels, 1, quick ? 1 : 2));
+
+  const auto breakdown = StepBreakdown(cpu_state, states, quick);
+
+  std::cerr << "msspr_bench_core: single-sample Policy::Act latency\n";
+  std::vector<LatencyResult> act;
+  const int reps = quick ? 20 : 200;
+  act.push_back(TimeAct("state_cpu_scale", cpu_state, states, reps));
+  act.push_back(TimeAct("state_paper_scale", paper_state, states, reps));
+  act.push_back(TimeAct("image_cpu_scale", cpu_pix, pixels, reps / 2));
+  act.push_back(TimeAct("image_paper_scale", paper_pix, pixels, reps / 2));
+  const double total_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return WriteJson(
+      r.out, SuiteJson(r, EffectivePrecision(cpu_state.trainer), train, breakdown, act, total_s));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ReexecWithPassiveOpenMpWait(argv);
+  BenchRequest r;
   try {
     const cli::CliArgs args(argc, argv, {"help", "quick"},
                             {"out", "device", "threads", "precision", "config", "profile", "steps",
@@ -197,139 +343,20 @@ int main(int argc, char** argv) {
       std::cout << kUsage;
       return 0;
     }
-    if (!args.positional().empty())
-      throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
-    out = args.Get("out", "");
-    if (out.empty()) throw cli::CliError("--out FILE.json is required");
-    device = args.Get("device", "cpu");
-    threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
-    quick = args.Has("quick");
-    precision =
-        args.Has("precision") ? args.GetChoice("precision", "fp32", {"fp32", "bf16", "auto"}) : "";
-    // --config a.yaml,b.yaml: layered in order.
-    std::stringstream list(args.Get("config", ""));
-    for (std::string item; std::getline(list, item, ',');) {
-      if (!item.empty()) configs.push_back(item);
-    }
-    profile = args.Get("profile", "");
-    steps = static_cast<int>(args.GetInt("steps", steps, 1, 100000000));
-    warmup = static_cast<int>(args.GetInt("warmup", warmup, 0, 100000000));
-    obs_dim = static_cast<int>(args.GetInt("obs-dim", obs_dim, 1, 1000000));
-    action_dim = static_cast<int>(args.GetInt("action-dim", action_dim, 1, 1000000));
-    episodes = static_cast<int>(args.GetInt("episodes", episodes, 1, 100000000));
-    length = static_cast<int>(args.GetInt("length", length, 2, 100000000));
+    r = ParseBench(args);
   } catch (const cli::CliError& e) {
     std::cerr << "msspr_bench_core: " << e.what() << "\n" << kUsage;
     return 2;
   }
   try {
-    if (threads > 0) torch::set_num_threads(threads);
-    if (!configs.empty()) {
-      return TimeConfig(configs, out, device, precision, steps, warmup, obs_dim, action_dim,
-                        episodes, length, profile);
+    if (r.threads > 0) torch::set_num_threads(r.threads);
+    if (!r.configs.empty()) {
+      return TimeConfig(r.configs, r.out, r.device, r.precision, r.steps, r.warmup, r.obs_dim,
+                        r.action_dim, r.episodes, r.length, r.profile);
     }
-    const auto t0 = Clock::now();
-    // Antmaze-like state sizes; pixels as OGBench's visual tasks.
-    auto states = SyntheticDataset(29, 8, false, 50, 200);
-    auto pixels = SyntheticDataset(0, 8, true, 10, 100);
-    const int n = quick ? 2 : 10;
-    std::vector<TrainResult> train;
-    std::cerr << "msspr_bench_core: training steps on " << device << " ("
-              << torch::get_num_threads() << " threads)\n";
-    MsprOptions cpu_state = MakePreset("mspr", "cpu");
-    cpu_state.trainer.device = device;
-    if (!precision.empty()) cpu_state.trainer.precision = precision;
-    train.push_back(TimeTraining("cpu_scale_states", cpu_state, states, 2, n));
-    // Algorithm 1 read literally: one representation update every K = 250 steps.
-    MsprOptions cpu_state_sparse = cpu_state;
-    cpu_state_sparse.representation.updates_per_step = 1.0 / 250.0;
-    train.push_back(
-        TimeTraining("cpu_scale_states_repr_every_250", cpu_state_sparse, states, 2, n));
-    MsprOptions paper_state = MakePreset("mspr", "paper");
-    paper_state.trainer.device = device;
-    if (!precision.empty()) paper_state.trainer.precision = precision;
-    paper_state.trainer.batch_size = 1024;
-    train.push_back(TimeTraining("paper_scale_states", paper_state, states, 1, quick ? 1 : 4));
-    MsprOptions cpu_pix = MakePreset("mspr", "cpu");
-    cpu_pix.network.obs_mode = "pixels";
-    cpu_pix.trainer.device = device;
-    if (!precision.empty()) cpu_pix.trainer.precision = precision;
-    cpu_pix.trainer.batch_size = 32;
-    train.push_back(TimeTraining("cpu_scale_pixels", cpu_pix, pixels, 1, quick ? 1 : 3));
-    MsprOptions paper_pix = MakePreset("mspr", "paper");
-    paper_pix.network.obs_mode = "pixels";
-    paper_pix.trainer.device = device;
-    if (!precision.empty()) paper_pix.trainer.precision = precision;
-    paper_pix.trainer.batch_size = 256;
-    paper_pix.representation.weight_rew = 0.5;
-    train.push_back(TimeTraining("paper_scale_pixels", paper_pix, pixels, 1, quick ? 1 : 2));
-
-    // Where a CPU-scale step goes.
-    std::vector<std::pair<std::string, double>> breakdown;
-    {
-      Trainer t(cpu_state, states);
-      t.Step();
-      const int reps = quick ? 2 : 10;
-      auto time_ms = [&](const std::function<void()>& f) {
-        const auto start = Clock::now();
-        for (int i = 0; i < reps; ++i) f();
-        if (t.device().is_cuda()) torch::cuda::synchronize();
-        return std::chrono::duration<double, std::milli>(Clock::now() - start).count() / reps;
-      };
-      const TransitionBatch tb = t.SampleTransitions();
-      const ChunkBatch cb = t.SampleChunks();
-      const torch::Tensor noise = torch::randn({tb.action.size(0), tb.action.size(1)});
-      breakdown.emplace_back("sample_and_gather", time_ms([&] {
-                               t.SampleTransitions();
-                               t.SampleChunks();
-                             }));
-      breakdown.emplace_back("representation_update", time_ms([&] { t.UpdateRepresentation(cb); }));
-      breakdown.emplace_back("critic_update", time_ms([&] { t.UpdateCritic(tb, noise); }));
-      breakdown.emplace_back("actor_update", time_ms([&] { t.UpdateActor(tb); }));
-      for (const auto& kv : breakdown) {
-        std::cerr << "  cpu_scale_states " << kv.first << ": " << kv.second << " ms\n";
-      }
-    }
-
-    std::cerr << "msspr_bench_core: single-sample Policy::Act latency\n";
-    std::vector<LatencyResult> act;
-    const int reps = quick ? 20 : 200;
-    act.push_back(TimeAct("state_cpu_scale", cpu_state, states, reps));
-    act.push_back(TimeAct("state_paper_scale", paper_state, states, reps));
-    act.push_back(TimeAct("image_cpu_scale", cpu_pix, pixels, reps / 2));
-    act.push_back(TimeAct("image_paper_scale", paper_pix, pixels, reps / 2));
-    const double total_s = std::chrono::duration<double>(Clock::now() - t0).count();
-
-    std::ostringstream j;
-    j.precision(6);
-    j << "{\n  \"device\": \"" << device << "\",\n  \"precision\": \""
-      << EffectivePrecision(cpu_state.trainer) << "\",\n  \"threads\": " << torch::get_num_threads()
-      << ",\n  \"cpu\": " << HostCpu().ToJson()
-      << ",\n  \"state_dataset\": {\"obs_dim\": 29, \"action_dim\": 8},\n"
-      << "  \"pixel_dataset\": {\"image\": [64, 64, 3], \"action_dim\": 8},\n  \"train\": [\n";
-    for (size_t i = 0; i < train.size(); ++i) {
-      const TrainResult& r = train[i];
-      j << "    {\"name\": \"" << r.name << "\", \"batch\": " << r.batch
-        << ", \"timed_steps\": " << r.steps << ", \"steps_per_s\": " << r.steps_per_s
-        << ", \"ms_per_step\": " << r.ms_per_step
-        << ", \"pipelined\": " << (r.pipelined ? "true" : "false") << "}"
-        << (i + 1 < train.size() ? "," : "") << "\n";
-    }
-    j << "  ],\n  \"cpu_scale_states_breakdown_ms\": {";
-    for (size_t i = 0; i < breakdown.size(); ++i) {
-      j << (i ? ", " : "") << "\"" << breakdown[i].first << "\": " << breakdown[i].second;
-    }
-    j << "},\n  \"act_latency\": [\n";
-    for (size_t i = 0; i < act.size(); ++i) {
-      j << "    {\"name\": \"" << act[i].name << "\", \"median_ms\": " << act[i].median_ms
-        << ", \"p90_ms\": " << act[i].p90_ms << "}" << (i + 1 < act.size() ? "," : "") << "\n";
-    }
-    j << "  ],\n  \"peak_rss_mb\": " << PeakRssMb() << ",\n  \"bench_seconds\": " << total_s
-      << "\n}\n";
-    return WriteJson(out, j.str());
+    return RunSuite(r);
   } catch (const std::exception& e) {
     std::cerr << "msspr_bench_core: error: " << e.what() << "\n";
     return 1;
   }
-  return 0;
 }

@@ -89,6 +89,174 @@ std::string Json(const std::string& s) {
   return o.size() > 120 ? o.substr(0, 120) : o;
 }
 
+#if MSSPR_PROFILE_KINETO
+// Kineto over `steps` steps: kernels, GPU busy time, runtime calls, the top kernels.
+void ProfileSteps(Trainer& t, const torch::Device& dev, int steps, const std::string& out_dir,
+                  std::ostream& j) {
+  try {
+    // Kineto: CPU ops, CUDA runtime calls and GPU activity over `steps` steps.
+    namespace prof = torch::autograd::profiler;
+    using torch::profiler::impl::ActivityType;
+    const torch::profiler::impl::ProfilerConfig cfg(torch::profiler::impl::ProfilerState::KINETO);
+    std::set<ActivityType> acts{ActivityType::CPU};
+    if (dev.is_cuda()) acts.insert(ActivityType::CUDA);
+    prof::prepareProfiler(cfg, acts);
+    Sync(dev);
+    prof::enableProfiler(cfg, acts);
+    const auto p0 = Clock::now();
+    for (int i = 0; i < steps; ++i) t.Step(false);
+    Sync(dev);
+    const double wall_ms = std::chrono::duration<double, std::milli>(Clock::now() - p0).count();
+    std::unique_ptr<prof::ProfilerResult> res = prof::disableProfiler();
+    int64_t gpu_events = 0, gpu_sum_ns = 0;
+    std::vector<std::pair<uint64_t, uint64_t>> spans;
+    std::map<std::string, std::pair<int64_t, int64_t>> kernels, runtime;  // name -> count, ns
+    int64_t cpu_ops = 0;
+    for (const auto& e : res->events()) {
+      const std::string name = e.name();
+      if (e.deviceType() == c10::DeviceType::CUDA) {
+        ++gpu_events;
+        gpu_sum_ns += e.durationNs();
+        spans.emplace_back(e.startNs(), e.startNs() + e.durationNs());
+        auto& k = kernels[name];
+        ++k.first;
+        k.second += e.durationNs();
+      } else if (name.rfind("cuda", 0) == 0 || name.rfind("cu", 0) == 0) {
+        auto& r = runtime[name];
+        ++r.first;
+        r.second += e.durationNs();
+      } else {
+        ++cpu_ops;
+      }
+    }
+    std::sort(spans.begin(), spans.end());
+    uint64_t busy = 0, cur_s = 0, cur_e = 0;
+    for (const auto& s : spans) {
+      if (s.first > cur_e) {
+        busy += cur_e - cur_s;
+        cur_s = s.first;
+        cur_e = s.second;
+      } else {
+        cur_e = std::max(cur_e, s.second);
+      }
+    }
+    busy += cur_e - cur_s;
+    j << ", \"profiled_steps\": " << steps << ", \"profiled_wall_ms_per_step\": " << wall_ms / steps
+      << ", \"gpu_activities_per_step\": " << static_cast<double>(gpu_events) / steps
+      << ", \"gpu_kernel_sum_ms_per_step\": " << gpu_sum_ns / 1e6 / steps
+      << ", \"gpu_busy_ms_per_step\": " << busy / 1e6 / steps
+      << ", \"cpu_events_per_step\": " << static_cast<double>(cpu_ops) / steps;
+    j << ", \"runtime_calls_per_step\": {";
+    bool first = true;
+    for (const auto& kv : runtime) {
+      j << (first ? "" : ", ") << "\"" << Json(kv.first) << "\": ["
+        << static_cast<double>(kv.second.first) / steps << ", " << kv.second.second / 1e6 / steps
+        << "]";
+      first = false;
+    }
+    j << "}, \"top_kernels_ms_per_step\": [";
+    std::vector<std::pair<int64_t, std::string>> top;
+    for (const auto& kv : kernels) top.emplace_back(kv.second.second, kv.first);
+    std::sort(top.rbegin(), top.rend());
+    for (size_t i = 0; i < std::min<size_t>(12, top.size()); ++i) {
+      j << (i ? ", " : "") << "[\"" << Json(top[i].second) << "\", "
+        << static_cast<double>(kernels[top[i].second].first) / steps << ", "
+        << top[i].first / 1e6 / steps << "]";
+    }
+    j << "]";
+    if (!out_dir.empty()) res->save(out_dir + "/trace.json");
+  } catch (const std::exception& e) {
+    std::string msg = e.what();
+    j << ", \"profiler_error\": \"" << Json(msg.substr(0, msg.find('\n'))) << "\"";
+  }
+}
+#endif
+
+#if MSSPR_PROFILE_CUDA
+// The critic's forward and backward on one fixed batch, eager and as a CUDA-graph replay.
+void CriticGraph(Trainer& t, const torch::Device& dev, std::ostream& j) {
+  const TransitionBatch tb = t.SampleTransitions();
+  const torch::Tensor noise = torch::randn({tb.action.size(0), tb.action.size(1)}).to(dev);
+  auto fwd_bwd = [&] {
+    torch::Tensor loss = t.CriticLoss(tb, noise);
+    loss.backward();
+  };
+  const double eager = TimeMs(dev, 50, fwd_bwd);
+  j << ", \"critic_fwd_bwd_eager_ms\": " << eager;
+  try {
+    c10::cuda::CUDAStream side = c10::cuda::getStreamFromPool();
+    at::cuda::CUDAGraph g;
+    {
+      c10::cuda::CUDAStreamGuard guard(side);
+      for (int i = 0; i < 3; ++i) fwd_bwd();
+      side.synchronize();
+      g.capture_begin();
+      fwd_bwd();
+      g.capture_end();
+    }
+    const double replay = TimeMs(dev, 50, [&] { g.replay(); });
+    j << ", \"critic_fwd_bwd_graph_replay_ms\": " << replay;
+  } catch (const std::exception& e) {
+    std::string msg = e.what();
+    msg = msg.substr(0, msg.find('\n'));
+    j << ", \"critic_graph_error\": \"" << Json(msg) << "\"";
+  }
+}
+#endif
+
+// One Adam update of copies of the online networks' parameters: per-tensor loop,
+// _foreach ops, fused.
+void AdamVariants(Trainer& t, const torch::Device& dev) {
+  std::ostringstream j;
+  j.precision(5);
+  std::vector<torch::Tensor> params, grads;
+  for (const auto& p : t.repr()->parameters()) params.push_back(p.detach().clone());
+  for (const auto& p : t.critic()->parameters()) params.push_back(p.detach().clone());
+  for (const auto& p : t.actor()->parameters()) params.push_back(p.detach().clone());
+  int64_t numel = 0;
+  for (auto& p : params) {
+    p.requires_grad_(true);
+    p.mutable_grad() = torch::randn_like(p) * 1e-3;
+    grads.push_back(p.grad());
+    numel += p.numel();
+  }
+  j << "{\"adam_tensors\": " << params.size() << ", \"adam_numel\": " << numel;
+  torch::optim::Adam loop_opt(params, torch::optim::AdamOptions(3e-4));
+  j << ", \"adam_loop_ms\": " << TimeMs(dev, 50, [&] { loop_opt.step(); });
+  torch::NoGradGuard no_grad;
+  std::vector<torch::Tensor> m, v, steps_t;
+  for (const auto& p : params) {
+    m.push_back(torch::zeros_like(p));
+    v.push_back(torch::zeros_like(p));
+    steps_t.push_back(torch::zeros({}, p.options()));
+  }
+  const double lr = 3e-4, b1 = 0.9, b2 = 0.999, eps = 1e-8;
+  int64_t step = 0;
+  j << ", \"adam_foreach_ms\": " << TimeMs(dev, 50, [&] {
+    ++step;
+    const double bc1 = 1 - std::pow(b1, step), bc2 = 1 - std::pow(b2, step);
+    at::_foreach_mul_(m, b1);
+    at::_foreach_add_(m, grads, 1 - b1);
+    at::_foreach_mul_(v, b2);
+    at::_foreach_addcmul_(v, grads, grads, 1 - b2);
+    std::vector<torch::Tensor> denom = at::_foreach_sqrt(v);
+    at::_foreach_div_(denom, std::sqrt(bc2));
+    at::_foreach_add_(denom, eps);
+    at::_foreach_addcdiv_(params, m, denom, -lr / bc1);
+  });
+  try {
+    const double fused_ms = TimeMs(dev, 50, [&] {
+      at::_fused_adam_(params, grads, m, v, {}, steps_t, lr, b1, b2, 0.0, eps, false, false);
+    });
+    j << ", \"adam_fused_ms\": " << fused_ms;
+  } catch (const std::exception& e) {
+    std::string msg = e.what();
+    j << ", \"adam_fused_error\": \"" << Json(msg.substr(0, msg.find('\n'))) << "\"";
+  }
+  j << "}";
+  std::cout << j.str() << std::endl;
+}
+
 }  // namespace
 
 constexpr const char* kUsage = R"(usage: msspr_profile_step [options]
@@ -152,83 +320,7 @@ int main(int argc, char** argv) {
     });
 
 #if MSSPR_PROFILE_KINETO
-    try {
-      // Kineto: CPU ops, CUDA runtime calls and GPU activity over `steps` steps.
-      namespace prof = torch::autograd::profiler;
-      using torch::profiler::impl::ActivityType;
-      const torch::profiler::impl::ProfilerConfig cfg(torch::profiler::impl::ProfilerState::KINETO);
-      std::set<ActivityType> acts{ActivityType::CPU};
-      if (dev.is_cuda()) acts.insert(ActivityType::CUDA);
-      prof::prepareProfiler(cfg, acts);
-      Sync(dev);
-      prof::enableProfiler(cfg, acts);
-      const auto p0 = Clock::now();
-      for (int i = 0; i < steps; ++i) t.Step(false);
-      Sync(dev);
-      const double wall_ms = std::chrono::duration<double, std::milli>(Clock::now() - p0).count();
-      std::unique_ptr<prof::ProfilerResult> res = prof::disableProfiler();
-      int64_t gpu_events = 0, gpu_sum_ns = 0;
-      std::vector<std::pair<uint64_t, uint64_t>> spans;
-      std::map<std::string, std::pair<int64_t, int64_t>> kernels, runtime;  // name -> count, ns
-      int64_t cpu_ops = 0;
-      for (const auto& e : res->events()) {
-        const std::string name = e.name();
-        if (e.deviceType() == c10::DeviceType::CUDA) {
-          ++gpu_events;
-          gpu_sum_ns += e.durationNs();
-          spans.emplace_back(e.startNs(), e.startNs() + e.durationNs());
-          auto& k = kernels[name];
-          ++k.first;
-          k.second += e.durationNs();
-        } else if (name.rfind("cuda", 0) == 0 || name.rfind("cu", 0) == 0) {
-          auto& r = runtime[name];
-          ++r.first;
-          r.second += e.durationNs();
-        } else {
-          ++cpu_ops;
-        }
-      }
-      std::sort(spans.begin(), spans.end());
-      uint64_t busy = 0, cur_s = 0, cur_e = 0;
-      for (const auto& s : spans) {
-        if (s.first > cur_e) {
-          busy += cur_e - cur_s;
-          cur_s = s.first;
-          cur_e = s.second;
-        } else {
-          cur_e = std::max(cur_e, s.second);
-        }
-      }
-      busy += cur_e - cur_s;
-      j << ", \"profiled_steps\": " << steps
-        << ", \"profiled_wall_ms_per_step\": " << wall_ms / steps
-        << ", \"gpu_activities_per_step\": " << static_cast<double>(gpu_events) / steps
-        << ", \"gpu_kernel_sum_ms_per_step\": " << gpu_sum_ns / 1e6 / steps
-        << ", \"gpu_busy_ms_per_step\": " << busy / 1e6 / steps
-        << ", \"cpu_events_per_step\": " << static_cast<double>(cpu_ops) / steps;
-      j << ", \"runtime_calls_per_step\": {";
-      bool first = true;
-      for (const auto& kv : runtime) {
-        j << (first ? "" : ", ") << "\"" << Json(kv.first) << "\": ["
-          << static_cast<double>(kv.second.first) / steps << ", " << kv.second.second / 1e6 / steps
-          << "]";
-        first = false;
-      }
-      j << "}, \"top_kernels_ms_per_step\": [";
-      std::vector<std::pair<int64_t, std::string>> top;
-      for (const auto& kv : kernels) top.emplace_back(kv.second.second, kv.first);
-      std::sort(top.rbegin(), top.rend());
-      for (size_t i = 0; i < std::min<size_t>(12, top.size()); ++i) {
-        j << (i ? ", " : "") << "[\"" << Json(top[i].second) << "\", "
-          << static_cast<double>(kernels[top[i].second].first) / steps << ", "
-          << top[i].first / 1e6 / steps << "]";
-      }
-      j << "]";
-      if (!out_dir.empty()) res->save(out_dir + "/trace.json");
-    } catch (const std::exception& e) {
-      std::string msg = e.what();
-      j << ", \"profiler_error\": \"" << Json(msg.substr(0, msg.find('\n'))) << "\"";
-    }
+    ProfileSteps(t, dev, steps, out_dir, j);
 #else
     (void)steps;
     (void)out_dir;
@@ -238,93 +330,14 @@ int main(int argc, char** argv) {
     std::cout << j.str() << std::endl;
     j.str("");
     j << "{\"graph\": " << (graph ? "true" : "false");
-
-    // CUDA graph: the critic's forward and backward on one fixed batch.
 #if MSSPR_PROFILE_CUDA
-    if (graph && dev.is_cuda()) {
-      const TransitionBatch tb = t.SampleTransitions();
-      const torch::Tensor noise = torch::randn({tb.action.size(0), tb.action.size(1)}).to(dev);
-      auto fwd_bwd = [&] {
-        torch::Tensor loss = t.CriticLoss(tb, noise);
-        loss.backward();
-      };
-      const double eager = TimeMs(dev, 50, fwd_bwd);
-      j << ", \"critic_fwd_bwd_eager_ms\": " << eager;
-      try {
-        c10::cuda::CUDAStream side = c10::cuda::getStreamFromPool();
-        at::cuda::CUDAGraph g;
-        {
-          c10::cuda::CUDAStreamGuard guard(side);
-          for (int i = 0; i < 3; ++i) fwd_bwd();
-          side.synchronize();
-          g.capture_begin();
-          fwd_bwd();
-          g.capture_end();
-        }
-        const double replay = TimeMs(dev, 50, [&] { g.replay(); });
-        j << ", \"critic_fwd_bwd_graph_replay_ms\": " << replay;
-      } catch (const std::exception& e) {
-        std::string msg = e.what();
-        msg = msg.substr(0, msg.find('\n'));
-        j << ", \"critic_graph_error\": \"" << Json(msg) << "\"";
-      }
-    }
+    if (graph && dev.is_cuda()) CriticGraph(t, dev, j);
 #else
     if (graph) j << ", \"critic_graph_error\": \"LibTorch without CUDA\"";
 #endif
     j << "}";
     std::cout << j.str() << std::endl;
-
-    // Adam over the online networks' parameters: per-tensor loop, _foreach, fused.
-    if (adam) {
-      j.str("");
-      std::vector<torch::Tensor> params, grads;
-      for (const auto& p : t.repr()->parameters()) params.push_back(p.detach().clone());
-      for (const auto& p : t.critic()->parameters()) params.push_back(p.detach().clone());
-      for (const auto& p : t.actor()->parameters()) params.push_back(p.detach().clone());
-      int64_t numel = 0;
-      for (auto& p : params) {
-        p.requires_grad_(true);
-        p.mutable_grad() = torch::randn_like(p) * 1e-3;
-        grads.push_back(p.grad());
-        numel += p.numel();
-      }
-      j << "{\"adam_tensors\": " << params.size() << ", \"adam_numel\": " << numel;
-      torch::optim::Adam loop_opt(params, torch::optim::AdamOptions(3e-4));
-      j << ", \"adam_loop_ms\": " << TimeMs(dev, 50, [&] { loop_opt.step(); });
-      torch::NoGradGuard no_grad;
-      std::vector<torch::Tensor> m, v, steps_t;
-      for (const auto& p : params) {
-        m.push_back(torch::zeros_like(p));
-        v.push_back(torch::zeros_like(p));
-        steps_t.push_back(torch::zeros({}, p.options()));
-      }
-      const double lr = 3e-4, b1 = 0.9, b2 = 0.999, eps = 1e-8;
-      int64_t step = 0;
-      j << ", \"adam_foreach_ms\": " << TimeMs(dev, 50, [&] {
-        ++step;
-        const double bc1 = 1 - std::pow(b1, step), bc2 = 1 - std::pow(b2, step);
-        at::_foreach_mul_(m, b1);
-        at::_foreach_add_(m, grads, 1 - b1);
-        at::_foreach_mul_(v, b2);
-        at::_foreach_addcmul_(v, grads, grads, 1 - b2);
-        std::vector<torch::Tensor> denom = at::_foreach_sqrt(v);
-        at::_foreach_div_(denom, std::sqrt(bc2));
-        at::_foreach_add_(denom, eps);
-        at::_foreach_addcdiv_(params, m, denom, -lr / bc1);
-      });
-      try {
-        const double fused_ms = TimeMs(dev, 50, [&] {
-          at::_fused_adam_(params, grads, m, v, {}, steps_t, lr, b1, b2, 0.0, eps, false, false);
-        });
-        j << ", \"adam_fused_ms\": " << fused_ms;
-      } catch (const std::exception& e) {
-        std::string msg = e.what();
-        j << ", \"adam_fused_error\": \"" << Json(msg.substr(0, msg.find('\n'))) << "\"";
-      }
-      j << "}";
-      std::cout << j.str() << std::endl;
-    }
+    if (adam) AdamVariants(t, dev);
   } catch (const std::exception& e) {
     std::cerr << "profile_step: error: " << e.what() << "\n";
     return 1;
