@@ -52,7 +52,8 @@ const char kUsage[] =
     "  --scale NAME       paper (default) | cpu; wins over a config's scale:\n"
     "  --config YAML      options file applied on top of the preset (may repeat; later files\n"
     "                     override earlier ones key by key)\n"
-    "  --obs-mode MODE    state | pixels (default: pixels when the dataset has only images)\n"
+    "  --observation-mode MODE  state | pixels: what the network reads (default: pixels when\n"
+    "                     the dataset has only images; --obs-mode is the old spelling)\n"
     "  --steps N          training steps (overrides trainer.steps)\n"
     "  --batch N          batch size (overrides trainer.batch_size)\n"
     "  --device DEV       cpu | cuda | cuda:N (default cpu)\n"
@@ -130,6 +131,15 @@ std::string Absolute(const std::string& list) {  // each of "a,b,c", made absolu
   return out;
 }
 
+// Old spellings of flags, read as the new ones (the old one with a warning on the command
+// line; silently in the run records written before the rename).
+const std::map<std::string, std::string> kRenamedFlags = {{"obs-mode", "observation-mode"}};
+
+std::string CurrentFlagName(const std::string& key) {
+  const auto it = kRenamedFlags.find(key);
+  return it == kRenamedFlags.end() ? key : it->second;
+}
+
 // DIR/run.yaml: what a run was started with (flags, absolute data paths), so
 // that --resume --out DIR needs nothing else.
 struct RunRecord {
@@ -143,7 +153,7 @@ RunRecord ReadRunRecord(const std::string& path) {
     const YAML::Node root = YAML::LoadFile(path);
     if (root["flags"])
       for (const auto& kv : root["flags"])
-        r.flags[kv.first.as<std::string>()] = kv.second.as<std::string>();
+        r.flags[CurrentFlagName(kv.first.as<std::string>())] = kv.second.as<std::string>();
     if (root["config"])
       for (const auto& c : root["config"]) r.configs.push_back(c.as<std::string>());
   } catch (const YAML::Exception& e) {
@@ -199,21 +209,37 @@ struct CliRequest {
 
 // Reads argv; throws cli::CliError for an unknown argument or a missing value.
 CliRequest ParseCommandLine(int argc, char** argv, const TrainCliExtensions& ext) {
-  static const std::set<std::string> kValued = {"data",         "val",
-                                                "out",          "preset",
-                                                "agent",        "scale",
-                                                "obs-mode",     "steps",
-                                                "batch",        "device",
-                                                "precision",    "seed",
-                                                "eval-every",   "checkpoint-every",
-                                                "export-every", "log-every",
-                                                "time-limit",   "threads",
-                                                "world-size",   "rank",
-                                                "master",       "dist-timeout"};
+  static const std::set<std::string> kValued = {"data",
+                                                "val",
+                                                "out",
+                                                "preset",
+                                                "agent",
+                                                "scale",
+                                                "observation-mode",
+                                                "steps",
+                                                "batch",
+                                                "device",
+                                                "precision",
+                                                "seed",
+                                                "eval-every",
+                                                "checkpoint-every",
+                                                "export-every",
+                                                "log-every",
+                                                "time-limit",
+                                                "threads",
+                                                "world-size",
+                                                "rank",
+                                                "master",
+                                                "dist-timeout"};
   CliRequest req;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    const std::string key = a.rfind("--", 0) == 0 ? a.substr(2) : "";
+    std::string key = a.rfind("--", 0) == 0 ? a.substr(2) : "";
+    if (kRenamedFlags.count(key)) {
+      std::cerr << "msspr_train: warning: --" << key << " is deprecated; use --"
+                << CurrentFlagName(key) << "\n";
+      key = CurrentFlagName(key);
+    }
     if (a == "--help" || a == "-h") {
       req.help = true;
       return req;
@@ -384,7 +410,7 @@ MsprOptions RunOptions(const RunRecord& run, bool from_checkpoint, const std::st
   if (n.export_every >= 0) t.export_every = static_cast<int>(n.export_every);
   if (n.log_every > 0) t.log_every = static_cast<int>(n.log_every);
   if (n.time_limit >= 0) t.time_limit_s = static_cast<double>(n.time_limit);
-  if (!flag("obs-mode").empty()) options.network.obs_mode = flag("obs-mode");
+  if (!flag("observation-mode").empty()) options.network.obs_mode = flag("observation-mode");
   t.precision = EffectivePrecision(t, precision_why);
   return options;
 }
@@ -449,7 +475,7 @@ int TrainRun(const CliRequest& req, const RunDir& dir, const DistributedOptions&
             << data->num_trajectories() << " trajectories, obs_dim " << data->obs_dim()
             << (data->has_images() ? ", images" : "") << ", action_dim " << data->action_dim()
             << "\n";
-  if (flag("obs-mode").empty() && !data->has_states()) options.network.obs_mode = "pixels";
+  if (flag("observation-mode").empty() && !data->has_states()) options.network.obs_mode = "pixels";
 
   Trainer trainer(options, data);
   if (req.print_options) {

@@ -107,7 +107,7 @@ std::shared_ptr<const msspr::core::Dataset> LoadBags(const std::string& list,
     if (lo.images && g_robot->images.empty())
       throw msspr::core::DatasetError(
           "--robot: " + g_robot->source +
-          " names no camera (images:): a pixels policy needs one, or use --obs-mode state");
+          " names no camera (images:): a pixels policy needs one, or use --observation-mode state");
     if (split != "train")
       throw msspr::core::DatasetError("--robot: a robot's bags have no \"val\" split");
   }

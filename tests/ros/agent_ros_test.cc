@@ -652,7 +652,7 @@ TEST(TrainCli, GcivlTrainsFromImagesOfTheSampleBag) {
   const std::vector<std::string> args = {
       "--agent",
       "gcivl",
-      "--obs-mode",
+      "--observation-mode",
       "pixels",
       "--data",
       src + "/rosbags/pointmaze-medium-navigate-pixels-sample.bag",

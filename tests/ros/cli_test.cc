@@ -87,6 +87,21 @@ TEST(Cli, TrainRejectsBadFlags) {
   EXPECT_FALSE(std::filesystem::exists("/nonexistent/run")) << "a refused --resume creates nothing";
 }
 
+// --observation-mode, and --obs-mode, its old spelling, which still works with a warning.
+TEST(Cli, TrainReadsTheObservationModeUnderBothSpellings) {
+  const Result now = msspr::test::RunTool(
+      std::string(MSSPR_TRAIN_EXE) + " --print-options --observation-mode pixels", 60);
+  EXPECT_EQ(now.status, 0) << now.text;
+  EXPECT_NE(now.text.find("obs_mode: pixels"), std::string::npos) << now.text;
+  EXPECT_EQ(now.text.find("deprecated"), std::string::npos) << now.text;
+  const Result old =
+      msspr::test::RunTool(std::string(MSSPR_TRAIN_EXE) + " --print-options --obs-mode pixels", 60);
+  EXPECT_EQ(old.status, 0) << old.text;
+  EXPECT_NE(old.text.find("obs_mode: pixels"), std::string::npos) << old.text;
+  EXPECT_NE(old.text.find("--obs-mode is deprecated; use --observation-mode"), std::string::npos)
+      << old.text;
+}
+
 TEST(Cli, ValueMapAndMakeTasksRejectBadFlags) {
   ExpectUsageErrors(MSSPR_VALUE_MAP_EXE,
                     {{"--maze medium", "--policy is required"},

@@ -43,7 +43,7 @@ if [ "$ROBOT" = ur5e_cube_camera ]; then
   [[ $IMAGE =~ :\ ([0-9]+)\ images\ at ]] || fail "no image count in: $IMAGE"
   [ "${BASH_REMATCH[1]}" -ge 171 ] || fail "only ${BASH_REMATCH[1]} camera images for 180 ticks: $IMAGE"
   [[ $IMAGE =~ \ 0\ bad\ images ]] || fail "bad images in the recording: $IMAGE"
-  TRAIN=(--obs-mode pixels --config config/cube_pixels_cpu.yaml)
+  TRAIN=(--observation-mode pixels --config config/cube_pixels_cpu.yaml)
 fi
 rosrun msspr msspr_train --data "$TMP/arm.bag" --robot "$SPEC" "${TRAIN[@]}" \
   --steps 2 --batch 16 --eval-every 0 --threads 1 --quiet --out "$TMP/run" >"$TMP/train.log" 2>&1 ||
