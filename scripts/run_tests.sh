@@ -10,7 +10,10 @@ export ROS_LOG_DIR=${ROS_LOG_DIR:-$ROS_HOME/log}
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
 mkdir -p "$ROS_LOG_DIR"
 log=$PWD/ctest.log
-ctest --output-on-failure --timeout 900 "${@:2}" 2>&1 | tee "$log"
+# One test per core (MSSPR_TEST_JOBS=N to change it); the tests that start ROS masters,
+# real-time sims or launch files are marked RUN_SERIAL and run alone.
+JOBS=${MSSPR_TEST_JOBS:-$(nproc 2>/dev/null || echo 1)}
+ctest --output-on-failure --timeout 900 -j "$JOBS" "${@:2}" 2>&1 | tee "$log"
 rc=${PIPESTATUS[0]}
 total=$(grep -oE 'tests failed out of [0-9]+' "$log" | tail -1 | grep -oE '[0-9]+$')
 failed=$(grep -oE '[0-9]+ tests failed out of' "$log" | tail -1 | grep -oE '^[0-9]+')
