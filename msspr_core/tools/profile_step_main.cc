@@ -17,8 +17,8 @@
 //    backward on a fixed batch, eager against a CUDA-graph replay of the same
 //    work (at::cuda::CUDAGraph);
 //  - with --adam: one Adam update of copies of the online networks' parameters
-//    (random gradients) with torch::optim::Adam (a loop over the tensors), as
-//    _foreach_* ops, and as at::_fused_adam_.
+//    (random gradients) with torch::optim::Adam (a loop over the tensors), with the
+//    trainer's ForeachAdamW (_foreach_* ops), and as at::_fused_adam_.
 // The build defines MSSPR_PROFILE_CUDA when LibTorch has CUDA.
 #include <torch/torch.h>
 #include <torch/version.h>
@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "msspr_core/cli_args.h"
+#include "msspr_core/foreach_adamw.h"
 #include "msspr_core/trainer.h"
 namespace {
 
@@ -231,19 +232,9 @@ void AdamVariants(Trainer& t, const torch::Device& dev) {
     steps_t.push_back(torch::zeros({}, p.options()));
   }
   const double lr = 3e-4, b1 = 0.9, b2 = 0.999, eps = 1e-8;
-  int64_t step = 0;
-  j << ", \"adam_foreach_ms\": " << TimeMs(dev, 50, [&] {
-    ++step;
-    const double bc1 = 1 - std::pow(b1, step), bc2 = 1 - std::pow(b2, step);
-    at::_foreach_mul_(m, b1);
-    at::_foreach_add_(m, grads, 1 - b1);
-    at::_foreach_mul_(v, b2);
-    at::_foreach_addcmul_(v, grads, grads, 1 - b2);
-    std::vector<torch::Tensor> denom = at::_foreach_sqrt(v);
-    at::_foreach_div_(denom, std::sqrt(bc2));
-    at::_foreach_add_(denom, eps);
-    at::_foreach_addcdiv_(params, m, denom, -lr / bc1);
-  });
+  // The trainer's optimiser (multi-tensor ops), without weight decay as the others.
+  ForeachAdamW foreach_opt(params, torch::optim::AdamWOptions(lr).weight_decay(0));
+  j << ", \"adam_foreach_ms\": " << TimeMs(dev, 50, [&] { foreach_opt.step(); });
   try {
     const double fused_ms = TimeMs(dev, 50, [&] {
       at::_fused_adam_(params, grads, m, v, {}, steps_t, lr, b1, b2, 0.0, eps, false, false);
