@@ -2,12 +2,12 @@
 # make demo: the sim and msspr_policy_node serving the shipped checkpoint on
 # pointmaze-medium, in lockstep over ROS, evaluated on the five tasks; prints the
 # per-task table and writes build/demo/{results.json,trajectories.png,success.png}.
-#   MSSPR_DEMO_PIXELS=1 make demo    serve from 64x64 camera images instead of states
+#   MSSPR_DEMO_OBSERVATION_MODE=pixels make demo   serve from 64x64 camera images instead of states
 #   DEMO_EPISODES=50 make demo       episodes per task (default 20)
 #   DEMO_TASKS_FILE=config/eval_tasks_medium_easy.yaml make demo   custom tasks
 #   MSSPR_DEMO_ENV=cube-single make demo   the URDF arm's cube-single (states; writes
 #                                          results.json and success.png); with
-#                                          MSSPR_DEMO_PIXELS=1 from the camera and a goal image
+#                                          MSSPR_DEMO_OBSERVATION_MODE=pixels from the camera and a goal image
 #   MSSPR_DEMO_CHECKPOINT=FILE make demo   cube-single: serve FILE instead of the shipped one
 #   MSSPR_DEMO_ENV=antmaze-medium make demo  the ant on antmaze-medium (states; 1000 steps)
 #   MSSPR_DEMO_ROBOT=pointmaze_base make demo   (or ur5e_cube with MSSPR_DEMO_ENV=cube-single;
@@ -23,8 +23,19 @@ OUT=$PWD/$BUILD/demo
 mkdir -p "$OUT"
 rm -f "$OUT/results.json"
 LOG=$OUT/roslaunch.log
-PIXELS=false
-[ "${MSSPR_DEMO_PIXELS:-0}" = 1 ] && PIXELS=true
+OBS_MODE=${MSSPR_DEMO_OBSERVATION_MODE:-}
+if [ "${MSSPR_DEMO_PIXELS:-0}" = 1 ]; then
+  echo "[demo] MSSPR_DEMO_PIXELS=1 is deprecated: use MSSPR_DEMO_OBSERVATION_MODE=pixels" >&2
+  OBS_MODE=${OBS_MODE:-pixels}
+fi
+case "${OBS_MODE:-state}" in
+  state) PIXELS=false ;;
+  pixels) PIXELS=true ;;
+  *)
+    echo "[demo] MSSPR_DEMO_OBSERVATION_MODE must be state or pixels, not '$OBS_MODE'" >&2
+    exit 2
+    ;;
+esac
 # A robot spec with a camera (images:) serves a pixels policy.
 if [ -n "${MSSPR_DEMO_ROBOT:-}" ] && grep -q '^images:' "config/robots/${MSSPR_DEMO_ROBOT}.yaml" 2>/dev/null; then
   PIXELS=true
@@ -35,7 +46,7 @@ case "$ENV" in
     CKPT=msspr_policy_node/checkpoints/pointmaze-medium-$([ "$PIXELS" = true ] && echo pixels || echo state).pt
     if [ -f "$CKPT" ]; then
       echo "[demo] pointmaze-medium: msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo images || echo states)), lockstep over ROS"
-      LAUNCH=(demo.launch pixels:="$PIXELS")
+      LAUNCH=(demo.launch observation_mode:="$([ "$PIXELS" = true ] && echo pixels || echo state)")
       [ -n "${DEMO_TASKS_FILE:-}" ] && LAUNCH+=(tasks_file:="$(readlink -f "$DEMO_TASKS_FILE")")
     else
       echo "[demo] no $CKPT: evaluating the scripted expert instead"
@@ -54,7 +65,7 @@ case "$ENV" in
       exit 1
     fi
     echo "[demo] cube-single (URDF arm): msspr_policy_node serving $CKPT ($([ "$PIXELS" = true ] && echo "camera and goal images" || echo states)), lockstep over ROS"
-    LAUNCH=(demo.launch env:=cube-single pixels:="$PIXELS")
+    LAUNCH=(demo.launch env:=cube-single observation_mode:="$([ "$PIXELS" = true ] && echo pixels || echo state)")
     if [ "$PIXELS" = true ]; then
       LAUNCH+=(cube_pixel_checkpoint:="$(readlink -f "$CKPT")")
     else
@@ -63,7 +74,7 @@ case "$ENV" in
     ;;
   antmaze-medium|antmaze-large)
     if [ "$PIXELS" = true ] || [ -n "${DEMO_TASKS_FILE:-}" ] || [ -n "${MSSPR_DEMO_ROBOT:-}" ]; then
-      echo "[demo] MSSPR_DEMO_ENV=$ENV serves the state checkpoint on msspr's own topics: no MSSPR_DEMO_PIXELS, DEMO_TASKS_FILE or MSSPR_DEMO_ROBOT" >&2
+      echo "[demo] MSSPR_DEMO_ENV=$ENV serves the state checkpoint on msspr's own topics: no MSSPR_DEMO_OBSERVATION_MODE=pixels, DEMO_TASKS_FILE or MSSPR_DEMO_ROBOT" >&2
       exit 2
     fi
     CKPT=msspr_policy_node/checkpoints/$ENV-state.pt

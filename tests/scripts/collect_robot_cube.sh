@@ -52,7 +52,7 @@ rosrun msspr msspr_train --data "$TMP/arm.bag" --robot "$SPEC" "${TRAIN[@]}" \
 if [ "$ROBOT" = ur5e_cube_camera ]; then
   # Served through the camera spec: the sim's camera and goal images in, ee_twist and
   # gripper_command out; one episode of each of the five tasks.
-  timeout 240 roslaunch -p "$MSSPR_PORT" msspr demo.launch env:=cube-single robot:="$ROBOT" pixels:=true \
+  timeout 240 roslaunch -p "$MSSPR_PORT" msspr demo.launch env:=cube-single robot:="$ROBOT" observation_mode:=pixels \
     cube_pixel_checkpoint:="$TMP/run/policy.pt" episodes:=1 out_dir:="$TMP/demo" >"$TMP/demo.log" 2>&1 ||
     { rc=$?; tail -20 "$TMP/demo.log" >&2; fail "demo.launch exited $rc"; }
   RESULTS=$TMP/demo/results.json

@@ -51,7 +51,7 @@ Evaluates the agent that answers the sim's observations (lockstep), by OGBench's
   --robot NAME        the robot interface spec the agent is served through, written into the
                       results as "robot" (demo.launch robot:=NAME; default: none)
   --observation-mode M  what the agent is served, state or pixels, written into the results
-                      as "observation_mode" (demo.launch pixels:=true; default: none)
+                      as "observation_mode" (demo.launch observation_mode:=pixels; default: none)
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories drawn on the maze, 5 per task (default: none)
   --success-plot F    bar chart of success per task (PNG)
