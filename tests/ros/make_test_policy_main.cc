@@ -4,7 +4,7 @@
 // mode). Untrained weights serve bad-input tests and latency measurements: the
 // network sizes, not the values, set the cost.
 //
-//   msspr_make_test_policy --mode state|pixels --scale tiny|cpu --out FILE [--seed N]
+//   msspr_make_test_policy --observation-mode state|pixels --scale tiny|cpu --out FILE [--seed N]
 //                          [--agent mspr|gcbc|gcivl|gciql|qrl|crl|hiql]  (baselines: state only)
 #include <cstdlib>
 #include <iostream>
@@ -21,7 +21,8 @@ namespace {
 
 int Usage(const std::string& why) {
   std::cerr << "msspr_make_test_policy: " << why
-            << "\nusage: msspr_make_test_policy --mode state|pixels --scale tiny|cpu --out FILE "
+            << "\nusage: msspr_make_test_policy --observation-mode state|pixels --scale tiny|cpu "
+               "--out FILE "
                "[--seed N]"
                " [--agent NAME]\n";
   return 2;
@@ -36,7 +37,7 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return Usage("missing value after " + a);
     const std::string v = argv[++i];
-    if (a == "--mode")
+    if (a == "--observation-mode")
       mode = v;
     else if (a == "--scale")
       scale = v;
@@ -50,7 +51,8 @@ int main(int argc, char** argv) {
       return Usage("unknown option " + a);
   }
   if (out.empty()) return Usage("--out is required");
-  if (mode != "state" && mode != "pixels") return Usage("--mode must be state or pixels");
+  if (mode != "state" && mode != "pixels")
+    return Usage("--observation-mode must be state or pixels");
   if (scale != "tiny" && scale != "cpu") return Usage("--scale must be tiny or cpu");
   try {
     namespace core = msspr::core;
