@@ -280,10 +280,10 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
   }
 }
 
-// Every options file under config/ and config/agents/ (the baselines' layers)
-// loads and validates.
+// Every options file under config/, config/agents/ (the baselines' layers) and
+// config/grids/layers/ (the comparison grids' layers) loads and validates.
 TEST(OptionsTest, EveryShippedConfigAndAgentLayerLoads) {
-  for (const std::string sub : {"", "/agents"}) {
+  for (const std::string sub : {"", "/agents", "/grids/layers"}) {
     const std::string dir = std::string(MSSPR_CONFIG_DIR) + sub;
     SCOPED_TRACE(dir);
     std::vector<std::string> files;
@@ -314,8 +314,9 @@ TEST(OptionsTest, EveryShippedConfigAndAgentLayerLoads) {
       o.network.action_dim = 2;
       EXPECT_NO_THROW(ValidateOptions(o));
     }
-    // config/ has the presets and layers; config/agents/ the baselines' 8 layers.
-    EXPECT_GE(loaded, sub.empty() ? 20 : 8);
+    // config/ has the presets and layers; config/agents/ the baselines' 8 layers;
+    // config/grids/layers/ 4.
+    EXPECT_GE(loaded, sub.empty() ? 20 : sub == "/agents" ? 8 : 4);
   }
 }
 
