@@ -148,4 +148,34 @@ TEST(Cli, BenchToolsRejectBadFlags) {
                      {"--rates 50,fast", "--rates expects a finite number"}});
 }
 
+// The remaining tools: --help prints the usage and exits 0; an unknown flag and a bad or
+// missing value exit 2 naming them.
+TEST(Cli, TheOtherToolsAnswerHelpAndRejectBadFlags) {
+  const std::vector<std::pair<std::string, std::string>> tools = {
+      {MSSPR_AVERAGE_POLICIES_EXE, "msspr_average_policies"},
+      {MSSPR_BENCH_CUBE_EXE, "msspr_bench_cube"},
+      {MSSPR_COLLECT_NPZ_EXE, "msspr_collect_npz"},
+      {MSSPR_EVAL_ANT_EXPERT_EXE, "msspr_eval_ant_expert"},
+      {MSSPR_PROBE_LATENTS_EXE, "msspr_probe_latents"},
+      {MSSPR_PROFILE_STEP_EXE, "msspr_profile_step"},
+      {MSSPR_TRAIN_EXPERT_EXE, "msspr_train_expert"}};
+  for (const auto& [exe, name] : tools) {
+    const Result help = ::Run(exe, "--help");
+    EXPECT_EQ(help.status, 0) << name << "\n" << help.text;
+    EXPECT_NE(help.text.find("usage: " + name), std::string::npos) << help.text;
+    ExpectUsageError(exe, "--bogus", "unknown option --bogus");
+  }
+  ExpectUsageError(MSSPR_AVERAGE_POLICIES_EXE, "a.pt", "--out OUT.pt is required");
+  ExpectUsageError(MSSPR_BENCH_CUBE_EXE, "", "--urdf is required");
+  ExpectUsageError(MSSPR_COLLECT_NPZ_EXE, "--out /tmp/x.npz --episodes many",
+                   "--episodes expects an integer, got 'many'");
+  ExpectUsageError(MSSPR_EVAL_ANT_EXPERT_EXE, "--episodes 0", "--episodes 0 is out of range");
+  ExpectUsageError(MSSPR_PROBE_LATENTS_EXE, "", "--policy and --data are required");
+  ExpectUsageError(MSSPR_PROFILE_STEP_EXE, "--steps 0", "--steps 0 is out of range");
+  const std::string out = "/tmp/msspr_cli_train_expert_refused";
+  ExpectUsageError(MSSPR_TRAIN_EXPERT_EXE, "--out " + out + " --steps many",
+                   "--steps expects an integer, got 'many'");
+  EXPECT_FALSE(std::filesystem::exists(out)) << "a refused command line creates nothing";
+}
+
 }  // namespace
