@@ -150,7 +150,7 @@ TEST(BagDataset, SampleBagWithImages) {
   EXPECT_TRUE(report.problems.empty());
 }
 
-TEST(MazeEvaluator, DeterministicAndSane) {
+TEST(MazeEvaluator, SameOutcomesTwiceAndFailuresRunToTheStepLimit) {
   auto policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);
   MazeEvalOptions opt;
   opt.episodes = 3;
