@@ -169,31 +169,32 @@ std::string LightsOut::Format(const LightsOutState& state) const {
   return out;
 }
 
+namespace {
+
+// Five (start, goal) boards as text, parsed on a side x side board.
+std::vector<LightsOutTask> MakeTasks(int side, const char* const (&text)[5][2]) {
+  const LightsOut b(side, side);
+  std::vector<LightsOutTask> v;
+  for (int i = 0; i < 5; ++i)
+    v.push_back({"task" + std::to_string(i + 1), b.Parse(text[i][0]), b.Parse(text[i][1])});
+  return v;
+}
+
+}  // namespace
+
 const std::vector<LightsOutTask>& PuzzleTasks(int side) {
-  static const std::vector<LightsOutTask> k3 = [] {
-    const LightsOut b(3, 3);
-    const char* t[5][2] = {{"000/000/000", "110/101/011"},
-                           {"111/111/111", "011/111/111"},
-                           {"010/111/010", "101/010/101"},
-                           {"010/101/010", "111/111/111"},
-                           {"111/111/111", "101/101/101"}};
-    std::vector<LightsOutTask> v;
-    for (int i = 0; i < 5; ++i)
-      v.push_back({"task" + std::to_string(i + 1), b.Parse(t[i][0]), b.Parse(t[i][1])});
-    return v;
-  }();
-  static const std::vector<LightsOutTask> k4 = [] {
-    const LightsOut b(4, 4);
-    const char* t[5][2] = {{"0000/0000/0000/0000", "1111/1111/1111/1111"},
-                           {"1111/1111/1111/1111", "1111/1001/1001/1111"},
-                           {"1000/0000/0000/0001", "0101/1010/0101/1010"},
-                           {"1001/1001/1001/1001", "0000/0000/0000/0000"},
-                           {"0101/0010/0001/1000", "0000/0000/0000/0000"}};
-    std::vector<LightsOutTask> v;
-    for (int i = 0; i < 5; ++i)
-      v.push_back({"task" + std::to_string(i + 1), b.Parse(t[i][0]), b.Parse(t[i][1])});
-    return v;
-  }();
+  static const char* const k3_text[5][2] = {{"000/000/000", "110/101/011"},
+                                            {"111/111/111", "011/111/111"},
+                                            {"010/111/010", "101/010/101"},
+                                            {"010/101/010", "111/111/111"},
+                                            {"111/111/111", "101/101/101"}};
+  static const char* const k4_text[5][2] = {{"0000/0000/0000/0000", "1111/1111/1111/1111"},
+                                            {"1111/1111/1111/1111", "1111/1001/1001/1111"},
+                                            {"1000/0000/0000/0001", "0101/1010/0101/1010"},
+                                            {"1001/1001/1001/1001", "0000/0000/0000/0000"},
+                                            {"0101/0010/0001/1000", "0000/0000/0000/0000"}};
+  static const std::vector<LightsOutTask> k3 = MakeTasks(3, k3_text);
+  static const std::vector<LightsOutTask> k4 = MakeTasks(4, k4_text);
   if (side == 3) return k3;
   if (side == 4) return k4;
   throw std::invalid_argument("PuzzleTasks: puzzle-" + std::to_string(side) + "x" +
