@@ -46,19 +46,17 @@ policies (pixels: the sim's 64x64 camera images and the goal's image); the ant
 mazes, state policies.
 )";
 
-// --episodes, --max-steps (default `max_steps`) and --seed into an env's options; and,
-// unless the caller reads them itself, --tasks (1..`tasks`).
+// The shared episode flags (sim::ReadEpisodeFlags) into an env's options; the tasks too
+// unless the caller reads them itself.
 template <class Options>
 void ReadEpisodeFlags(const msspr::cli::CliArgs& args, int max_steps, long tasks, Options* o,
                       bool read_tasks = true) {
-  if (read_tasks) {
-    o->tasks.clear();
-    for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, tasks))
-      o->tasks.push_back(static_cast<int>(t));
-  }
-  o->episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
-  o->max_steps = static_cast<int>(args.GetInt("max-steps", max_steps, 1, 100000000));
-  o->seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+  const msspr::sim::EpisodeFlags f =
+      msspr::sim::ReadEpisodeFlags(args, max_steps, tasks, read_tasks);
+  if (read_tasks) o->tasks = f.tasks;
+  o->episodes = f.episodes;
+  o->max_steps = f.max_steps;
+  o->seed = f.seed;
 }
 
 void RefuseFlags(const msspr::cli::CliArgs& args, std::initializer_list<const char*> flags,

@@ -227,21 +227,20 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
                                   msspr::sim::EnvIdName(q.env));
   q.maze = ant ? msspr::sim::AntMazeName(q.env) : msspr::sim::PointMazeOrDefault(maze_arg);
   q.map = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(q.maze));
+  const msspr::sim::EpisodeFlags f = msspr::sim::ReadEpisodeFlags(
+      args, q.env == EnvId::kCubeSingle ? 200 : 1000, static_cast<long>(q.map->Tasks().size()),
+      !args.Has("tasks-file"));
+  q.tasks = f.tasks;
   if (args.Has("tasks-file")) {
     for (const auto& t : msspr::sim::LoadCustomTasks(args.Get("tasks-file", ""), q.map.get())) {
       q.custom[t.id] = {{static_cast<float>(t.start.x()), static_cast<float>(t.start.y())},
                         {static_cast<float>(t.goal.x()), static_cast<float>(t.goal.y())}};
       q.tasks.push_back(t.id);
     }
-  } else {
-    for (long id :
-         args.GetIntList("tasks", "1,2,3,4,5", 1, static_cast<long>(q.map->Tasks().size())))
-      q.tasks.push_back(static_cast<int>(id));
   }
-  q.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
-  q.max_steps = static_cast<int>(
-      args.GetInt("max-steps", q.env == EnvId::kCubeSingle ? 200 : 1000, 1, 100000000));
-  q.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+  q.episodes = f.episodes;
+  q.max_steps = f.max_steps;
+  q.seed = f.seed;
   q.step_timeout = args.GetDouble("step-timeout", 10.0, 1e-3, 1e6);
   q.wait_s = args.GetDouble("wait", 60.0, 0.0, 1e6);
   const int sims = static_cast<int>(args.GetInt("sims", 1, 1, 256));

@@ -40,6 +40,29 @@ struct EvalReport {
   double wall_time_s = 0.0;
 };
 
+// The episode flags msspr_eval and msspr_eval_inprocess share, from a command line
+// (msspr::cli::CliArgs): --episodes (default 50), --max-steps (`default_max_steps`), --seed
+// (0) and, with `read_tasks`, --tasks (default 1,2,3,4,5, each in 1..`num_tasks`). Throws
+// the command line's usage errors.
+struct EpisodeFlags {
+  std::vector<int> tasks;
+  int episodes = 50, max_steps = 1000;
+  uint64_t seed = 0;
+};
+template <class Args>
+EpisodeFlags ReadEpisodeFlags(const Args& args, int default_max_steps, long num_tasks,
+                              bool read_tasks = true) {
+  EpisodeFlags f;
+  if (read_tasks) {
+    for (long t : args.GetIntList("tasks", "1,2,3,4,5", 1, num_tasks))
+      f.tasks.push_back(static_cast<int>(t));
+  }
+  f.episodes = static_cast<int>(args.GetInt("episodes", 50, 1, 1000000));
+  f.max_steps = static_cast<int>(args.GetInt("max-steps", default_max_steps, 1, 100000000));
+  f.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+  return f;
+}
+
 // Fills mean_success from the tasks.
 void FinalizeReport(EvalReport* report);
 // The results JSON ({env, agent, ..., tasks: [{task_id, start_cell, goal_cell, success, ...}],
