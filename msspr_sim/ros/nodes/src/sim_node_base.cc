@@ -200,8 +200,10 @@ bool SimNodeBase::ReadyToStart() {
                             common_.auto_reset ? " and an action publisher" : "");
     return false;
   }
-  // Let every new subscriber finish connecting to the other topics too.
-  return common_.wait_for_subscribers == 0 || (ros::WallTime::now() - wait_since_).toSec() >= 0.5;
+  // Let every new subscriber finish connecting to the other topics too: rosbag record
+  // subscribes to its topics one by one, which took over 0.5 s on a loaded 2-core machine
+  // (a recording then missed its first cube poses).
+  return common_.wait_for_subscribers == 0 || (ros::WallTime::now() - wait_since_).toSec() >= 2.0;
 }
 
 bool SimNodeBase::NextAutoEpisode() {
