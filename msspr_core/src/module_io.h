@@ -28,6 +28,22 @@ inline void ReadModule(torch::serialize::InputArchive& archive, const std::strin
   module.load(sub);
 }
 
+// Writes `archive` as the payload of a checkpoint file of `kind` with the YAML
+// `header` (the current format version). Atomic (WriteCheckpointFile); with
+// `keep_previous` the file it replaces is kept as PATH.prev.
+inline void WriteArchiveFile(const std::string& path, const std::string& kind,
+                             const std::string& header, torch::serialize::OutputArchive& archive,
+                             bool keep_previous = false) {
+  CheckpointFile file;
+  file.kind = kind;
+  file.version = kCheckpointFormatVersion;
+  file.header = header;
+  std::ostringstream payload;
+  archive.save_to(payload);
+  file.payload = payload.str();
+  WriteCheckpointFile(path, file, keep_previous);
+}
+
 // Writes an inference export (kind "policy"): a header with `options` and
 // `step`, then each (key, module): "repr", "actor", "critic" for Ms.PR,
 // "agent" for a baseline. Atomic (WriteCheckpointFile).
@@ -37,16 +53,9 @@ inline void WritePolicyExport(
   CheckpointHeader header;
   header.options = options;
   header.step = step;
-  CheckpointFile file;
-  file.kind = "policy";
-  file.version = kCheckpointFormatVersion;
-  file.header = CheckpointHeaderToYaml(header);
   torch::serialize::OutputArchive archive;
   for (const auto& [key, module] : modules) WriteModule(archive, key, *module);
-  std::ostringstream payload;
-  archive.save_to(payload);
-  file.payload = payload.str();
-  WriteCheckpointFile(path, file);
+  WriteArchiveFile(path, "policy", CheckpointHeaderToYaml(header), archive);
 }
 
 }  // namespace core

@@ -115,29 +115,16 @@ void SacTrainer::SaveCheckpoint() {
   std::ostringstream rng_text;
   rng_text << rng_;
   h.rng = rng_text.str();
+  const std::string header = HeaderToYaml(h);
   torch::serialize::OutputArchive archive;
   agent_->Save(archive);
   buffer_->Save(archive);
   archive.write("torch_rng", at::detail::getDefaultCPUGenerator().get_state());
-  std::ostringstream payload;
-  archive.save_to(payload);
-  CheckpointFile file;
-  file.kind = kSacCheckpointKind;
-  file.version = kCheckpointFormatVersion;
-  file.header = HeaderToYaml(h);
-  file.payload = payload.str();
-  WriteCheckpointFile(checkpoint_path(), file, /*keep_previous=*/true);
+  WriteArchiveFile(checkpoint_path(), kSacCheckpointKind, header, archive, /*keep_previous=*/true);
 
   torch::serialize::OutputArchive policy;
   WriteModule(policy, "actor", *agent_->actor);
-  std::ostringstream policy_payload;
-  policy.save_to(policy_payload);
-  CheckpointFile pf;
-  pf.kind = kSacPolicyKind;
-  pf.version = kCheckpointFormatVersion;
-  pf.header = HeaderToYaml(h);
-  pf.payload = policy_payload.str();
-  WriteCheckpointFile(policy_path(), pf);
+  WriteArchiveFile(policy_path(), kSacPolicyKind, header, policy);
 }
 
 double SacTrainer::Evaluate(int episodes, uint64_t seed) {

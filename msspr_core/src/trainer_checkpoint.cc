@@ -100,10 +100,6 @@ void Trainer::SaveCheckpoint(const std::string& path) {
   rng << rng_;
   header.sampler_rng = rng.str();
   header.rank_states = std::move(rank_states);
-  CheckpointFile file;
-  file.kind = "trainer";
-  file.version = kCheckpointFormatVersion;
-  file.header = CheckpointHeaderToYaml(header);
   torch::serialize::OutputArchive archive;
   for (const auto& [name, m] : named) WriteModule(archive, name, *m);
   for (const auto& [name, opt] : agent_->Optimizers()) {
@@ -112,10 +108,8 @@ void Trainer::SaveCheckpoint(const std::string& path) {
     archive.write(name, sub);
   }
   archive.write("torch_generator", gen_.get_state());
-  std::ostringstream payload;
-  archive.save_to(payload);
-  file.payload = payload.str();
-  WriteCheckpointFile(path, file, /*keep_previous=*/true);
+  WriteArchiveFile(path, "trainer", CheckpointHeaderToYaml(header), archive,
+                   /*keep_previous=*/true);
 }
 
 void Trainer::LoadCheckpoint(const std::string& newest) {
