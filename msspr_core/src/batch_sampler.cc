@@ -89,7 +89,8 @@ void TransitionIndices::Resize(int batch) {
   discount.resize(batch);
 }
 
-TransitionIndices BatchSampler::SampleTransitions(int batch, std::mt19937_64& rng) const {
+TransitionIndices BatchSampler::SampleTransitions(int batch, std::mt19937_64& rng,
+                                                  int subgoal_steps) const {
   TransitionIndices b;
   b.Resize(batch);
   for (int k = 0; k < batch; ++k) {
@@ -99,7 +100,28 @@ TransitionIndices BatchSampler::SampleTransitions(int batch, std::mt19937_64& rn
     b.actor_goal[k] = SampleActorGoal(i, rng);
     NStep(i, b.value_goal[k], &b.next_idx[k], &b.ret[k], &b.discount[k]);
   }
+  if (subgoal_steps > 0) AddSubgoals(&b, subgoal_steps);
   return b;
+}
+
+void BatchSampler::AddSubgoals(TransitionIndices* b, int subgoal_steps) const {
+  // No random draw: the subgoals follow from the states and the actor goals
+  // drawn, so the stream (and every other index) is the one without them.
+  const size_t n = b->idx.size();
+  b->low_goal.resize(n);
+  b->high_goal.resize(n);
+  b->high_target.resize(n);
+  for (size_t k = 0; k < n; ++k) {
+    const int64_t i = b->idx[k], g = b->actor_goal[k];
+    const int64_t end = data_.trajectory_end(i);
+    const int64_t low = std::min<int64_t>(i + subgoal_steps, end);
+    b->high_goal[k] = g;
+    // A goal ahead in the same trajectory: the subgoal on the way to it, or
+    // the goal itself when it is nearer than k steps.
+    b->high_target[k] = (g >= i && g <= end) ? std::min<int64_t>(low, g) : low;
+    b->low_goal[k] = low;
+    b->actor_goal[k] = low;
+  }
 }
 
 TransitionIndices BatchSampler::SampleOgbenchTransitions(int batch, std::mt19937_64& rng,

@@ -24,6 +24,8 @@ MsprAgent::MsprAgent(const MsprOptions& options, torch::Device device, bool trai
     // As Policy::Load built them: on the CPU, for ReadPolicy.
     online_.actor = register_module("actor", Actor(n));
     online_.critic = register_module("critic", Critic(n));
+    if (options_.agent.subgoal_steps > 0)
+      online_.subgoal = register_module("subgoal_actor", SubgoalActor(n));
     device_ = torch::kCPU;
     return;
   }
@@ -63,11 +65,27 @@ MsprAgent::MsprAgent(const MsprOptions& options, torch::Device device, bool trai
       online_.critic->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
   actor_opt_ = std::make_unique<ForeachAdamW>(
       online_.actor->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
-  if (a.critic_target == "expectile") {
+  // V: the critic's in-sample target, or the subgoal actor's advantage.
+  if (a.critic_target == "expectile" || a.subgoal_steps > 0) {
     value_ = register_module("value", core::Value(n));
     value_->to(device_);
     value_opt_ = std::make_unique<ForeachAdamW>(
         value_->parameters(), torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
+  }
+  // Built last, so that the other networks draw the initial weights they
+  // draw without it.
+  if (a.subgoal_steps > 0) {
+    online_.subgoal = register_module("subgoal_actor", SubgoalActor(n));
+    online_.subgoal->to(device_);
+    subgoal_opt_ = std::make_unique<ForeachAdamW>(
+        online_.subgoal->parameters(),
+        torch::optim::AdamWOptions(a.lr).weight_decay(a.weight_decay));
+    if (average_.repr) {
+      average_.subgoal = register_module("ema_subgoal_actor", SubgoalActor(n));
+      average_.subgoal->to(device_);
+      SetRequiresGrad(*average_.subgoal, false);
+      HardUpdate(*average_.subgoal, *online_.subgoal);
+    }
   }
   bins_ = ReturnBins(n.num_bins, a.gamma).to(device_);
   if (bf16() && device_.is_cpu()) weight_cache_ = std::make_unique<internal::Bf16WeightCache>();
@@ -78,6 +96,7 @@ MsprAgent::MsprAgent(const MsprOptions& options, const MsprNetworks& networks, t
   online_.repr = register_module("repr", networks.repr);
   online_.actor = register_module("actor", networks.actor);
   online_.critic = register_module("critic", networks.critic);
+  if (networks.subgoal) online_.subgoal = register_module("subgoal_actor", networks.subgoal);
 }
 
 std::vector<std::string> MsprAgent::LossNames() const {
@@ -167,7 +186,21 @@ void MsprAgent::UpdateCritic(const TransitionBatch& batch, const mspr::Transitio
 
 torch::Tensor MsprAgent::TdTarget(const TransitionBatch& batch, const torch::Tensor& noise,
                                   bool update) {
-  if (!value_) {
+  if (!value_ || options_.agent.critic_target == "td3") {
+    // With the subgoal policy V learns beside the TD3 target (as the
+    // expectile target's V below), for the subgoal actor's advantage.
+    if (value_ && update) {
+      ClearGrads(*value_);
+      torch::Tensor value_loss;
+      {
+        PrecisionScope precision(bf16(), device_, weight_cache_.get());
+        value_loss =
+            mspr::ExpectileCriticTarget(options_.agent, target_, *value_, batch).value_loss;
+      }
+      value_loss.backward();
+      AverageGradients(value_->parameters());
+      value_opt_->step();
+    }
     PrecisionScope precision(bf16(), device_, weight_cache_.get());
     return mspr::CriticTarget(options_.agent, target_, batch, noise);
   }
@@ -224,6 +257,20 @@ void MsprAgent::UpdateActor(const TransitionBatch& batch, const mspr::Transition
   for (size_t i = 0; i < params.size(); ++i) params[i].mutable_grad() = grads[i];
   AverageGradients(online_.actor->parameters());
   actor_opt_->step();
+  if (online_.subgoal) UpdateSubgoalActor(batch, lat);
+}
+
+void MsprAgent::UpdateSubgoalActor(const TransitionBatch& batch,
+                                   const mspr::TransitionLatents& lat) {
+  ClearGrads(*online_.subgoal);
+  torch::Tensor loss;
+  {
+    PrecisionScope precision(bf16(), device_, weight_cache_.get());
+    loss = mspr::SubgoalLoss(options_.agent, online_, target_, *value_, batch, lat);
+  }
+  loss.backward();
+  AverageGradients(online_.subgoal->parameters());
+  subgoal_opt_->step();
 }
 
 void MsprAgent::UpdateTargets() {
@@ -241,10 +288,11 @@ void MsprAgent::UpdatePolicyAverage(int64_t step) {
   const double decay = std::min(options_.trainer.policy_ema, t / (t + 1.0));
   torch::NoGradGuard no_grad;
   std::vector<torch::Tensor> avg, raw;
-  const std::vector<std::pair<torch::nn::Module*, torch::nn::Module*>> pairs{
+  std::vector<std::pair<torch::nn::Module*, torch::nn::Module*>> pairs{
       {average_.repr.get(), online_.repr.get()},
       {average_.critic.get(), online_.critic.get()},
       {average_.actor.get(), online_.actor.get()}};
+  if (average_.subgoal) pairs.emplace_back(average_.subgoal.get(), online_.subgoal.get());
   for (const auto& [e, o] : pairs) {
     for (const auto& p : e->parameters()) avg.push_back(p);
     for (const auto& p : o->parameters()) raw.push_back(p.detach());
@@ -299,6 +347,8 @@ NamedModules MsprAgent::CheckpointModules() {
     modules.emplace_back("ema_critic", average_.critic.get());
     modules.emplace_back("ema_actor", average_.actor.get());
   }
+  if (online_.subgoal) modules.emplace_back("subgoal_actor", online_.subgoal.get());
+  if (average_.subgoal) modules.emplace_back("ema_subgoal_actor", average_.subgoal.get());
   return modules;
 }
 
@@ -307,13 +357,17 @@ NamedOptimizers MsprAgent::Optimizers() {
                        {"critic_opt", critic_opt_.get()},
                        {"actor_opt", actor_opt_.get()}};
   if (value_opt_) opts.emplace_back("value_opt", value_opt_.get());
+  if (subgoal_opt_) opts.emplace_back("subgoal_opt", subgoal_opt_.get());
   return opts;
 }
 
 NamedModules MsprAgent::PolicyModules(bool raw) {
   // The moving average when there is one: what the policy runs.
   MsprNetworks& n = raw ? online_ : policy_networks();
-  return {{"repr", n.repr.get()}, {"actor", n.actor.get()}, {"critic", n.critic.get()}};
+  NamedModules modules{
+      {"repr", n.repr.get()}, {"actor", n.actor.get()}, {"critic", n.critic.get()}};
+  if (n.subgoal) modules.emplace_back("subgoal_actor", n.subgoal.get());
+  return modules;
 }
 
 void MsprAgent::ReadPolicy(torch::serialize::InputArchive& archive, bool trainer_checkpoint) {
@@ -324,6 +378,7 @@ void MsprAgent::ReadPolicy(torch::serialize::InputArchive& archive, bool trainer
   ReadModule(archive, prefix + "repr", *online_.repr);
   ReadModule(archive, prefix + "actor", *online_.actor);
   ReadModule(archive, prefix + "critic", *online_.critic);
+  if (online_.subgoal) ReadModule(archive, prefix + "subgoal_actor", *online_.subgoal);
 }
 
 // --- Acting ---------------------------------------------------------------------------------
@@ -332,7 +387,12 @@ torch::Tensor MsprAgent::Act(const torch::Tensor& obs, const torch::Tensor& goal
   MsprNetworks& n = policy_networks();
   const torch::Tensor zs = n.repr->state_encoder->forward(obs);
   const torch::Tensor zg = n.repr->state_encoder->forward(goal);
-  return n.actor->forward(zs, n.repr->goal_head->forward(zs, zg), obs, goal);
+  if (!n.subgoal) return n.actor->forward(zs, n.repr->goal_head->forward(zs, zg), obs, goal);
+  // The subgoal policy: the state to reach next on the way to the goal, then
+  // the action toward it.
+  const torch::Tensor sub = n.subgoal->forward(zs, n.repr->goal_head->forward(zs, zg), obs, goal);
+  const torch::Tensor zsub = n.repr->state_encoder->forward(sub);
+  return n.actor->forward(zs, n.repr->goal_head->forward(zs, zsub), obs, sub);
 }
 
 torch::Tensor MsprAgent::Value(const torch::Tensor& obs, const torch::Tensor& action,

@@ -140,12 +140,14 @@ TransitionLatents EncodeTransitions(RepresentationImpl& repr, const TransitionBa
   // goal (no gradient: actor and critic read the encoders detached).
   torch::NoGradGuard no_grad;
   const int64_t b = batch.obs.size(0);
-  const torch::Tensor z =
-      repr.state_encoder->forward(torch::cat({batch.obs, batch.value_goal, batch.actor_goal}, 0));
+  std::vector<torch::Tensor> inputs{batch.obs, batch.value_goal, batch.actor_goal};
+  if (batch.high_goal.defined()) inputs.push_back(batch.high_goal);
+  const torch::Tensor z = repr.state_encoder->forward(torch::cat(inputs, 0));
   TransitionLatents lat;
   lat.zs = z.narrow(0, 0, b);
   lat.z_value_goal = z.narrow(0, b, b);
   lat.z_actor_goal = z.narrow(0, 2 * b, b);
+  if (batch.high_goal.defined()) lat.z_high_goal = z.narrow(0, 3 * b, b);
   return lat;
 }
 
@@ -278,6 +280,35 @@ torch::Tensor ActorLoss(const AgentOptions& a, MsprNetworks& online, const Trans
     info->actor = host[0].item<double>();
     info->bc = host[1].item<double>();
   }
+  return loss;
+}
+
+torch::Tensor SubgoalLoss(const AgentOptions& a, MsprNetworks& online, MsprNetworks& target,
+                          ValueImpl& value, const TransitionBatch& batch,
+                          const TransitionLatents& lat, double* loss_out) {
+  TORCH_CHECK(batch.high_goal.defined() && lat.z_high_goal.defined(),
+              "SubgoalLoss: the batch has no subgoals (agent.subgoal_steps > 0 samples them)");
+  const int64_t b = batch.obs.size(0);
+  torch::Tensor weight, grep;
+  {
+    torch::NoGradGuard no_grad;
+    RepresentationImpl& repr = *target.repr;
+    // One target-encoder call over s, s_sub and g; V of (s, g) and (s_sub, g) at once.
+    const torch::Tensor z =
+        repr.state_encoder->forward(torch::cat({batch.obs, batch.high_target, batch.high_goal}, 0));
+    const torch::Tensor zg = z.narrow(0, 2 * b, b);
+    const torch::Tensor g2 =
+        repr.goal_head->forward(z.narrow(0, 0, 2 * b), torch::cat({zg, zg}, 0));
+    const torch::Tensor v =
+        F32(value.forward(z.narrow(0, 0, 2 * b), g2, torch::cat({batch.obs, batch.high_target}, 0),
+                          torch::cat({batch.high_goal, batch.high_goal}, 0)));
+    const torch::Tensor adv = v.narrow(0, b, b) - v.narrow(0, 0, b);
+    weight = (a.subgoal_temperature * adv).exp().clamp_max(100.0);
+    grep = online.repr->goal_head->forward(lat.zs, lat.z_high_goal);
+  }
+  const torch::Tensor pred = F32(online.subgoal->forward(lat.zs, grep, batch.obs, batch.high_goal));
+  const torch::Tensor loss = (weight * (pred - batch.high_target).pow(2).mean(-1)).mean();
+  if (loss_out) *loss_out = loss.detach().to(torch::kCPU, torch::kFloat64).item<double>();
   return loss;
 }
 

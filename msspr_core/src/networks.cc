@@ -384,6 +384,17 @@ torch::Tensor ValueImpl::forward(const torch::Tensor& zs, const torch::Tensor& g
   return MlpForward(*v, PolicyInput(inputs, {zs, grep}, {s, g}), true).squeeze(-1);
 }
 
+SubgoalActorImpl::SubgoalActorImpl(const NetworkOptions& o) : inputs(o.policy_inputs) {
+  net = register_module(
+      "net", Mlp(Sizes(StateGoalInputSize(inputs, o), o.actor_hidden, o.actor_layers, o.obs_dim),
+                 false, true, o.layer_norm_eps));
+}
+
+torch::Tensor SubgoalActorImpl::forward(const torch::Tensor& zs, const torch::Tensor& grep,
+                                        const torch::Tensor& s, const torch::Tensor& g) {
+  return MlpForward(*net, PolicyInput(inputs, {zs, grep}, {s, g}), true);
+}
+
 torch::Tensor ReturnBins(int64_t num_bins, double gamma) {
   return torch::linspace(-1.0 / (1.0 - gamma), 0.0, num_bins, torch::kFloat32);
 }

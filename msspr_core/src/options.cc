@@ -320,6 +320,14 @@ void ValidateOptions(const MsprOptions& o) {
   Require(a.critic_target == "td3" || a.critic_target == "expectile",
           "agent.critic_target must be 'td3' or 'expectile', got '" + a.critic_target + "'");
   Require(a.expectile > 0 && a.expectile < 1, "agent.expectile must be in (0, 1)");
+  Require(a.subgoal_steps >= 0, "agent.subgoal_steps must be >= 0 (0: no subgoal policy)");
+  Require(a.subgoal_temperature >= 0, "agent.subgoal_temperature must be >= 0");
+  if (a.subgoal_steps > 0) {
+    Require(o.network.obs_mode == "state",
+            "agent.subgoal_steps needs state observations (the subgoal actor proposes a state)");
+    Require(o.baseline.agent == "mspr",
+            "agent.subgoal_steps is Ms.PR's subgoal policy; HIQL's is baseline.subgoal_steps");
+  }
   const RelabelOptions& l = o.relabel;
   Require(std::abs(l.value_p_curgoal + l.value_p_trajgoal + l.value_p_randomgoal - 1.0) < 1e-6,
           "relabel.value_p_* must sum to 1");

@@ -96,7 +96,8 @@ void AveragePolicies(const std::vector<std::string>& inputs, const std::string& 
       throw CheckpointError(path + ": a " + p.agent_name() +
                             " agent's policy; only Ms.PR policies are averaged");
     }
-    if (network_yaml(p.options()) != network_yaml(policies.front().options())) {
+    if (network_yaml(p.options()) != network_yaml(policies.front().options()) ||
+        p.options().agent.subgoal_steps != policies.front().options().agent.subgoal_steps) {
       throw CheckpointError(path + ": network options differ from those of " + inputs.front() +
                             " (only exports of one network shape are averaged)");
     }
@@ -115,12 +116,17 @@ void AveragePolicies(const std::vector<std::string>& inputs, const std::string& 
   average([](Policy& p) { return p.repr().ptr(); });
   average([](Policy& p) { return p.actor().ptr(); });
   average([](Policy& p) { return p.critic().ptr(); });
+  std::vector<std::pair<std::string, const torch::nn::Module*>> modules{
+      {"repr", first.repr().get()},
+      {"actor", first.actor().get()},
+      {"critic", first.critic().get()}};
+  if (MsprNetworksOf(first).subgoal) {
+    average([](Policy& p) { return MsprNetworksOf(p).subgoal.ptr(); });
+    modules.emplace_back("subgoal_actor", MsprNetworksOf(first).subgoal.get());
+  }
   MsprOptions options = first.options();
   options.trainer.device = "cpu";
-  WritePolicyExport(out, options, step,
-                    {{"repr", first.repr().get()},
-                     {"actor", first.actor().get()},
-                     {"critic", first.critic().get()}});
+  WritePolicyExport(out, options, step, modules);
 }
 
 bool Policy::Batch(torch::Tensor* obs) const {

@@ -138,7 +138,8 @@ class Trainer::ValidationBatches : public BatchSource {
     return t_.MakeChunkBatch(sampler_.SampleChunks(batch_, rng_), false, &data_);
   }
   TransitionBatch SampleTransitions() override {
-    return t_.MakeTransitionBatch(sampler_.SampleTransitions(batch_, rng_), false, &data_);
+    return t_.MakeTransitionBatch(
+        sampler_.SampleTransitions(batch_, rng_, t_.options_.agent.subgoal_steps), false, &data_);
   }
   TransitionBatch SampleOgbenchTransitions(int subgoal_steps) override {
     return t_.MakeTransitionBatch(sampler_.SampleOgbenchTransitions(batch_, rng_, subgoal_steps),

@@ -96,7 +96,7 @@ TransitionBatch Trainer::MakeTransitionBatch(const TransitionIndices& idx, bool 
   torch::Tensor obs = GatherObs(d, idx.idx), next_obs = GatherObs(d, idx.next_idx);
   torch::Tensor value_goal = GatherObs(d, idx.value_goal),
                 actor_goal = GatherObs(d, idx.actor_goal);
-  torch::Tensor low_goal, high_goal, high_target;  // HIQL's subgoals
+  torch::Tensor low_goal, high_goal, high_target;  // subgoals
   std::vector<torch::Tensor*> images{&obs, &next_obs, &value_goal, &actor_goal};
   if (!idx.low_goal.empty()) {
     low_goal = GatherObs(d, idx.low_goal);
@@ -159,7 +159,8 @@ ChunkBatch Trainer::MakeChunkBatch(const ChunkIndices& idx, bool augment, const 
 
 TransitionBatch Trainer::SampleTransitions() {
   const bool augment = options_.network.obs_mode == "pixels";
-  return MakeTransitionBatch(sampler_->SampleTransitions(local_batch(), rng_), augment);
+  return MakeTransitionBatch(
+      sampler_->SampleTransitions(local_batch(), rng_, options_.agent.subgoal_steps), augment);
 }
 
 ChunkBatch Trainer::SampleChunks() {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -212,6 +213,52 @@ TEST(BatchSamplerTest, SameSeedSameBatch) {
     EXPECT_EQ(d.trajectory_of(x.next_idx[i]), d.trajectory_of(x.idx[i]));
     EXPECT_GT(x.next_idx[i], x.idx[i] - 1);
   }
+}
+
+// Ms.PR's subgoal policy (agent.subgoal_steps): the actor's goal becomes the
+// state k steps ahead (or the trajectory's end), the subgoal actor's goal is
+// the actor goal drawn, and its target the subgoal on the way to that goal;
+// no extra random draw, so everything else is the batch without subgoals.
+TEST(BatchSamplerTest, SubgoalsLieKStepsAheadOrAtTheGoalAndDrawNothing) {
+  const Dataset d = MakeDataset({40, 50, 60});
+  RelabelOptions r;
+  r.actor_p_curgoal = 0.1;
+  r.actor_p_trajgoal = 0.6;
+  r.actor_p_randomgoal = 0.3;
+  BatchSampler s(d, r, 0.99, 3, 5, 5);
+  const int k = 7;
+  std::mt19937_64 a(11), b(11);
+  const TransitionIndices plain = s.SampleTransitions(4000, a);
+  const TransitionIndices sub = s.SampleTransitions(4000, b, k);
+  EXPECT_EQ(a(), b());  // the same draws
+  EXPECT_EQ(plain.idx, sub.idx);
+  EXPECT_EQ(plain.value_goal, sub.value_goal);
+  EXPECT_EQ(plain.next_idx, sub.next_idx);
+  EXPECT_EQ(plain.ret, sub.ret);
+  EXPECT_EQ(sub.high_goal, plain.actor_goal);
+  ASSERT_EQ(sub.low_goal.size(), plain.idx.size());
+  int near_goal = 0, far_goal = 0, other_trajectory = 0, clipped_at_end = 0;
+  for (size_t j = 0; j < sub.idx.size(); ++j) {
+    const int64_t i = sub.idx[j], g = sub.high_goal[j];
+    const int64_t end = d.trajectory_end(i);
+    const int64_t low = std::min<int64_t>(i + k, end);
+    EXPECT_EQ(sub.low_goal[j], low);
+    EXPECT_EQ(sub.actor_goal[j], low);
+    if (low < i + k) ++clipped_at_end;
+    if (d.trajectory_of(g) == d.trajectory_of(i) && g >= i) {
+      EXPECT_EQ(sub.high_target[j], std::min(low, g));
+      if (g - i < k) ++near_goal;
+      if (g - i > k) ++far_goal;
+    } else {
+      EXPECT_EQ(sub.high_target[j], low);
+      ++other_trajectory;
+    }
+  }
+  // Every case occurs.
+  EXPECT_GT(near_goal, 100);
+  EXPECT_GT(far_goal, 100);
+  EXPECT_GT(other_trajectory, 100);
+  EXPECT_GT(clipped_at_end, 100);
 }
 
 }  // namespace

@@ -94,6 +94,36 @@ TEST(CheckpointTest, ResumedRunWithExpectileTargetEqualsUninterruptedRun) {
   EXPECT_TRUE(torch::equal(Flat(*straight->value()), Flat(*resumed->value())));
 }
 
+// agent.subgoal_steps: the subgoal actor, its average, V and their optimisers
+// are part of the checkpoint, and the export acts through the subgoal actor.
+TEST(CheckpointTest, SubgoalPolicyResumesExactlyAndTheExportActsThroughIt) {
+  TempDir dir;
+  MsprOptions o = ResumeOptions();
+  o.agent.subgoal_steps = 3;
+  o.trainer.policy_ema = 0.9;
+  auto [straight, resumed] = StraightAndResumed(o, dir);
+  ExpectSameState(*straight, *resumed);
+  EXPECT_TRUE(torch::equal(Flat(*straight->value()), Flat(*resumed->value())));
+  EXPECT_TRUE(torch::equal(Flat(*straight->subgoal_actor()), Flat(*resumed->subgoal_actor())));
+  EXPECT_TRUE(
+      torch::equal(Flat(*straight->ema_subgoal_actor()), Flat(*resumed->ema_subgoal_actor())));
+
+  resumed->ExportPolicy(dir.File("policy.pt"));
+  torch::manual_seed(5);
+  const torch::Tensor obs = torch::randn({6, 3}), goal = torch::randn({6, 3});
+  Policy live = resumed->MakePolicy();
+  Policy loaded = Policy::Load(dir.File("policy.pt"));
+  EXPECT_EQ(loaded.options().agent.subgoal_steps, 3);
+  const torch::Tensor a = live.Act(obs, goal);
+  EXPECT_TRUE(torch::equal(loaded.Act(obs, goal), a));
+  // The action depends on the subgoal actor (which the export holds).
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : resumed->ema_subgoal_actor()->parameters()) p.add_(0.5);
+  }
+  EXPECT_FALSE(torch::allclose(live.Act(obs, goal), a, 1e-4, 1e-6));
+}
+
 TEST(CheckpointTest, PolicyAverageResumesExactlyAndIsWhatTheExportsHold) {
   TempDir dir;
   MsprOptions o = ResumeOptions();

@@ -89,6 +89,14 @@ TEST(LearningExpectileCritic, PointInSquareReachesGoals) {
   ExpectLearnsPointInSquare(o, "fp32, expectile critic target");
 }
 
+// The subgoal policy (agent.subgoal_steps: the actor toward the state k steps
+// ahead, a subgoal actor proposing it) learns too.
+TEST(LearningSubgoalPolicy, PointInSquareReachesGoals) {
+  MsprOptions o = SmallAgent("fp32");
+  o.agent.subgoal_steps = 5;
+  ExpectLearnsPointInSquare(o, "fp32, subgoal policy");
+}
+
 INSTANTIATE_TEST_SUITE_P(Precision, LearningTest, testing::Values("fp32", "bf16"),
                          [](const testing::TestParamInfo<std::string>& info) {
                            return info.param;

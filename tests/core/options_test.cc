@@ -255,6 +255,18 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
   bad.agent.awr_temperature = -1.0;
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
   bad = o;
+  bad.agent.subgoal_steps = 25;
+  EXPECT_NO_THROW(ValidateOptions(bad));
+  bad.agent.subgoal_steps = -1;
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad.agent.subgoal_steps = 25;
+  bad.network.obs_mode = "pixels";  // the subgoal actor proposes a state
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad = o;
+  bad.agent.subgoal_steps = 25;
+  bad.agent.subgoal_temperature = -1.0;
+  EXPECT_THROW(ValidateOptions(bad), OptionsError);
+  bad = o;
   bad.trainer.policy_ema = 1.0;
   EXPECT_THROW(ValidateOptions(bad), OptionsError);
   bad.trainer.policy_ema = -0.1;
@@ -276,6 +288,9 @@ TEST(OptionsTest, ValidateRejectsBadValues) {
     b.trainer.precision = "auto";
     EXPECT_NO_THROW(ValidateOptions(b));
     b.trainer.precision = "fp16";
+    EXPECT_THROW(ValidateOptions(b), OptionsError);
+    b.trainer.precision = "auto";
+    b.agent.subgoal_steps = 25;  // Ms.PR's subgoal policy; HIQL has its own
     EXPECT_THROW(ValidateOptions(b), OptionsError);
   }
 }

@@ -652,6 +652,47 @@ TEST(TrainerTest, PipelinedStepsEqualSequentialSteps) {
     }
 }
 
+// With the subgoal policy (agent.subgoal_steps: V's update in the critic's,
+// the subgoal actor's after the actor's) the pipelined schedule still gives
+// the sequential schedule's weights bit for bit, with and without the
+// critic's gradient into the encoders.
+TEST(TrainerTest, PipelinedStepsEqualSequentialStepsWithTheSubgoalPolicy) {
+  if (!torch::Device(TinyOptions().trainer.device).is_cpu()) GTEST_SKIP() << "CPU only";
+  ThreadCountGuard guard;
+  for (bool through : {false, true}) {
+    MsprOptions o = TinyOptions();
+    o.agent.subgoal_steps = 3;
+    o.agent.critic_grad_to_encoder = through;
+    o.agent.target_update_every = 4;
+    o.trainer.policy_ema = 0.9;
+    auto data = RandomStateDataset();
+    auto run = [&](const char* pipeline, int threads) {
+      o.trainer.pipeline = pipeline;
+      torch::set_num_threads(threads);
+      auto t = std::make_unique<Trainer>(o, data);
+      for (int i = 0; i < 10; ++i) t->Step(i % 3 == 2);
+      return t;
+    };
+    const auto sequential = run("off", 1);
+    const auto pipelined = run("auto", 2);
+    const std::string what = through ? "critic_grad_to_encoder" : "encoders detached";
+    EXPECT_TRUE(pipelined->pipelined()) << what;
+    EXPECT_TRUE(torch::equal(AllWeights(*sequential), AllWeights(*pipelined))) << what;
+    EXPECT_TRUE(torch::equal(Flat(*sequential->value()), Flat(*pipelined->value()))) << what;
+    EXPECT_TRUE(torch::equal(Flat(*sequential->subgoal_actor()), Flat(*pipelined->subgoal_actor())))
+        << what;
+    EXPECT_TRUE(
+        torch::equal(Flat(*sequential->ema_subgoal_actor()), Flat(*pipelined->ema_subgoal_actor())))
+        << what;
+    // The subgoal actor and V trained (they left their initial weights).
+    MsprOptions fresh = o;
+    Trainer untrained(fresh, data);
+    EXPECT_FALSE(torch::equal(Flat(*untrained.subgoal_actor()), Flat(*sequential->subgoal_actor())))
+        << what;
+    EXPECT_FALSE(torch::equal(Flat(*untrained.value()), Flat(*sequential->value()))) << what;
+  }
+}
+
 // trainer.pipeline: "auto" pipelines on a CPU with 2 or more threads (with
 // or without the critic's gradient into the encoders, both bit-equal to
 // the sequential schedule: PipelinedStepsEqualSequentialSteps), "on" at any

@@ -25,7 +25,8 @@ struct TransitionIndices {
   std::vector<float> discount;      // [B] gamma^m, or 0 when the goal is reached within the n steps
   // Sizes the per-row arrays above to `batch` (the subgoals stay as they are).
   void Resize(int batch);
-  // HIQL's subgoals (SampleOgbenchTransitions with subgoal_steps > 0; else empty):
+  // Subgoals (HIQL's: SampleOgbenchTransitions with subgoal_steps > 0; Ms.PR's
+  // subgoal policy: SampleTransitions with subgoal_steps > 0; else empty):
   std::vector<int64_t> low_goal;     // [B] s_{min(t+k, end)}, the low actor's goal
   std::vector<int64_t> high_goal;    // [B] the high actor's goal
   std::vector<int64_t> high_target;  // [B] s_{min(t+k, high_goal)} (trajectory goals) or
@@ -73,7 +74,15 @@ class BatchSampler {
   // Monte Carlo return from step t to goal g along t's trajectory.
   float MonteCarloReturn(int64_t t, int64_t g) const;
 
-  TransitionIndices SampleTransitions(int batch, std::mt19937_64& rng) const;
+  // Ms.PR's n-step transitions. With subgoal_steps > 0 (agent.subgoal_steps)
+  // also its subgoal policy's indices (AddSubgoals).
+  TransitionIndices SampleTransitions(int batch, std::mt19937_64& rng, int subgoal_steps = 0) const;
+  // The subgoal policy's indices of a transition batch, from its states and
+  // actor goals, without a random draw: high_goal = the actor goal drawn (the
+  // subgoal actor's goal); low_goal = s_{min(t+k, end)}, which also becomes
+  // the actor's goal (the actor learns to reach the subgoal); high_target =
+  // s_{min(t+k, g)} for a goal g ahead in t's trajectory, else low_goal.
+  void AddSubgoals(TransitionIndices* batch, int subgoal_steps) const;
   // OGBench's 1-step transitions for the baseline agents (its GCDataset):
   // next_idx = t + 1; ret = reward = 0 when the value goal is t
   // itself, else -1; discount = gamma * mask, mask = 0 when the value goal is

@@ -23,8 +23,9 @@ struct TransitionBatch {
   torch::Tensor actor_goal;  // [B, ...] goal of the actor
   torch::Tensor ret;         // [B] float32 n-step return (rewards -1 / 0)
   torch::Tensor discount;    // [B] float32 gamma^m, 0 after success
-  // HIQL's subgoals (undefined unless sampled): low-level goal, high-level
-  // goal and the subgoal target (see TransitionIndices).
+  // Subgoals, HIQL's or Ms.PR's subgoal policy's (undefined unless sampled):
+  // low-level goal, high-level goal and the subgoal target (see
+  // TransitionIndices).
   torch::Tensor low_goal, high_goal, high_target;
 };
 

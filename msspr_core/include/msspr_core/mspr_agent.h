@@ -30,7 +30,8 @@ class MsprAgent : public GcAgent {
   // training: all networks on `device`, targets equal to the online ones,
   // the optimisers; else the acting networks alone, on the CPU (the ones
   // ReadPolicy fills). Draws the initial weights from torch's generator:
-  // repr, critic, actor, their targets, then their moving averages.
+  // repr, critic, actor, their targets, their moving averages, then V and the
+  // subgoal actor where the options ask for them.
   MsprAgent(const MsprOptions& options, torch::Device device, bool training);
   // An acting agent on the given networks (shared, no copy; on `device`).
   MsprAgent(const MsprOptions& options, const MsprNetworks& networks, torch::Device device);
@@ -74,7 +75,7 @@ class MsprAgent : public GcAgent {
   MsprNetworks& target() { return target_; }
   MsprNetworks& average() { return average_; }
   MsprNetworks& policy_networks() { return average_.repr ? average_ : online_; }
-  // V of agent.critic_target "expectile" (null otherwise).
+  // V of agent.critic_target "expectile" or agent.subgoal_steps (null otherwise).
   core::Value& value() { return value_; }
 
   // Losses on the online networks (scalar tensors with graph), as
@@ -118,6 +119,8 @@ class MsprAgent : public GcAgent {
                               const torch::Tensor& y, LossInfo* info);
   void UpdateActor(const TransitionBatch& batch, const mspr::TransitionLatents& lat,
                    LossInfo* info);
+  // One step of the subgoal actor (agent.subgoal_steps; after the actor's).
+  void UpdateSubgoalActor(const TransitionBatch& batch, const mspr::TransitionLatents& lat);
   // Starts `task` on the worker thread (created on first use) with `threads`
   // torch threads; waits for the previous task first.
   void RunOnWorker(int threads, std::function<void()> task);
@@ -127,7 +130,9 @@ class MsprAgent : public GcAgent {
   torch::Device device_;
   MsprNetworks online_, target_, average_;
   std::unique_ptr<torch::optim::AdamW> repr_opt_, critic_opt_, actor_opt_;
-  // agent.critic_target "expectile": V(s, g) and its optimiser (else null).
+  std::unique_ptr<torch::optim::AdamW> subgoal_opt_;  // agent.subgoal_steps > 0, else null
+  // agent.critic_target "expectile" or agent.subgoal_steps: V(s, g) and its
+  // optimiser (else null).
   core::Value value_{nullptr};
   std::unique_ptr<torch::optim::AdamW> value_opt_;
   torch::Tensor bins_;  // [num_bins] float32 on device

@@ -21,6 +21,7 @@ struct MsprNetworks {
   Representation repr{nullptr};  // encoders, goal head, predictors
   Critic critic{nullptr};
   Actor actor{nullptr};
+  SubgoalActor subgoal{nullptr};  // agent.subgoal_steps > 0 (no target copy)
 };
 
 namespace mspr {
@@ -29,10 +30,11 @@ namespace mspr {
 // critic and the actor update of a step.
 struct TransitionLatents {
   torch::Tensor zs, z_value_goal, z_actor_goal;  // [B, zs_dim]
+  torch::Tensor z_high_goal;  // [B, zs_dim] when the batch has subgoals, else undefined
 };
 
-// One encoder call over observation, value goal and actor goal, without
-// gradient.
+// One encoder call over observation, value goal, actor goal and (when the
+// batch has subgoals) the subgoal actor's goal, without gradient.
 TransitionLatents EncodeTransitions(RepresentationImpl& repr, const TransitionBatch& batch);
 
 // Eq. 1: the latent unroll of `online.repr` over the chunk's actions against
@@ -77,6 +79,16 @@ torch::Tensor CriticLoss(const AgentOptions& agent, MsprNetworks& online,
 torch::Tensor ActorLoss(const AgentOptions& agent, MsprNetworks& online,
                         const TransitionBatch& batch, const TransitionLatents& lat,
                         LossInfo* info = nullptr);
+
+// The subgoal actor's advantage-weighted regression (agent.subgoal_steps):
+//   E[min(exp(subgoal_temperature * (V(s_sub, g) - V(s, g))), 100) *
+//     mean_j (subgoal(s, g) - s_sub)_j^2]
+// with g = batch.high_goal, s_sub = batch.high_target, V the value network on
+// the target representation's latents (no gradient into V or the encoders).
+// Fills *loss_out with the loss's value when not null.
+torch::Tensor SubgoalLoss(const AgentOptions& agent, MsprNetworks& online, MsprNetworks& target,
+                          ValueImpl& value, const TransitionBatch& batch,
+                          const TransitionLatents& lat, double* loss_out = nullptr);
 
 }  // namespace mspr
 }  // namespace core

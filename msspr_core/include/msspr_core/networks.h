@@ -224,6 +224,23 @@ class ValueImpl : public torch::nn::Module {
 };
 TORCH_MODULE(Value);
 
+// Ms.PR's subgoal actor (agent.subgoal_steps): [z_s, g_rep] -> the state to
+// reach on the way to the goal (MLP actor_hidden x actor_layers, Pre-LN,
+// linear output); with network.policy_inputs raw / both, [s, g] /
+// [z_s, g_rep, s, g].
+class SubgoalActorImpl : public torch::nn::Module {
+ public:
+  explicit SubgoalActorImpl(const NetworkOptions& o);
+  // [B, zs_dim], [B, goal_dim] (and the raw state and goal, read only with
+  // policy_inputs raw / both) -> [B, obs_dim] float32
+  torch::Tensor forward(const torch::Tensor& zs, const torch::Tensor& grep,
+                        const torch::Tensor& s = {}, const torch::Tensor& g = {});
+
+  Mlp net{nullptr};  // "net"
+  PolicyInputs inputs;
+};
+TORCH_MODULE(SubgoalActor);
+
 // Returns the K bin centres of the two-hot return head:
 // linspace(-1/(1-gamma), 0, K) [K] float32.
 torch::Tensor ReturnBins(int64_t num_bins, double gamma);

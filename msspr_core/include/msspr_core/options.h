@@ -158,6 +158,14 @@ struct AgentOptions {
   // lacks; y = R_n + gamma^n V(s_{t+n}, g)).
   std::string critic_target = "td3";
   double expectile = 0.9;  // tau of the expectile loss (critic_target "expectile")
+  // > 0: a subgoal policy, as HIQL's hierarchy (not in the paper; state observations only).
+  // The actor learns to reach s_{t+k} (k = subgoal_steps, or the trajectory's end), and a
+  // second network, the subgoal actor, learns to propose that state for a far goal g by
+  // advantage-weighted regression (weights min(exp(subgoal_temperature * (V(s_{t+k}, g) -
+  // V(s_t, g))), 100), V fit by expectile regression as for critic_target "expectile").
+  // Acting: a = pi(s, subgoal(s, g)). 0: the paper's single actor.
+  int subgoal_steps = 0;
+  double subgoal_temperature = 3.0;
 
   template <class V>
   void Visit(V& v) {
@@ -176,6 +184,8 @@ struct AgentOptions {
     v("awr_temperature", awr_temperature);
     v("critic_target", critic_target);
     v("expectile", expectile);
+    v("subgoal_steps", subgoal_steps);
+    v("subgoal_temperature", subgoal_temperature);
   }
 };
 

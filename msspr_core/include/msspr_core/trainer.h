@@ -167,9 +167,12 @@ class Trainer {
   Actor& target_actor() { return mspr().target().actor; }
   Representation& ema_repr() { return mspr().average().repr; }
   Critic& ema_critic() { return mspr().average().critic; }
-  // V of agent.critic_target "expectile" (null with "td3").
+  // V of agent.critic_target "expectile" or agent.subgoal_steps (else null).
   Value& value() { return mspr().value(); }
   Actor& ema_actor() { return mspr().average().actor; }
+  // The subgoal actor of agent.subgoal_steps and its moving average (null holders without).
+  SubgoalActor& subgoal_actor() { return mspr().online().subgoal; }
+  SubgoalActor& ema_subgoal_actor() { return mspr().average().subgoal; }
 
   // A Policy sharing the agent's networks the exports write (no copy): for
   // Ms.PR the online ones, or their moving average when trainer.policy_ema > 0.
