@@ -12,9 +12,11 @@ namespace core {
 
 NamedValues LossInfo::Named() const {
   if (!agent.empty()) return agent;
-  return {{"repr", repr},     {"dyn", dyn},       {"rew", rew},       {"inv", inv},
-          {"gdyn", goal_dyn}, {"gact", goal_act}, {"critic", critic}, {"q", q_mean},
-          {"actor", actor},   {"bc", bc}};
+  NamedValues named{{"repr", repr},     {"dyn", dyn},       {"rew", rew},       {"inv", inv},
+                    {"gdyn", goal_dyn}, {"gact", goal_act}, {"critic", critic}, {"q", q_mean},
+                    {"actor", actor},   {"bc", bc}};
+  named.insert(named.end(), extra.begin(), extra.end());
+  return named;
 }
 
 GcAgent::GcAgent(const MsprOptions& options) : options_(options) {}

@@ -99,9 +99,15 @@ MsprAgent::MsprAgent(const MsprOptions& options, const MsprNetworks& networks, t
   if (networks.subgoal) online_.subgoal = register_module("subgoal_actor", networks.subgoal);
 }
 
+LossInfo MsprAgent::NoLosses() const {
+  LossInfo info;
+  if (options_.agent.subgoal_steps > 0) info.extra = {{"subgoal", NAN}};
+  return info;
+}
+
 std::vector<std::string> MsprAgent::LossNames() const {
   std::vector<std::string> names;
-  for (const auto& kv : LossInfo().Named()) names.push_back(kv.first);
+  for (const auto& kv : NoLosses().Named()) names.push_back(kv.first);
   return names;
 }
 
@@ -137,11 +143,15 @@ torch::Tensor MsprAgent::ActorLoss(const TransitionBatch& batch, LossInfo* info)
 
 LossInfo MsprAgent::ValidationLosses(BatchSource& batches) {
   Sync();
-  LossInfo info;
+  LossInfo info = NoLosses();
   RepresentationLoss(batches.SampleChunks(), &info);
   const TransitionBatch tb = batches.SampleTransitions();
   CriticLoss(tb, torch::zeros({tb.action.size(0), tb.action.size(1)}), &info);
   ActorLoss(tb, &info);
+  if (online_.subgoal) {
+    mspr::SubgoalLoss(options_.agent, online_, target_, *value_, tb, EncodeTransitions(tb),
+                      &info.extra[0].second);
+  }
   return info;
 }
 
@@ -257,16 +267,17 @@ void MsprAgent::UpdateActor(const TransitionBatch& batch, const mspr::Transition
   for (size_t i = 0; i < params.size(); ++i) params[i].mutable_grad() = grads[i];
   AverageGradients(online_.actor->parameters());
   actor_opt_->step();
-  if (online_.subgoal) UpdateSubgoalActor(batch, lat);
+  if (online_.subgoal) UpdateSubgoalActor(batch, lat, info);
 }
 
-void MsprAgent::UpdateSubgoalActor(const TransitionBatch& batch,
-                                   const mspr::TransitionLatents& lat) {
+void MsprAgent::UpdateSubgoalActor(const TransitionBatch& batch, const mspr::TransitionLatents& lat,
+                                   LossInfo* info) {
   ClearGrads(*online_.subgoal);
   torch::Tensor loss;
   {
     PrecisionScope precision(bf16(), device_, weight_cache_.get());
-    loss = mspr::SubgoalLoss(options_.agent, online_, target_, *value_, batch, lat);
+    loss = mspr::SubgoalLoss(options_.agent, online_, target_, *value_, batch, lat,
+                             info && !info->extra.empty() ? &info->extra[0].second : nullptr);
   }
   loss.backward();
   AverageGradients(online_.subgoal->parameters());

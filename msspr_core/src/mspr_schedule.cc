@@ -58,7 +58,7 @@ MsprAgent::~MsprAgent() {
 }
 
 LossInfo MsprAgent::Step(TrainingContext& context, bool collect_info) {
-  LossInfo info;
+  LossInfo info = NoLosses();
   LossInfo* out = collect_info ? &info : nullptr;
   // Pipelined: this thread keeps ceil(n / 2) of torch's n threads for the
   // representation update, the worker gets the rest for the actor-critic one.
@@ -120,7 +120,7 @@ LossInfo MsprAgent::Step(TrainingContext& context, bool collect_info) {
 // the weights are the sequential schedule's bit for bit.
 LossInfo MsprAgent::CriticGradPipelinedStep(TrainingContext& context, bool collect_info,
                                             int worker_threads) {
-  LossInfo info;
+  LossInfo info = NoLosses();
   LossInfo* out = collect_info ? &info : nullptr;
   if (context.step() % options_.agent.target_update_every == 0) {
     Sync();  // runs a deferred actor update first

@@ -49,6 +49,9 @@ struct LossInfo {
   // A baseline agent's values (GcAgent::LossNames order); when not empty,
   // Named() returns these instead of Ms.PR's.
   NamedValues agent;
+  // Ms.PR's losses of optional parts (the subgoal actor's "subgoal"), after
+  // the others in Named().
+  NamedValues extra;
   NamedValues Named() const;
 };
 

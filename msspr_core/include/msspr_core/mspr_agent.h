@@ -39,7 +39,8 @@ class MsprAgent : public GcAgent {
 
   // GcAgent.
   std::vector<std::string> LossNames() const override;
-  LossInfo NoLosses() const override { return LossInfo(); }
+  // All NaN; with agent.subgoal_steps also the subgoal actor's loss ("subgoal").
+  LossInfo NoLosses() const override;
   // One step of Algorithm 1: target copy when step % K == 0, representation
   // updates (updates_per_step, fractions accumulate), one critic and one
   // actor update. Pipelined with collect_info false, the actor-critic update
@@ -120,7 +121,8 @@ class MsprAgent : public GcAgent {
   void UpdateActor(const TransitionBatch& batch, const mspr::TransitionLatents& lat,
                    LossInfo* info);
   // One step of the subgoal actor (agent.subgoal_steps; after the actor's).
-  void UpdateSubgoalActor(const TransitionBatch& batch, const mspr::TransitionLatents& lat);
+  void UpdateSubgoalActor(const TransitionBatch& batch, const mspr::TransitionLatents& lat,
+                          LossInfo* info);
   // Starts `task` on the worker thread (created on first use) with `threads`
   // torch threads; waits for the previous task first.
   void RunOnWorker(int threads, std::function<void()> task);
