@@ -82,10 +82,58 @@ void ProgressBar::Finish() {
   std::fflush(stream_);
 }
 
+namespace {
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) cells.push_back(cell);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+// Rewrites `path` under the header `columns` when its own header differs.
+void RemapCsvColumns(const std::string& path, const std::vector<std::string>& columns) {
+  std::ifstream in(path);
+  std::string header;
+  if (!in || !std::getline(in, header)) return;
+  std::string wanted;
+  for (size_t i = 0; i < columns.size(); ++i) wanted += (i ? "," : "") + columns[i];
+  if (header == wanted) return;
+  const std::vector<std::string> old = SplitCsvLine(header);
+  std::string text = wanted + "\n", line;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    const std::vector<std::string> cells = SplitCsvLine(line);
+    for (size_t i = 0; i < columns.size(); ++i) {
+      std::string v = "nan";
+      for (size_t j = 0; j < old.size() && j < cells.size(); ++j)
+        if (old[j] == columns[i]) v = cells[j];
+      text += (i ? "," : "") + v;
+    }
+    text += "\n";
+  }
+  in.close();
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error(tmp + ": cannot write CSV file (disk full?)");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::runtime_error(path + ": cannot replace it with " + tmp + ": " +
+                             std::strerror(errno));
+}
+
+}  // namespace
+
 CsvWriter::CsvWriter(const std::string& path, const std::vector<std::string>& columns)
     : path_(path), num_columns_(columns.size()) {
   struct stat st;
   const bool fresh = stat(path.c_str(), &st) != 0 || st.st_size == 0;
+  if (!fresh) RemapCsvColumns(path, columns);
   out_.open(path, std::ios::app);
   if (!out_) throw std::runtime_error(path + ": cannot open CSV file for writing");
   if (fresh) WriteRow(columns);

@@ -30,6 +30,23 @@ TEST(ProgressTest, CsvHeaderOnceAndAppends) {
   EXPECT_THROW(CsvWriter(dir.File("no/such/dir.csv"), {"a"}), std::runtime_error);
 }
 
+// A run resumed by a version that logs other columns: the old rows move
+// under the new header by column name, nothing is appended under the old one.
+TEST(ProgressTest, CsvWithOtherColumnsIsRewrittenUnderTheNewHeader) {
+  TempDir dir;
+  const std::string path = dir.File("m.csv");
+  {
+    CsvWriter w(path, {"step", "loss", "gone"});
+    w.Write({1, 0.5, 7});
+    w.Write({2, 0.25, 8});
+  }
+  {
+    CsvWriter w(path, {"step", "loss", "subgoal"});
+    w.Write({3, 0.125, 4});
+  }
+  EXPECT_EQ(ReadText(path), "step,loss,subgoal\n1,0.5,nan\n2,0.25,nan\n3,0.125,4\n");
+}
+
 TEST(ProgressTest, PlainLinesWhenNotATerminal) {
   TempDir dir;
   const std::string path = dir.File("log.txt");

@@ -38,7 +38,10 @@ class ProgressBar {
 };
 
 // Appends rows to a CSV file with a fixed header written when the file is
-// new or empty (so a resumed run keeps appending to the same file). Throws
+// new or empty (so a resumed run keeps appending to the same file). A file
+// with other columns (a run resumed by a version that logs more or fewer) is
+// rewritten first under the new header, each old row's values under their
+// column's name ("nan" where it had none; columns gone are dropped). Throws
 // std::runtime_error naming the file when it cannot be opened or a row
 // cannot be written (disk full, I/O error).
 class CsvWriter {
