@@ -19,6 +19,23 @@ torch::Tensor Huber(const torch::Tensor& diff, double delta) {
   return torch::where(a <= delta, 0.5 * diff * diff, delta * (a - 0.5 * delta));
 }
 
+// The latents of two states s1, s2 [B, ...] and their goal representations
+// toward one goal g, from one encoder call and one goal-head call.
+struct TwoStatesToGoal {
+  torch::Tensor z;     // [2B, zs_dim]: s1's rows, then s2's
+  torch::Tensor grep;  // [2B, goal_dim]
+};
+TwoStatesToGoal EncodeTwoStatesToGoal(RepresentationImpl& repr, const torch::Tensor& s1,
+                                      const torch::Tensor& s2, const torch::Tensor& g) {
+  const int64_t b = s1.size(0);
+  const torch::Tensor z = repr.state_encoder->forward(torch::cat({s1, s2, g}, 0));
+  const torch::Tensor zg = z.narrow(0, 2 * b, b);
+  TwoStatesToGoal out;
+  out.z = z.narrow(0, 0, 2 * b);
+  out.grep = repr.goal_head->forward(out.z, torch::cat({zg, zg}, 0));
+  return out;
+}
+
 // Per-step masked means summed over the steps: values and mask [H, B] -> [].
 torch::Tensor SumOfMaskedMeans(const torch::Tensor& values, const torch::Tensor& mask) {
   return ((values * mask).sum(1) / mask.sum(1).clamp_min(1.0)).sum();
@@ -183,15 +200,12 @@ ExpectileTarget ExpectileCriticTarget(const AgentOptions& a, MsprNetworks& targe
     torch::NoGradGuard no_grad;
     RepresentationImpl& repr = *target.repr;
     // One encoder call and one goal-head call for s and s'.
-    const torch::Tensor z =
-        repr.state_encoder->forward(torch::cat({batch.obs, batch.next_obs, batch.value_goal}, 0));
-    const torch::Tensor zg = z.narrow(0, 2 * b, b);
-    const torch::Tensor g2 =
-        repr.goal_head->forward(z.narrow(0, 0, 2 * b), torch::cat({zg, zg}, 0));
-    zs = z.narrow(0, 0, b);
-    zs_next = z.narrow(0, b, b);
-    grep = g2.narrow(0, 0, b);
-    grep_next = g2.narrow(0, b, b);
+    const TwoStatesToGoal e =
+        EncodeTwoStatesToGoal(repr, batch.obs, batch.next_obs, batch.value_goal);
+    zs = e.z.narrow(0, 0, b);
+    zs_next = e.z.narrow(0, b, b);
+    grep = e.grep.narrow(0, 0, b);
+    grep_next = e.grep.narrow(0, b, b);
     q_data = std::get<0>(F32(target.critic->forward(repr.Zsa(zs, batch.action), grep, batch.obs,
                                                     batch.action, batch.value_goal))
                              .min(-1));
@@ -292,15 +306,11 @@ torch::Tensor SubgoalLoss(const AgentOptions& a, MsprNetworks& online, MsprNetwo
   torch::Tensor weight, grep;
   {
     torch::NoGradGuard no_grad;
-    RepresentationImpl& repr = *target.repr;
-    // One target-encoder call over s, s_sub and g; V of (s, g) and (s_sub, g) at once.
-    const torch::Tensor z =
-        repr.state_encoder->forward(torch::cat({batch.obs, batch.high_target, batch.high_goal}, 0));
-    const torch::Tensor zg = z.narrow(0, 2 * b, b);
-    const torch::Tensor g2 =
-        repr.goal_head->forward(z.narrow(0, 0, 2 * b), torch::cat({zg, zg}, 0));
+    // The target representation of s and s_sub toward g; V of both at once.
+    const TwoStatesToGoal e =
+        EncodeTwoStatesToGoal(*target.repr, batch.obs, batch.high_target, batch.high_goal);
     const torch::Tensor v =
-        F32(value.forward(z.narrow(0, 0, 2 * b), g2, torch::cat({batch.obs, batch.high_target}, 0),
+        F32(value.forward(e.z, e.grep, torch::cat({batch.obs, batch.high_target}, 0),
                           torch::cat({batch.high_goal, batch.high_goal}, 0)));
     const torch::Tensor adv = v.narrow(0, b, b) - v.narrow(0, 0, b);
     weight = (a.subgoal_temperature * adv).exp().clamp_max(100.0);

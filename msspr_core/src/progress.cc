@@ -84,6 +84,20 @@ void ProgressBar::Finish() {
 
 namespace {
 
+// Replaces the file at `path` with `text` (a temporary file renamed over it).
+void ReplaceFile(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error(tmp + ": cannot write CSV file (disk full?)");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::runtime_error(path + ": cannot replace it with " + tmp + ": " +
+                             std::strerror(errno));
+}
+
 std::vector<std::string> SplitCsvLine(const std::string& line) {
   std::vector<std::string> cells;
   std::stringstream ss(line);
@@ -115,16 +129,7 @@ void RemapCsvColumns(const std::string& path, const std::vector<std::string>& co
     text += "\n";
   }
   in.close();
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error(tmp + ": cannot write CSV file (disk full?)");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-    throw std::runtime_error(path + ": cannot replace it with " + tmp + ": " +
-                             std::strerror(errno));
+  ReplaceFile(path, text);
 }
 
 }  // namespace
@@ -187,16 +192,7 @@ int64_t TruncateCsvRows(const std::string& path, int64_t max_step) {
   }
   in.close();
   if (dropped == 0) return 0;
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << kept;
-    out.flush();
-    if (!out) throw std::runtime_error(tmp + ": cannot write CSV file (disk full?)");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-    throw std::runtime_error(path + ": cannot replace it with " + tmp + ": " +
-                             std::strerror(errno));
+  ReplaceFile(path, kept);
   return dropped;
 }
 
