@@ -71,7 +71,7 @@ AntSimNode::AntSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const AntSimNode
                                          << key << " (from " << source << "): robot '"
                                          << robot_.name << "', " << robot_.joints.size()
                                          << " joints below the torso: agrees with the simulation");
-  joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
+  joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", kStepTopicQueue);
   if (options_.publish_markers)
     markers_.Advertise(nh_, options_.marker_rate, options_.path_length,
                        [this](const std::deque<Eigen::Vector2d>& path, const ros::Time& stamp) {

@@ -174,11 +174,12 @@ CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimN
                                         << env_->arm().name() << "', " << env_->arm().links().size()
                                         << " links; simulated from the same text");
 
-  joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
+  joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", kStepTopicQueue);
   marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
   if (options_.standard_topics) {
-    gripper_state_pub_ = nh_.advertise<sensor_msgs::JointState>("gripper/joint_states", 10);
-    cube_pose_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("cube_pose", 10);
+    gripper_state_pub_ =
+        nh_.advertise<sensor_msgs::JointState>("gripper/joint_states", kStepTopicQueue);
+    cube_pose_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("cube_pose", kStepTopicQueue);
     goal_obs_pub_ =
         nh_.advertise<std_msgs::Float64MultiArray>("goal_observation", 1, /*latch=*/true);
     ee_twist_sub_ = nh_.subscribe("ee_twist", 10, &CubeSimNode::OnEeTwist, this,

@@ -82,7 +82,7 @@ PointMazeSimNode::PointMazeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh,
       nh_.getParam(key, xml)) {
     robot_ = CheckPointRobotUrdf(xml, "parameter " + key, *env_, options_.world_frame,
                                  options_.agent_frame);
-    joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
+    joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", kStepTopicQueue);
     ROS_INFO_STREAM_NAMED("msspr_sim", "robot_description "
                                            << key << ": robot '" << robot_->name << "', "
                                            << robot_->chain.size() << " prismatic joints, radius "
@@ -100,7 +100,7 @@ PointMazeSimNode::PointMazeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh,
                                             options_.world_frame, stamp);
                        });
   if (options_.standard_topics) {
-    odom_pub_ = nh_.advertise<nav_msgs::Odometry>("odom", 10);
+    odom_pub_ = nh_.advertise<nav_msgs::Odometry>("odom", kStepTopicQueue);
     goal_pose_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("goal_pose", 1, /*latch=*/true);
     cmd_vel_sub_ = nh_.subscribe("cmd_vel", 10, &PointMazeSimNode::OnCmdVel, this,
                                  ros::TransportHints().tcpNoDelay());

@@ -73,8 +73,8 @@ SimNodeBase::SimNodeBase(ros::NodeHandle nh, ros::NodeHandle pnh,
       control_dt_(control_dt),
       env_name_(std::move(env_name)),
       latest_action_(action_dim, 0.0) {
-  obs_pub_ = nh_.advertise<msspr::Observation>("observation", 10);
-  episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", 10, /*latch=*/true);
+  obs_pub_ = nh_.advertise<msspr::Observation>("observation", kStepTopicQueue);
+  episode_pub_ = nh_.advertise<msspr::EpisodeInfo>("episode", kStepTopicQueue, /*latch=*/true);
   if (common_.publish_clock) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
   diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   if (pixels()) {

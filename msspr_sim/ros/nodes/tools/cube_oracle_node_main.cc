@@ -57,7 +57,7 @@ class CubeOracleNode {
       twist_pub_ = nh_.advertise<geometry_msgs::TwistStamped>("ee_twist", 10);
       grip_pub_ = nh_.advertise<std_msgs::Float64MultiArray>("gripper_command", 10);
     } else {
-      action_pub_ = nh_.advertise<msspr::Action>("action", 10);
+      action_pub_ = nh_.advertise<msspr::Action>("action", msspr::ros_bridge::kStepTopicQueue);
     }
     obs_sub_ = nh_.subscribe("observation", 10, &CubeOracleNode::OnObservation, this,
                              ros::TransportHints().tcpNoDelay());

@@ -15,6 +15,7 @@
 #include "msspr_bridge/msg_conversion.h"
 #include "msspr_sim/expert.h"
 #include "msspr_sim/maze_map.h"
+#include "msspr_sim_nodes/sim_node_base.h"
 
 namespace {
 
@@ -48,7 +49,7 @@ class ExpertNode {
     if (command_ == "cmd_vel")
       cmd_vel_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 10);
     else
-      action_pub_ = nh_.advertise<msspr::Action>("action", 10);
+      action_pub_ = nh_.advertise<msspr::Action>("action", msspr::ros_bridge::kStepTopicQueue);
     obs_sub_ = nh_.subscribe("observation", 10, &ExpertNode::OnObservation, this,
                              ros::TransportHints().tcpNoDelay());
     episode_sub_ = nh_.subscribe("episode", 10, &ExpertNode::OnEpisode, this);

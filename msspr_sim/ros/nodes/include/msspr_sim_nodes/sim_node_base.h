@@ -64,6 +64,14 @@ T SimParam(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
   return LoggedParam(pnh, name, def, "msspr_sim");
 }
 
+// The publisher queue (per subscriber) of every per-step stream of the sims
+// and of the agents that drive them in collection (observation, episode,
+// joint states, poses, the oracle's and the expert's actions). Lockstep runs
+// as fast as the agent answers, so a subscriber that falls behind for a few
+// tens of milliseconds (rosbag record on a loaded machine) would otherwise
+// lose steps from the middle of a recording.
+constexpr uint32_t kStepTopicQueue = 1000;
+
 // Reads the common ~params into `o` (its values are the defaults), logging
 // each; throws std::invalid_argument naming a bad one.
 void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* o);
