@@ -204,8 +204,7 @@ torch::Tensor MsprAgent::TdTarget(const TransitionBatch& batch, const torch::Ten
       torch::Tensor value_loss;
       {
         PrecisionScope precision(bf16(), device_, weight_cache_.get());
-        value_loss =
-            mspr::ExpectileCriticTarget(options_.agent, target_, *value_, batch).value_loss;
+        value_loss = mspr::ExpectileValueLoss(options_.agent, target_, *value_, batch);
       }
       value_loss.backward();
       AverageGradients(value_->parameters());

@@ -191,6 +191,43 @@ torch::Tensor CriticTarget(const AgentOptions& a, MsprNetworks& target,
   return y;
 }
 
+namespace {
+
+// min_j Q'_j(s, a) at the dataset's action, from the target critic.
+torch::Tensor DataActionQ(MsprNetworks& target, const torch::Tensor& zs, const torch::Tensor& grep,
+                          const TransitionBatch& batch) {
+  return std::get<0>(F32(target.critic->forward(target.repr->Zsa(zs, batch.action), grep, batch.obs,
+                                                batch.action, batch.value_goal))
+                         .min(-1));
+}
+
+// E[|tau - 1(d < 0)| d^2], d = q_data - V(s, g) (gradient into V only).
+torch::Tensor ExpectileLoss(const AgentOptions& a, ValueImpl& value, const torch::Tensor& zs,
+                            const torch::Tensor& grep, const torch::Tensor& q_data,
+                            const TransitionBatch& batch) {
+  const torch::Tensor d = q_data - value.forward(zs, grep, batch.obs, batch.value_goal);
+  const torch::Tensor w = torch::where(d < 0, 1.0 - a.expectile, a.expectile);
+  return (w * d * d).mean();
+}
+
+}  // namespace
+
+torch::Tensor ExpectileValueLoss(const AgentOptions& a, MsprNetworks& target, ValueImpl& value,
+                                 const TransitionBatch& batch) {
+  const int64_t b = batch.obs.size(0);
+  torch::Tensor zs, grep, q_data;
+  {
+    torch::NoGradGuard no_grad;
+    RepresentationImpl& repr = *target.repr;
+    const torch::Tensor z =
+        repr.state_encoder->forward(torch::cat({batch.obs, batch.value_goal}, 0));
+    zs = z.narrow(0, 0, b);
+    grep = repr.goal_head->forward(zs, z.narrow(0, b, b));
+    q_data = DataActionQ(target, zs, grep, batch);
+  }
+  return ExpectileLoss(a, value, zs, grep, q_data, batch);
+}
+
 ExpectileTarget ExpectileCriticTarget(const AgentOptions& a, MsprNetworks& target, ValueImpl& value,
                                       const TransitionBatch& batch) {
   const int64_t b = batch.obs.size(0);
@@ -206,17 +243,13 @@ ExpectileTarget ExpectileCriticTarget(const AgentOptions& a, MsprNetworks& targe
     zs_next = e.z.narrow(0, b, b);
     grep = e.grep.narrow(0, 0, b);
     grep_next = e.grep.narrow(0, b, b);
-    q_data = std::get<0>(F32(target.critic->forward(repr.Zsa(zs, batch.action), grep, batch.obs,
-                                                    batch.action, batch.value_goal))
-                             .min(-1));
+    q_data = DataActionQ(target, zs, grep, batch);
     const torch::Tensor v_next =
         value.forward(zs_next, grep_next, batch.next_obs, batch.value_goal);
     out.y = batch.ret + batch.discount * v_next;
     if (a.clip_target) out.y = out.y.clamp(-1.0 / (1.0 - a.gamma), 0.0);
   }
-  const torch::Tensor d = q_data - value.forward(zs, grep, batch.obs, batch.value_goal);
-  const torch::Tensor w = torch::where(d < 0, 1.0 - a.expectile, a.expectile);
-  out.value_loss = (w * d * d).mean();
+  out.value_loss = ExpectileLoss(a, value, zs, grep, q_data, batch);
   return out;
 }
 

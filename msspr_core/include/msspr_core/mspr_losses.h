@@ -64,6 +64,10 @@ struct ExpectileTarget {
 };
 ExpectileTarget ExpectileCriticTarget(const AgentOptions& agent, MsprNetworks& target,
                                       ValueImpl& value, const TransitionBatch& batch);
+// ExpectileCriticTarget's value_loss alone, without the TD target (V beside
+// the TD3 target, for the subgoal actor's advantage).
+torch::Tensor ExpectileValueLoss(const AgentOptions& agent, MsprNetworks& target, ValueImpl& value,
+                                 const TransitionBatch& batch);
 
 // Eq. 2's loss: the Huber distance of both online Q heads to y, summed over
 // the heads. lat: the batch's latents (the encoders get no gradient); null:
