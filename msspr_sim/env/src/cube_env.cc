@@ -11,27 +11,16 @@
 #include <vector>
 
 #include "msspr_sim/random_util.h"
+#include "arm_rig.h"
 #include "mujoco_util.h"
 #include "offscreen_renderer.h"
 
 namespace msspr::sim {
 namespace {
 
-// OGBench's home joints (rad) and the observation's centre c (m).
-const double kHome[6] = {-M_PI / 2, -M_PI / 2, M_PI / 2, -M_PI / 2, -M_PI / 2, 0};
-const Eigen::Vector3d kCentre(0.425, 0, 0);
-
-// ZYX yaw of a quaternion (w, x, y, z); independent of its sign.
-double Yaw(double w, double x, double y, double z) {
-  return std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
-}
-
-int RequireId(const mjModel* m, mjtObj type, const std::string& name, const char* what) {
-  const int id = mj_name2id(m, type, name.c_str());
-  if (id < 0)
-    throw std::logic_error(std::string("CubeEnv: the scene has no ") + what + " '" + name + "'");
-  return id;
-}
+using internal::kArmHome;
+using internal::kObservationCentre;
+using internal::QuatYaw;
 
 }  // namespace
 
@@ -47,7 +36,7 @@ const std::array<CubeTask, 5>& CubeSingleTasks() {
 }
 
 Eigen::Vector3d CubePositionFromObservation(const float* obs) {
-  return kCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
+  return kObservationCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
 }
 double CubeYawFromObservation(const float* obs) { return std::atan2(obs[27], obs[26]); }
 
@@ -58,65 +47,36 @@ Eigen::Matrix3d PinchDownRotation(double yaw) {
 }
 
 struct CubeEnv::Impl {
+  Impl(const std::string& urdf_path, const ArmIkOptions& ik) : rig(urdf_path, ik) {}
+  internal::ArmRig rig;
   internal::ModelPtr model;
   internal::DataPtr data;
-  int arm_qpos[6], arm_qvel[6], arm_actuator[6];
-  std::vector<int> finger_qpos;  // every finger joint (independent and mimics)
-  std::vector<double> finger_multiplier, finger_offset;
-  int gripper_qpos = -1;  // the independent finger joint
-  int gripper_actuator = -1;
   int cube_qpos = -1, cube_qvel = -1;
-  int pinch_site = -1;
-  int contact_body = -1;  // the body of the right pad (OGBench's right_pad)
   int goal_mocap = -1;
 
   // Rendering (only with enable_rendering); it reads the physics data.
   std::unique_ptr<internal::OffscreenRenderer> renderer;
 };
 
-CubeEnv::CubeEnv(const CubeEnvOptions& options)
-    : options_(options), impl_(std::make_unique<Impl>()) {
+CubeEnv::CubeEnv(const CubeEnvOptions& options) : options_(options) {
   if (options.substeps < 1) throw std::invalid_argument("CubeEnvOptions: substeps must be >= 1");
   internal::InstallMujocoHandlers();
-  arm_ = std::make_unique<ArmModel>(ArmModel::FromFile(options.urdf_path));
-  ik_ = std::make_unique<ArmIk>(*arm_, options.ik);
-  mjcf_ = CubeSceneMjcf(*arm_, options.scene);
+  impl_ = std::make_unique<Impl>(options.urdf_path, options.ik);
+  mjcf_ = CubeSceneMjcf(impl_->rig.arm(), options.scene);
   impl_->model = internal::LoadInlineModel(mjcf_, "cube_single_scene");
   const mjModel* m = impl_->model.get();
   impl_->data.reset(mj_makeData(m));
   if (!impl_->data) throw std::runtime_error("MuJoCo: mj_makeData failed");
-
-  for (int i = 0; i < 6; ++i) {
-    const std::string& joint = arm_->links()[arm_->arm_joint_links()[i]].joint;
-    const int j = RequireId(m, mjOBJ_JOINT, joint, "joint");
-    impl_->arm_qpos[i] = m->jnt_qposadr[j];
-    impl_->arm_qvel[i] = m->jnt_dofadr[j];
-    impl_->arm_actuator[i] = RequireId(m, mjOBJ_ACTUATOR, joint, "actuator");
-  }
-  const int grip_dof = arm_->links()[arm_->gripper_link()].dof;
-  for (const auto& l : arm_->links()) {
-    if (l.dof != grip_dof || l.type == ArmModel::JointType::kFixed) continue;
-    const int j = RequireId(m, mjOBJ_JOINT, l.joint, "joint");
-    impl_->finger_qpos.push_back(m->jnt_qposadr[j]);
-    impl_->finger_multiplier.push_back(l.multiplier);
-    impl_->finger_offset.push_back(l.offset);
-    if (!l.mimic) impl_->gripper_qpos = m->jnt_qposadr[j];
-  }
-  impl_->gripper_actuator = RequireId(m, mjOBJ_ACTUATOR, "gripper", "actuator");
-  const int cube_joint = RequireId(m, mjOBJ_JOINT, "object_joint_0", "joint");
+  impl_->rig.Bind(m, options.scene.pad_geoms[1], options.scene.gripper_travel, "CubeEnv");
+  const auto require = [&](mjtObj type, const std::string& name, const char* what) {
+    return internal::RequireId(m, type, name, what, "CubeEnv");
+  };
+  const int cube_joint = require(mjOBJ_JOINT, "object_joint_0", "joint");
   impl_->cube_qpos = m->jnt_qposadr[cube_joint];
   impl_->cube_qvel = m->jnt_dofadr[cube_joint];
-  impl_->pinch_site = RequireId(m, mjOBJ_SITE, arm_->links()[arm_->tip_link()].name, "site");
-  impl_->contact_body =
-      m->geom_bodyid[RequireId(m, mjOBJ_GEOM, options.scene.pad_geoms[1], "geom")];
-  impl_->goal_mocap = m->body_mocapid[RequireId(m, mjOBJ_BODY, "object_target_0", "body")];
+  impl_->goal_mocap = m->body_mocapid[require(mjOBJ_BODY, "object_target_0", "body")];
 
-  // The flange target is the pinch target times this fixed transform.
-  const Eigen::VectorXd q0 = Eigen::VectorXd::Zero(arm_->num_dofs());
-  pinch_to_flange_ =
-      arm_->LinkPose(arm_->tip_link(), q0).inverse() * arm_->LinkPose(arm_->flange_link(), q0);
-
-  SetArmJoints(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(kHome));
+  SetArmJoints(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(kArmHome));
   SetOpening(0.0);
 
   if (options.enable_rendering) {
@@ -126,43 +86,24 @@ CubeEnv::CubeEnv(const CubeEnvOptions& options)
                                   std::to_string(size));
     // Default visibility: geom groups 0-2 (floor, cube, robot visuals);
     // collision geoms and walls (3), sites (4) and a pixel-mode goal (5) hidden.
-    const int camera = RequireId(m, mjOBJ_CAMERA, options.camera, "camera");
+    const int camera = require(mjOBJ_CAMERA, options.camera, "camera");
     impl_->renderer = std::make_unique<internal::OffscreenRenderer>(m, size, camera);
   }
 }
 
 CubeEnv::~CubeEnv() = default;
 
+const ArmModel& CubeEnv::arm() const { return impl_->rig.arm(); }
+
 void CubeEnv::SetArmJoints(const Eigen::Matrix<double, 6, 1>& q) {
-  mjData* d = impl_->data.get();
-  for (int i = 0; i < 6; ++i) {
-    d->qpos[impl_->arm_qpos[i]] = q[i];
-    d->qvel[impl_->arm_qvel[i]] = 0;
-    d->ctrl[impl_->arm_actuator[i]] = q[i];
-  }
-  mj_forward(impl_->model.get(), d);
+  impl_->rig.SetArmJoints(impl_->data.get(), q);
 }
 
 bool CubeEnv::PlacePinch(const Eigen::Vector3d& position, double yaw) {
-  Eigen::Isometry3d pinch = Eigen::Isometry3d::Identity();
-  pinch.linear() = PinchDownRotation(yaw);
-  pinch.translation() = position;
-  Eigen::VectorXd q0 = Eigen::VectorXd::Zero(arm_->num_dofs());
-  for (int i = 0; i < 6; ++i) q0[i] = kHome[i];
-  const ArmIkResult r = ik_->Solve(pinch * pinch_to_flange_, arm_->flange_link(), q0);
-  SetArmJoints(r.q.head<6>());
-  return r.converged;
+  return impl_->rig.PlacePinch(impl_->data.get(), position, yaw);
 }
 
-void CubeEnv::SetOpening(double opening) {
-  opening = std::clamp(opening, 0.0, 1.0);
-  mjData* d = impl_->data.get();
-  const double travel = opening * options_.scene.gripper_travel;
-  for (size_t f = 0; f < impl_->finger_qpos.size(); ++f)
-    d->qpos[impl_->finger_qpos[f]] = impl_->finger_multiplier[f] * travel + impl_->finger_offset[f];
-  d->ctrl[impl_->gripper_actuator] = 255.0 * opening;
-  mj_forward(impl_->model.get(), d);
-}
+void CubeEnv::SetOpening(double opening) { impl_->rig.SetOpening(impl_->data.get(), opening); }
 
 void CubeEnv::SetCube(const Eigen::Vector3d& position, double yaw) {
   mjData* d = impl_->data.get();
@@ -193,30 +134,21 @@ void CubeEnv::SetGoal(const Eigen::Vector3d& position, double yaw) {
 }
 
 Eigen::Vector3d CubeEnv::PinchPosition() const {
-  const mjtNum* p = impl_->data->site_xpos + 3 * impl_->pinch_site;
-  return Eigen::Vector3d(p[0], p[1], p[2]);
+  return impl_->rig.PinchPosition(impl_->data.get());
 }
 
-double CubeEnv::PinchYaw() const {
-  mjtNum quat[4];
-  mju_mat2Quat(quat, impl_->data->site_xmat + 9 * impl_->pinch_site);
-  return Yaw(quat[0], quat[1], quat[2], quat[3]);
-}
+double CubeEnv::PinchYaw() const { return impl_->rig.PinchYaw(impl_->data.get()); }
 
 Eigen::Matrix3d CubeEnv::PinchRotation() const {
-  return Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(impl_->data->site_xmat +
-                                                                        9 * impl_->pinch_site);
+  return impl_->rig.PinchRotation(impl_->data.get());
 }
 
 double CubeEnv::CubeYaw() const {
   const mjtNum* q = impl_->data->qpos + impl_->cube_qpos + 3;
-  return Yaw(q[0], q[1], q[2], q[3]);
+  return QuatYaw(q[0], q[1], q[2], q[3]);
 }
 
-double CubeEnv::Opening() const {
-  return std::clamp(impl_->data->qpos[impl_->gripper_qpos] / options_.scene.gripper_travel, 0.0,
-                    1.0);
-}
+double CubeEnv::Opening() const { return impl_->rig.Opening(impl_->data.get()); }
 
 Eigen::Vector3d CubeEnv::CubePosition() const {
   const mjtNum* q = impl_->data->qpos + impl_->cube_qpos;
@@ -230,7 +162,7 @@ Eigen::Vector3d CubeEnv::GoalPosition() const {
 
 double CubeEnv::GoalYaw() const {
   const mjtNum* q = impl_->data->mocap_quat + 4 * impl_->goal_mocap;
-  return Yaw(q[0], q[1], q[2], q[3]);
+  return QuatYaw(q[0], q[1], q[2], q[3]);
 }
 
 bool CubeEnv::Success() const {
@@ -238,9 +170,7 @@ bool CubeEnv::Success() const {
 }
 
 Eigen::Matrix<double, 6, 1> CubeEnv::ArmJoints() const {
-  Eigen::Matrix<double, 6, 1> q;
-  for (int i = 0; i < 6; ++i) q[i] = impl_->data->qpos[impl_->arm_qpos[i]];
-  return q;
+  return impl_->rig.ArmJoints(impl_->data.get());
 }
 
 std::vector<double> CubeEnv::Qpos() const {
@@ -254,25 +184,8 @@ std::vector<double> CubeEnv::Qvel() const {
 bool CubeEnv::Step(const Action& action) {
   const mjModel* m = impl_->model.get();
   mjData* d = impl_->data.get();
-  const auto& s = options_.action_scale;
-  // Deltas apply to the measured pose, not to the previous target (OGBench).
-  const Eigen::Vector3d target =
-      (PinchPosition() + Eigen::Vector3d(action[0] * s[0], action[1] * s[1], action[2] * s[2]))
-          .cwiseMax(options_.pinch_low)
-          .cwiseMin(options_.pinch_high);
-  const double yaw = std::remainder(PinchYaw() + action[3] * s[3], 2 * M_PI);
-  const double opening = std::clamp(Opening() + action[4] * s[4], 0.0, 1.0);
-
-  Eigen::Isometry3d pinch = Eigen::Isometry3d::Identity();
-  pinch.linear() = PinchDownRotation(yaw);
-  pinch.translation() = target;
-  Eigen::VectorXd q0 = Eigen::VectorXd::Zero(arm_->num_dofs());
-  q0.head<6>() = ArmJoints();
-  const ArmIkResult r = ik_->Solve(pinch * pinch_to_flange_, arm_->flange_link(), q0);
-  last_ik_converged_ = r.converged;
-  for (int i = 0; i < 6; ++i) d->ctrl[impl_->arm_actuator[i]] = r.q[i];
-  d->ctrl[impl_->gripper_actuator] = 255.0 * opening;
-
+  last_ik_converged_ = impl_->rig.SetControls(d, action, options_.action_scale,
+                                              options_.pinch_low, options_.pinch_high);
   for (int k = 0; k < options_.substeps; ++k) mj_step(m, d);
   // cfrc_ext (the contact feature) is filled only by this call.
   mj_rnePostConstraint(m, d);
@@ -281,13 +194,7 @@ bool CubeEnv::Step(const Action& action) {
 }
 
 void CubeEnv::RandomizeArm(std::mt19937_64& rng) {
-  Eigen::Vector3d p;
-  for (int i = 0; i < 3; ++i) p[i] = Uniform(rng, options_.init_low[i], options_.init_high[i]);
-  const double yaw = Uniform(rng, -M_PI, M_PI);
-  // Failing to converge in 20 iterations from home leaves a pose close to the
-  // target; OGBench goes on with it too.
-  PlacePinch(p, yaw);
-  SetOpening(0.0);
+  impl_->rig.Randomize(impl_->data.get(), rng, options_.init_low, options_.init_high);
 }
 
 CubeEnv::Observation CubeEnv::ResetToTask(int task, uint64_t seed) {
@@ -333,26 +240,12 @@ CubeEnv::Observation CubeEnv::ResetToTask(int task, uint64_t seed) {
 CubeEnv::Observation CubeEnv::GetObservation() const {
   const mjData* d = impl_->data.get();
   Observation o{};
-  for (int i = 0; i < 6; ++i) {
-    o[i] = static_cast<float>(d->qpos[impl_->arm_qpos[i]]);
-    o[6 + i] = static_cast<float>(d->qvel[impl_->arm_qvel[i]]);
-  }
-  const Eigen::Vector3d pinch = 10 * (PinchPosition() - kCentre);
-  const double yaw = PinchYaw();
-  for (int i = 0; i < 3; ++i) o[12 + i] = static_cast<float>(pinch[i]);
-  o[15] = static_cast<float>(std::cos(yaw));
-  o[16] = static_cast<float>(std::sin(yaw));
-  o[17] = static_cast<float>(3 * Opening());
-  // OGBench: the norm of the pad body's 6-D external (contact) wrench / 50.
-  // Our pad is a geom of the finger body, so the whole finger's contacts count.
-  const double force =
-      Eigen::Map<const Eigen::Matrix<double, 6, 1>>(d->cfrc_ext + 6 * impl_->contact_body).norm();
-  o[18] = static_cast<float>(std::clamp(force / 50, 0.0, 1.0));
-  const Eigen::Vector3d cube = 10 * (CubePosition() - kCentre);
+  impl_->rig.WriteProprio(d, o.data());
+  const Eigen::Vector3d cube = 10 * (CubePosition() - kObservationCentre);
   for (int i = 0; i < 3; ++i) o[19 + i] = static_cast<float>(cube[i]);
   const mjtNum* q = d->qpos + impl_->cube_qpos + 3;
   for (int i = 0; i < 4; ++i) o[22 + i] = static_cast<float>(q[i]);
-  const double cube_yaw = Yaw(q[0], q[1], q[2], q[3]);
+  const double cube_yaw = QuatYaw(q[0], q[1], q[2], q[3]);
   o[26] = static_cast<float>(std::cos(cube_yaw));
   o[27] = static_cast<float>(std::sin(cube_yaw));
   return o;

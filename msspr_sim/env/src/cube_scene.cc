@@ -182,7 +182,7 @@ class Generator {
 
   double FingerScale() const { return options_.gripper_travel / options_.driver_range; }
 
-  std::string Generate() {
+  std::string Generate(const std::string& model_name, const std::string& objects_xml) {
     if (arm_.arm_joint_links().size() != 6)
       Fail("the cube scene needs 6 arm joints, the model has " +
            std::to_string(arm_.arm_joint_links().size()));
@@ -198,7 +198,7 @@ class Generator {
            "' must each appear once");
 
     std::ostringstream x;
-    x << "<mujoco model=\"cube_single_" << arm_.name() << "\">\n"
+    x << "<mujoco model=\"" << model_name << "\">\n"
       << "  <!-- Generated from " << arm_.source()
       << " by msspr_env (cube_scene.cc). -->\n"
       // implicitfast (OGBench's) does not exist in MuJoCo 2.2; implicit is the nearest.
@@ -242,18 +242,7 @@ class Generator {
       << "    <camera name=\"front\" pos=\"1.287 0 0.509\" xyaxes=\"0 1 0 -0.342 0 0.940\"/>\n"
       << "    <camera name=\"front_pixels\" pos=\"1.053 -0.014 0.639\""
          " xyaxes=\"0 1 0 -0.628 0.001 0.778\"/>\n"
-      << arm_xml.str() << "    <body name=\"object_0\" pos=\"0.3 0 0.02\">\n"
-      << "      <freejoint name=\"object_joint_0\"/>\n"
-      << "      <geom name=\"cube\" type=\"box\" size=\"0.02 0.02 0.02\" density=\"1240\""
-         " solref=\"0.004 1\" contype=\"3\" conaffinity=\"1\" group=\"1\""
-         " rgba=\"0.96 0.26 0.33 1\"/>\n"
-      << "    </body>\n"
-      << "    <body name=\"object_target_0\" mocap=\"true\" pos=\"0.425 0 0.02\">\n"
-      << "      <geom name=\"goal\" type=\"box\" size=\"0.02 0.02 0.02\" contype=\"0\""
-         " conaffinity=\"0\" group=\""
-      << (options_.pixel_style ? 5 : 1) << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
-      << "    </body>\n"
-      << "  </worldbody>\n";
+      << arm_xml.str() << objects_xml << "  </worldbody>\n";
 
     // The fingers: mimic joints as equalities, the servo on their mean
     // (OGBench: 0.5 right driver + 0.5 left driver).
@@ -308,10 +297,32 @@ class Generator {
   int pads_found_ = 0;
 };
 
+// The cube-single objects: the cube on its free joint and the goal marker (a mocap body).
+std::string CubeObjectsMjcf(const CubeSceneOptions& options) {
+  std::ostringstream x;
+  x << "    <body name=\"object_0\" pos=\"0.3 0 0.02\">\n"
+      << "      <freejoint name=\"object_joint_0\"/>\n"
+      << "      <geom name=\"cube\" type=\"box\" size=\"0.02 0.02 0.02\" density=\"1240\""
+         " solref=\"0.004 1\" contype=\"3\" conaffinity=\"1\" group=\"1\""
+         " rgba=\"0.96 0.26 0.33 1\"/>\n"
+      << "    </body>\n"
+      << "    <body name=\"object_target_0\" mocap=\"true\" pos=\"0.425 0 0.02\">\n"
+      << "      <geom name=\"goal\" type=\"box\" size=\"0.02 0.02 0.02\" contype=\"0\""
+         " conaffinity=\"0\" group=\""
+      << (options.pixel_style ? 5 : 1) << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
+      << "    </body>\n";
+  return x.str();
+}
+
 }  // namespace
 
+std::string ArmSceneMjcf(const ArmModel& arm, const CubeSceneOptions& options,
+                         const std::string& model_name, const std::string& objects_xml) {
+  return Generator(arm, options).Generate(model_name, objects_xml);
+}
+
 std::string CubeSceneMjcf(const ArmModel& arm, const CubeSceneOptions& options) {
-  return Generator(arm, options).Generate();
+  return ArmSceneMjcf(arm, options, "cube_single_" + arm.name(), CubeObjectsMjcf(options));
 }
 
 }  // namespace msspr::sim

@@ -166,7 +166,7 @@ class CubeEnv {
   // Whether the last Step's IK met its tolerances.
   bool last_ik_converged() const { return last_ik_converged_; }
 
-  const ArmModel& arm() const { return *arm_; }
+  const ArmModel& arm() const;
   const CubeEnvOptions& options() const { return options_; }
   const std::string& mjcf() const { return mjcf_; }
 
@@ -176,11 +176,8 @@ class CubeEnv {
   void RandomizeArm(std::mt19937_64& rng);
 
   CubeEnvOptions options_;
-  std::unique_ptr<ArmModel> arm_;  // heap: ik_ keeps a reference to it
-  std::unique_ptr<ArmIk> ik_;
   std::string mjcf_;
   std::unique_ptr<Impl> impl_;
-  Eigen::Isometry3d pinch_to_flange_;
   bool last_ik_converged_ = true;
   Observation goal_observation_{};
   std::vector<uint8_t> goal_image_;

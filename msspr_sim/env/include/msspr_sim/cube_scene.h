@@ -66,4 +66,10 @@ struct CubeSceneOptions {
 // a missing pad geom, fewer than 6 arm joints).
 std::string CubeSceneMjcf(const ArmModel& arm, const CubeSceneOptions& options = {});
 
+// The same scene with other objects: the arm, floor, walls, lights and cameras of
+// CubeSceneMjcf, then `objects_xml` (bodies of the worldbody) in place of the cube and its
+// goal marker. The model is named `model_name`. Throws as CubeSceneMjcf.
+std::string ArmSceneMjcf(const ArmModel& arm, const CubeSceneOptions& options,
+                         const std::string& model_name, const std::string& objects_xml);
+
 }  // namespace msspr::sim
