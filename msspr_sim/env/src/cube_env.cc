@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "msspr_sim/random_util.h"
 #include "arm_rig.h"
+#include "msspr_sim/random_util.h"
 #include "mujoco_util.h"
 #include "offscreen_renderer.h"
 
@@ -184,8 +184,8 @@ std::vector<double> CubeEnv::Qvel() const {
 bool CubeEnv::Step(const Action& action) {
   const mjModel* m = impl_->model.get();
   mjData* d = impl_->data.get();
-  last_ik_converged_ = impl_->rig.SetControls(d, action, options_.action_scale,
-                                              options_.pinch_low, options_.pinch_high);
+  last_ik_converged_ = impl_->rig.SetControls(d, action, options_.action_scale, options_.pinch_low,
+                                              options_.pinch_high);
   for (int k = 0; k < options_.substeps; ++k) mj_step(m, d);
   // cfrc_ext (the contact feature) is filled only by this call.
   mj_rnePostConstraint(m, d);

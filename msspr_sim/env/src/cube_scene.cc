@@ -301,16 +301,16 @@ class Generator {
 std::string CubeObjectsMjcf(const CubeSceneOptions& options) {
   std::ostringstream x;
   x << "    <body name=\"object_0\" pos=\"0.3 0 0.02\">\n"
-      << "      <freejoint name=\"object_joint_0\"/>\n"
-      << "      <geom name=\"cube\" type=\"box\" size=\"0.02 0.02 0.02\" density=\"1240\""
-         " solref=\"0.004 1\" contype=\"3\" conaffinity=\"1\" group=\"1\""
-         " rgba=\"0.96 0.26 0.33 1\"/>\n"
-      << "    </body>\n"
-      << "    <body name=\"object_target_0\" mocap=\"true\" pos=\"0.425 0 0.02\">\n"
-      << "      <geom name=\"goal\" type=\"box\" size=\"0.02 0.02 0.02\" contype=\"0\""
-         " conaffinity=\"0\" group=\""
-      << (options.pixel_style ? 5 : 1) << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
-      << "    </body>\n";
+    << "      <freejoint name=\"object_joint_0\"/>\n"
+    << "      <geom name=\"cube\" type=\"box\" size=\"0.02 0.02 0.02\" density=\"1240\""
+       " solref=\"0.004 1\" contype=\"3\" conaffinity=\"1\" group=\"1\""
+       " rgba=\"0.96 0.26 0.33 1\"/>\n"
+    << "    </body>\n"
+    << "    <body name=\"object_target_0\" mocap=\"true\" pos=\"0.425 0 0.02\">\n"
+    << "      <geom name=\"goal\" type=\"box\" size=\"0.02 0.02 0.02\" contype=\"0\""
+       " conaffinity=\"0\" group=\""
+    << (options.pixel_style ? 5 : 1) << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
+    << "    </body>\n";
   return x.str();
 }
 
