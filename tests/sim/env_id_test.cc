@@ -14,10 +14,9 @@ namespace {
 // out here so that a change to env_id.cc fails.
 TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
   const std::vector<std::pair<EnvId, std::string>> expected = {
-      {EnvId::kPointMaze, "pointmaze"},
-      {EnvId::kCubeSingle, "cube-single"},
-      {EnvId::kAntMazeMedium, "antmaze-medium"},
-      {EnvId::kAntMazeLarge, "antmaze-large"}};
+      {EnvId::kPointMaze, "pointmaze"},          {EnvId::kCubeSingle, "cube-single"},
+      {EnvId::kAntMazeMedium, "antmaze-medium"}, {EnvId::kAntMazeLarge, "antmaze-large"},
+      {EnvId::kPuzzle3x3, "puzzle-3x3"},         {EnvId::kPuzzle4x4, "puzzle-4x4"}};
   ASSERT_EQ(AllEnvIds().size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) {
     const auto& [id, name] = expected[i];
@@ -26,7 +25,9 @@ TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
     EXPECT_EQ(ParseEnvId(name), id) << name;
     EXPECT_EQ(TryParseEnvId(name), id) << name;
   }
-  EXPECT_EQ(EnvIdNames(),
+  EXPECT_EQ(EnvIdNames(), (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium",
+                                                 "antmaze-large", "puzzle-3x3", "puzzle-4x4"}));
+  EXPECT_EQ(EnvIdNames(EvaluatedEnvIds()),
             (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium", "antmaze-large"}));
   EXPECT_EQ(EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle}),
             (std::set<std::string>{"pointmaze", "cube-single"}));
@@ -41,9 +42,21 @@ TEST(EnvIdTest, AnUnknownIdIsRejectedByNameWithTheValidOnes) {
     } catch (const std::invalid_argument& e) {
       EXPECT_EQ(std::string(e.what()),
                 "unknown env id '" + bad +
-                    "'; valid ids: pointmaze cube-single antmaze-medium antmaze-large");
+                    "'; valid ids: pointmaze cube-single antmaze-medium antmaze-large "
+                    "puzzle-3x3 puzzle-4x4");
     }
   }
+}
+
+TEST(EnvIdTest, PuzzlesHaveTheirSides) {
+  EXPECT_TRUE(IsPuzzle(EnvId::kPuzzle3x3));
+  EXPECT_TRUE(IsPuzzle(EnvId::kPuzzle4x4));
+  EXPECT_FALSE(IsPuzzle(EnvId::kCubeSingle));
+  EXPECT_EQ(PuzzleSide(EnvId::kPuzzle3x3), 3);
+  EXPECT_EQ(PuzzleSide(EnvId::kPuzzle4x4), 4);
+  EXPECT_THROW(PuzzleSide(EnvId::kAntMazeLarge), std::invalid_argument);
+  EXPECT_EQ(EnvLabel(EnvId::kPuzzle4x4), "puzzle-4x4");
+  EXPECT_EQ(ParseEnvLabel("puzzle-3x3")->id, EnvId::kPuzzle3x3);
 }
 
 TEST(EnvIdTest, AntMazesMapToTheirMazes) {

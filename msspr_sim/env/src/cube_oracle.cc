@@ -2,19 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 namespace {
-
-// A plan keyframe: time since the cycle start (s), pinch pose, grip.
-struct Keyframe {
-  double time;
-  Eigen::Vector3d position;
-  Eigen::Quaterniond rotation;
-  double grip;
-};
 
 Eigen::Quaterniond Down(double yaw) { return Eigen::Quaterniond(PinchDownRotation(yaw)); }
 
@@ -64,13 +57,54 @@ std::vector<CubePlanSample> SmoothPlanNoise(const std::vector<CubePlanSample>& n
   return out;
 }
 
+std::vector<CubePlanSample> SamplePlan(std::vector<PlanKeyframe> k, double jitter,
+                                       const CubePlayOracleOptions& options, std::mt19937_64& rng) {
+  // Increments to times, then an independent jitter per keyframe but the first.
+  for (size_t i = 1; i < k.size(); ++i) k[i].time += k[i - 1].time;
+  for (size_t i = 1; i < k.size(); ++i) k[i].time += Uniform(rng, -jitter, jitter);
+
+  // Samples every control_dt while t < t_end: positions and grip linear in
+  // time, orientation along the SO(3) geodesic.
+  std::vector<CubePlanSample> plan;
+  size_t seg = 0;
+  for (int s = 0;; ++s) {
+    const double t = s * options.control_dt;
+    if (!(t < k.back().time)) break;
+    while (seg + 2 < k.size() && t >= k[seg + 1].time) ++seg;
+    const PlanKeyframe &a = k[seg], &b = k[seg + 1];
+    const double alpha = std::clamp((t - a.time) / (b.time - a.time), 0.0, 1.0);
+    CubePlanSample x;
+    x.head<3>() = a.position + alpha * (b.position - a.position);
+    x[3] = Yaw(a.rotation.slerp(alpha, b.rotation));
+    x[4] = a.grip + alpha * (b.grip - a.grip);
+    plan.push_back(x);
+  }
+  std::vector<CubePlanSample> noise(plan.size());
+  for (auto& n : noise)
+    for (int i = 0; i < 5; ++i)
+      n[i] = StandardNormal(rng) * options.action_scale[i] * options.noise_scale;
+  const std::vector<CubePlanSample> smooth = SmoothPlanNoise(noise);
+  for (size_t s = 0; s < plan.size(); ++s) plan[s] += smooth[s];
+  return plan;
+}
+
+std::array<double, 5> ActionTowardSample(const CubePlanSample& x, const Eigen::Vector3d& p,
+                                         double pinch_yaw, double opening,
+                                         const std::array<double, 5>& scale) {
+  const double current[5] = {p.x(), p.y(), p.z(), pinch_yaw, opening};
+  std::array<double, 5> a;
+  // The yaw difference is not wrapped (OGBench's).
+  for (int i = 0; i < 5; ++i) a[i] = std::clamp((x[i] - current[i]) / scale[i], -1.0, 1.0);
+  return a;
+}
+
 CubePlayOracle::CubePlayOracle(uint64_t seed, const CubePlayOracleOptions& options)
     : options_(options), rng_(Mix64(seed)) {}
 
 void CubePlayOracle::Plan(const CubeEnv& env) {
   const CubeEnvOptions& eo = env.options();
   const auto u = [&](double lo, double hi) { return Uniform(rng_, lo, hi); };
-  std::vector<Keyframe> k;
+  std::vector<PlanKeyframe> k;
   // initial: the measured pinch pose, gripper open.
   const Eigen::Vector3d p0 = env.PinchPosition();
   const Eigen::Quaterniond q0(env.PinchRotation());
@@ -104,32 +138,7 @@ void CubePlayOracle::Plan(const CubeEnv& env) {
   Eigen::Vector3d final_p;
   for (int i = 0; i < 3; ++i) final_p[i] = u(eo.init_low[i], eo.init_high[i]);
   k.push_back({0.4, final_p, Down(u(-M_PI, M_PI)), 0.0});
-  // Increments to times, then an independent jitter per keyframe but the first.
-  for (size_t i = 1; i < k.size(); ++i) k[i].time += k[i - 1].time;
-  for (size_t i = 1; i < k.size(); ++i) k[i].time += u(-options_.time_jitter, options_.time_jitter);
-
-  // Samples every control_dt while t < t_end: positions and grip linear in
-  // time, orientation along the SO(3) geodesic.
-  plan_.clear();
-  size_t seg = 0;
-  for (int s = 0;; ++s) {
-    const double t = s * options_.control_dt;
-    if (!(t < k.back().time)) break;
-    while (seg + 2 < k.size() && t >= k[seg + 1].time) ++seg;
-    const Keyframe &a = k[seg], &b = k[seg + 1];
-    const double alpha = std::clamp((t - a.time) / (b.time - a.time), 0.0, 1.0);
-    CubePlanSample x;
-    x.head<3>() = a.position + alpha * (b.position - a.position);
-    x[3] = Yaw(a.rotation.slerp(alpha, b.rotation));
-    x[4] = a.grip + alpha * (b.grip - a.grip);
-    plan_.push_back(x);
-  }
-  std::vector<CubePlanSample> noise(plan_.size());
-  for (auto& n : noise)
-    for (int i = 0; i < 5; ++i)
-      n[i] = StandardNormal(rng_) * options_.action_scale[i] * options_.noise_scale;
-  const std::vector<CubePlanSample> smooth = SmoothPlanNoise(noise);
-  for (size_t s = 0; s < plan_.size(); ++s) plan_[s] += smooth[s];
+  plan_ = SamplePlan(std::move(k), options_.time_jitter, options_, rng_);
   step_ = 0;
   ++cycles_;
 }
@@ -145,14 +154,8 @@ CubeEnv::Action CubePlayOracle::Act(CubeEnv& env) {
     env.SetGoal(target, Uniform(rng_, 0.0, 2 * M_PI));
     Plan(env);
   }
-  const CubePlanSample& x = plan_[step_++];
-  const Eigen::Vector3d p = env.PinchPosition();
-  const double current[5] = {p.x(), p.y(), p.z(), env.PinchYaw(), env.Opening()};
-  CubeEnv::Action a;
-  // The yaw difference is not wrapped (OGBench's).
-  for (int i = 0; i < 5; ++i)
-    a[i] = std::clamp((x[i] - current[i]) / options_.action_scale[i], -1.0, 1.0);
-  return a;
+  return ActionTowardSample(plan_[step_++], env.PinchPosition(), env.PinchYaw(), env.Opening(),
+                            options_.action_scale);
 }
 
 }  // namespace msspr::sim

@@ -20,6 +20,13 @@ std::string JoinNames(const std::vector<EnvId>& ids) {
 }  // namespace
 
 const std::vector<EnvId>& AllEnvIds() {
+  static const std::vector<EnvId> ids = {EnvId::kPointMaze,     EnvId::kCubeSingle,
+                                         EnvId::kAntMazeMedium, EnvId::kAntMazeLarge,
+                                         EnvId::kPuzzle3x3,     EnvId::kPuzzle4x4};
+  return ids;
+}
+
+const std::vector<EnvId>& EvaluatedEnvIds() {
   static const std::vector<EnvId> ids = {EnvId::kPointMaze, EnvId::kCubeSingle,
                                          EnvId::kAntMazeMedium, EnvId::kAntMazeLarge};
   return ids;
@@ -35,6 +42,10 @@ std::string EnvIdName(EnvId id) {
       return "antmaze-medium";
     case EnvId::kAntMazeLarge:
       return "antmaze-large";
+    case EnvId::kPuzzle3x3:
+      return "puzzle-3x3";
+    case EnvId::kPuzzle4x4:
+      return "puzzle-4x4";
   }
   throw std::invalid_argument("EnvIdName: not an EnvId (" + std::to_string(static_cast<int>(id)) +
                               ")");
@@ -74,6 +85,8 @@ std::string AntMazeName(EnvId id) {
       return "large";
     case EnvId::kPointMaze:
     case EnvId::kCubeSingle:
+    case EnvId::kPuzzle3x3:
+    case EnvId::kPuzzle4x4:
       break;
   }
   throw std::invalid_argument("'" + EnvIdName(id) +
@@ -88,6 +101,15 @@ EnvId AntMazeEnvId(const std::string& maze) {
   msg << "no ant maze '" << maze << "'; ant mazes:";
   for (EnvId id : AntMazeEnvIds()) msg << ' ' << AntMazeName(id);
   throw std::invalid_argument(msg.str());
+}
+
+bool IsPuzzle(EnvId id) { return id == EnvId::kPuzzle3x3 || id == EnvId::kPuzzle4x4; }
+
+int PuzzleSide(EnvId id) {
+  if (id == EnvId::kPuzzle3x3) return 3;
+  if (id == EnvId::kPuzzle4x4) return 4;
+  throw std::invalid_argument("'" + EnvIdName(id) +
+                              "' is no puzzle; puzzles: puzzle-3x3 puzzle-4x4");
 }
 
 std::string EnvLabel(EnvId id, const std::string& maze) {

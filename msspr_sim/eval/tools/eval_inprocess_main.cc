@@ -86,7 +86,7 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
   if (q.policy_path.empty()) throw msspr::cli::CliError("--policy is required");
   std::string maze;  // --env pointmaze-NAME or --maze NAME
   q.env = sim::ParseEnvFlag(args.Get("env", sim::EnvIdName(sim::EnvId::kPointMaze)),
-                            args.Get("maze", ""), sim::AllEnvIds(), &maze);
+                            args.Get("maze", ""), sim::EvaluatedEnvIds(), &maze);
   if (q.is_ant()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot", "urdf"}, sim::EnvIdName(q.env));
     q.ant.maze = sim::AntMazeName(q.env);

@@ -18,18 +18,19 @@ struct CubeCollectOptions {
   CubePlayOracleOptions oracle;
 };
 
-// One episode; every row holds the state before its action.
-struct CubeEpisode {
+// One play episode (cube-single, the puzzles); every row holds the state before its action.
+struct PlayEpisode {
   uint64_t index = 0, seed = 0;
   int length = 0;
-  std::vector<float> observations;  // [length, 28] float32
+  std::vector<float> observations;  // [length, obs dim] float32 (28 for cube-single)
   // [length, 5] float32 in [-1, 1]: the clipped action sent; the last row's
   // action is recorded but not stepped (OGBench's last row is terminal).
   std::vector<float> actions;
-  std::vector<double> qpos;     // [length, nq] (15: arm 6, fingers 2, cube 7)
-  std::vector<double> qvel;     // [length, nv] (14)
+  std::vector<double> qpos;     // [length, nq] (cube-single 15: arm 6, fingers 2, cube 7)
+  std::vector<double> qvel;     // [length, nv] (cube-single 14)
   std::vector<uint8_t> images;  // [length, S, S, 3] uint8 if images, else empty
 };
+using CubeEpisode = PlayEpisode;
 
 // Collects episode `index`: env.ResetForCollection(EpisodeSeed(seed, index)),
 // CubePlayOracle(EpisodeSeed(seed, index) ^ salt); for each row the oracle's

@@ -17,6 +17,9 @@
 
 namespace msspr::sim {
 
+// One plan sample: pinch x, y, z (m), yaw (rad), grip (0 open, 1 closed).
+using CubePlanSample = Eigen::Matrix<double, 5, 1>;
+
 struct CubePlayOracleOptions {
   double control_dt = 0.05;   // s per action
   double time_jitter = 0.08;  // s, U(-j, j) on every keyframe time but the first
@@ -27,6 +30,30 @@ struct CubePlayOracleOptions {
 
 // One plan sample: pinch x, y, z (m), yaw (rad), grip (0 open, 1 closed).
 using CubePlanSample = Eigen::Matrix<double, 5, 1>;
+
+// A keyframe of a plan: the time from the previous keyframe (s; 0 for the first), the pinch
+// pose and the grip (0 open, 1 closed).
+struct PlanKeyframe {
+  double time;
+  Eigen::Vector3d position;
+  Eigen::Quaterniond rotation;
+  double grip;
+};
+
+// OGBench's plan engine (plan_oracle.py): the keyframe times summed, every time but the
+// first moved by its own U(-jitter, jitter), samples every options.control_dt while
+// t < the last time (positions and grip linear in time, orientation along the SO(3)
+// geodesic), plus Gaussian noise (action scale x noise_scale) smoothed along time. Draws
+// from `rng` in that order: the jitters, then the noise.
+std::vector<CubePlanSample> SamplePlan(std::vector<PlanKeyframe> keyframes, double jitter,
+                                       const CubePlayOracleOptions& options, std::mt19937_64& rng);
+
+// The action driving the measured pinch pose and opening toward plan sample `x`:
+// (x - current) / action scale, clipped to [-1, 1]; the yaw difference is not wrapped
+// (OGBench's).
+std::array<double, 5> ActionTowardSample(const CubePlanSample& x, const Eigen::Vector3d& pinch,
+                                         double pinch_yaw, double opening,
+                                         const std::array<double, 5>& action_scale);
 
 // SciPy's gaussian_filter1d with sigma 0.5 (5 taps, reflected edges:
 // x[-1] = x[0], x[-2] = x[1]) along time, per column. [T, 5] -> [T, 5].

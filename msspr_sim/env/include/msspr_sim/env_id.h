@@ -14,11 +14,15 @@
 
 namespace msspr::sim {
 
-enum class EnvId { kPointMaze, kCubeSingle, kAntMazeMedium, kAntMazeLarge };
+enum class EnvId { kPointMaze, kCubeSingle, kAntMazeMedium, kAntMazeLarge, kPuzzle3x3, kPuzzle4x4 };
 
 // Every id, in the order above.
 const std::vector<EnvId>& AllEnvIds();
-// "pointmaze", "cube-single", "antmaze-medium", "antmaze-large".
+// The ids the evaluators (msspr_eval, msspr_eval_inprocess, the trainer's evaluation) and
+// the sim node serve: all but the puzzles, which have datasets and an env but no evaluator
+// of a policy yet.
+const std::vector<EnvId>& EvaluatedEnvIds();
+// "pointmaze", "cube-single", "antmaze-medium", "antmaze-large", "puzzle-3x3", "puzzle-4x4".
 std::string EnvIdName(EnvId id);
 // The inverse of EnvIdName; nullopt for any other name.
 std::optional<EnvId> TryParseEnvId(const std::string& name);
@@ -49,6 +53,11 @@ std::string AntMazeName(EnvId id);
 // "large" -> antmaze-large; throws std::invalid_argument naming `maze` and
 // listing the ant mazes.
 EnvId AntMazeEnvId(const std::string& maze);
+
+// The puzzles: puzzle-3x3 and puzzle-4x4.
+bool IsPuzzle(EnvId id);
+// puzzle-3x3 -> 3, puzzle-4x4 -> 4; throws std::invalid_argument for another id.
+int PuzzleSide(EnvId id);
 
 // The env label of a dataset or an evaluation report: "pointmaze-<maze>"
 // (maze: a MazeMap name), "cube-single", or the ant maze's id (`maze` is
