@@ -156,6 +156,7 @@ TEST(Cli, TheOtherToolsAnswerHelpAndRejectBadFlags) {
       {MSSPR_BENCH_CUBE_EXE, "msspr_bench_cube"},
       {MSSPR_COLLECT_NPZ_EXE, "msspr_collect_npz"},
       {MSSPR_EVAL_ANT_EXPERT_EXE, "msspr_eval_ant_expert"},
+      {MSSPR_EVAL_ORACLE_EXE, "msspr_eval_oracle"},
       {MSSPR_PROBE_LATENTS_EXE, "msspr_probe_latents"},
       {MSSPR_PROFILE_STEP_EXE, "msspr_profile_step"},
       {MSSPR_TRAIN_EXPERT_EXE, "msspr_train_expert"}};
@@ -170,6 +171,9 @@ TEST(Cli, TheOtherToolsAnswerHelpAndRejectBadFlags) {
   ExpectUsageError(MSSPR_COLLECT_NPZ_EXE, "--out /tmp/x.npz --episodes many",
                    "--episodes expects an integer, got 'many'");
   ExpectUsageError(MSSPR_EVAL_ANT_EXPERT_EXE, "--episodes 0", "--episodes 0 is out of range");
+  ExpectUsageError(MSSPR_EVAL_ORACLE_EXE, "", "--env is required");
+  ExpectUsageError(MSSPR_EVAL_ORACLE_EXE, "--env cube-single",
+                   "--env 'cube-single' is not one of: puzzle-3x3, puzzle-4x4");
   ExpectUsageError(MSSPR_PROBE_LATENTS_EXE, "", "--policy and --data are required");
   ExpectUsageError(MSSPR_PROFILE_STEP_EXE, "--steps 0", "--steps 0 is out of range");
   const std::string out = "/tmp/msspr_cli_train_expert_refused";

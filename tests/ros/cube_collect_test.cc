@@ -1,7 +1,7 @@
-// msspr_collect --env cube-single: the bag it writes has the
-// dataset layout, cube-single-play's dimensions and splits, and its stored
-// actions, replayed from each episode's collection reset, reproduce its
-// stored observations bit for bit. Also usage errors. No master needed.
+// msspr_collect --env cube-single (and puzzle-3x3 / puzzle-4x4): the bag it writes has the
+// dataset layout, the play dataset's dimensions and splits, and its stored actions,
+// replayed from each episode's collection reset, reproduce its stored observations bit for
+// bit. Also usage errors. No master needed.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -15,6 +15,7 @@
 #include "msspr_bags/dataset_bag.h"
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/package_files.h"
+#include "msspr_sim/puzzle_env.h"
 
 namespace msspr::ros_bridge {
 namespace {
@@ -113,12 +114,53 @@ TEST(CubeCollect, Images) {
   std::filesystem::remove(bag);
 }
 
+TEST(PuzzleCollect, WritesFiftyFiveAndEightyThreeFloatRowsThatReplay) {
+  for (const int side : {3, 4}) {
+    const std::string env_name = "puzzle-" + std::to_string(side) + "x" + std::to_string(side);
+    const std::string bag = TempPath(env_name + ".bag");
+    std::string out;
+    ASSERT_EQ(RunCollect("--env " + env_name +
+                             " --episodes 1 --val-episodes 1 --length 50 --seed 2 --out " + bag,
+                         &out),
+              0)
+        << out;
+    sim::PuzzleEnvOptions eo;
+    eo.urdf_path = sim::DefaultArmUrdf();
+    eo.side = side;
+    sim::PuzzleEnv env(eo);
+    const int D = side == 3 ? 55 : 83, A = 5;
+    DatasetBagReader reader(bag);
+    std::vector<std::string> splits;
+    reader.ForEachEpisode([&](BagEpisode&& ep) {
+      ASSERT_TRUE(ep.complete()) << ep.problems.front();
+      EXPECT_EQ(ep.meta.env, env_name);
+      ASSERT_EQ(ep.obs_dim, D);
+      EXPECT_EQ(ep.act_dim, A);
+      splits.push_back(ep.meta.split);
+      env.ResetForCollection(ep.meta.seed);
+      for (int t = 0; t < ep.num_steps; ++t) {
+        const sim::PuzzleEnv::Observation o = env.GetObservation();
+        for (int i = 0; i < D; ++i)
+          ASSERT_EQ(o[i], ep.observations[t * D + i])
+              << env_name << " episode " << ep.meta.episode_id << " step " << t;
+        sim::PuzzleEnv::Action a;
+        for (int i = 0; i < A; ++i) a[i] = ep.actions[t * A + i];
+        if (t + 1 < ep.num_steps) env.Step(a);
+      }
+    });
+    EXPECT_EQ(splits, (std::vector<std::string>{"train", "val"})) << env_name;
+    std::filesystem::remove(bag);
+  }
+}
+
 TEST(CubeCollect, UsageErrors) {
   std::string out;
   EXPECT_EQ(RunCollect("--env cube-single --maze large --out /tmp/x.bag", &out), 2);
   EXPECT_NE(out.find("--maze does not apply"), std::string::npos) << out;
   EXPECT_EQ(RunCollect("--env cube-double --out /tmp/x.bag", &out), 2);
   EXPECT_EQ(RunCollect("--urdf a.urdf --out /tmp/x.bag", &out), 2);
+  EXPECT_EQ(RunCollect("--env puzzle-3x3 --kind stitch --out /tmp/x.bag", &out), 2);
+  EXPECT_NE(out.find("--kind does not apply to --env puzzle-3x3"), std::string::npos) << out;
   EXPECT_EQ(
       RunCollect("--env cube-single --urdf /nonexistent.urdf --episodes 1 --quiet --out /tmp/x.bag",
                  &out),

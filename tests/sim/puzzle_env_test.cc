@@ -130,11 +130,11 @@ TEST(PuzzleEnvTest, PlayOraclePressesRandomButtons) {
     env.Step(oracle.Act(env));
     seen[oracle.target()] = 1;
   }
-  // About 33 steps per plan. Most plans press their button: the press keyframe is 2.5 cm
-  // below the top, the press counts at 2 cm, and the arm lags its plan by a few millimetres.
+  // About 33 steps per plan, and every finished plan presses its button once (the press
+  // keyframe is 3.5 cm below the top, the press counts at 2 cm).
   const int plans = oracle.cycles();
   EXPECT_GE(plans, 20);
-  EXPECT_GE(env.presses(), 0.6 * (plans - 1)) << plans << " plans";
+  EXPECT_GE(env.presses(), 0.95 * (plans - 1)) << plans << " plans";
   EXPECT_LE(env.presses(), plans);
   int buttons = 0;
   for (int s : seen) buttons += s;

@@ -19,6 +19,7 @@
 #include "msspr_sim/maze_map.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/point_maze.h"
+#include "msspr_sim/puzzle_dataset.h"
 #ifdef MSSPR_COLLECT_ANT
 #include "msspr_core/sac.h"
 #include "msspr_eval/ant_dataset.h"
@@ -28,10 +29,11 @@
 namespace {
 
 constexpr char kUsage[] = R"(usage: msspr_collect --out FILE.bag [options]
-Writes an expert dataset of an msspr point maze, OGBench's cube-single-play
-dataset of the URDF arm, or an ant maze's dataset, into a rosbag (LZ4).
-  --env ENV              pointmaze | cube-single | antmaze-medium | antmaze-large
-                                                               (default pointmaze)
+Writes an expert dataset of an msspr point maze, OGBench's cube-single-play,
+puzzle-3x3-play or puzzle-4x4-play dataset of the URDF arm, or an ant maze's
+dataset, into a rosbag (LZ4).
+  --env ENV              pointmaze | cube-single | puzzle-3x3 | puzzle-4x4 |
+                         antmaze-medium | antmaze-large        (default pointmaze)
   --maze NAME            arena | medium | large | giant        (default medium;
                          --env pointmaze-NAME says the same)
   --kind KIND            navigate | stitch                     (default navigate)
@@ -45,9 +47,10 @@ dataset of the URDF arm, or an ant maze's dataset, into a rosbag (LZ4).
   --seed S               base seed; episode k uses EpisodeSeed(S, k) (default 0)
   --no-compress          write an uncompressed bag
   --quiet                no progress output
-cube-single (--env cube-single; --maze, --kind and --noise do not apply): the
-play oracle (CubePlayOracle) from collection resets, 1000 + 100 episodes of
-1001 steps by default; --episodes, --val-episodes, --length, --images,
+cube-single, puzzle-3x3, puzzle-4x4 (--maze, --kind and --noise do not apply):
+the play oracle (CubePlayOracle: pick and place; PuzzlePlayOracle: presses of
+random buttons) from collection resets, 1000 + 100 episodes of 1001 steps by
+default; --episodes, --val-episodes, --length, --images,
 --image-episodes, --seed as above, and
   --urdf FILE            the arm's URDF (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
 antmaze-medium, antmaze-large (--maze and images do not apply): OGBench's
@@ -60,6 +63,8 @@ Example (the full pointmaze-medium-navigate dataset, states only):
   rosrun msspr msspr_collect --maze medium --kind navigate --out medium-navigate.bag
 Example (the full cube-single-play dataset, states only):
   rosrun msspr msspr_collect --env cube-single --out cube-single-play.bag
+Example (the full puzzle-3x3-play dataset):
+  rosrun msspr msspr_collect --env puzzle-3x3 --out puzzle-3x3-play.bag
 Example (the full antmaze-medium-navigate dataset):
   rosrun msspr msspr_collect --env antmaze-medium --out antmaze-medium-navigate.bag
 )";
@@ -120,52 +125,79 @@ void WriteAllEpisodes(const msspr::ros_bridge::CliArgs& args,
                transitions / std::max(s, 1e-9));
 }
 
-// cube-single-play: CollectCubeEpisode per episode, state-only or with images.
-int CollectCube(const msspr::ros_bridge::CliArgs& args) {
+// cube-single-play, puzzle-3x3-play, puzzle-4x4-play: the play oracle's episodes
+// (CollectCubeEpisode, CollectPuzzleEpisode), state-only or with images.
+int CollectManipulation(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvId env_id) {
   using namespace msspr;
-  sim::CubeCollectOptions opt;
-  sim::CubeEnvOptions env_opt;
+  const std::string env_name = sim::EnvLabel(env_id);
+  const bool puzzle = sim::IsPuzzle(env_id);
+  int episode_length = 1001;
+  uint64_t seed = 0;
+  std::string urdf;
   long episodes = 0, val = 0, image_episodes = 0;
   try {
     if (!args.positional().empty())
       throw cli::CliError("unexpected argument '" + args.positional()[0] + "'");
     for (const char* f : {"maze", "kind", "noise"})
       if (args.Has(f))
-        throw cli::CliError(std::string("--") + f + " does not apply to --env cube-single");
+        throw cli::CliError(std::string("--") + f + " does not apply to --env " + env_name);
     episodes = args.GetInt("episodes", 1000, 1, 100000000);
     val = args.GetInt("val-episodes", episodes / 10, 0, 100000000);
-    opt.episode_length = static_cast<int>(args.GetInt("length", 1001, 2, 1000000));
-    opt.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+    episode_length = static_cast<int>(args.GetInt("length", 1001, 2, 1000000));
+    seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     image_episodes =
         args.Has("images") ? episodes + val : args.GetInt("image-episodes", 0, 0, 100000000);
-    env_opt.urdf_path = args.Get("urdf", sim::DefaultArmUrdf());
+    urdf = args.Get("urdf", sim::DefaultArmUrdf());
   } catch (const std::exception& e) {
     std::cerr << "msspr_collect: " << e.what() << "\n" << kUsage;
     return 2;
   }
   ros::Time::init();
-  env_opt.enable_rendering = image_episodes > 0;
-  env_opt.scene.pixel_style = env_opt.enable_rendering;  // OGBench's visual look, goal hidden
-  sim::CubeEnv env(env_opt);
-  const std::string env_name = sim::EnvLabel(sim::EnvId::kCubeSingle);
-  const double control_dt = env_opt.scene.timestep * env_opt.substeps;
+  sim::CubeEnvOptions cube_opt;
+  sim::PuzzleEnvOptions puzzle_opt;
+  cube_opt.urdf_path = puzzle_opt.urdf_path = urdf;
+  cube_opt.enable_rendering = puzzle_opt.enable_rendering = image_episodes > 0;
+  // OGBench's visual look for the cube (the goal marker hidden)
+  cube_opt.scene.pixel_style = cube_opt.enable_rendering;
+  std::unique_ptr<sim::CubeEnv> cube;
+  std::unique_ptr<sim::PuzzleEnv> board;
+  int obs_dim = sim::CubeEnv::kObservationSize, image_size = cube_opt.image_size;
+  if (puzzle) {
+    puzzle_opt.side = sim::PuzzleSide(env_id);
+    board = std::make_unique<sim::PuzzleEnv>(puzzle_opt);
+    obs_dim = board->observation_size();
+    image_size = puzzle_opt.image_size;
+  } else {
+    cube = std::make_unique<sim::CubeEnv>(cube_opt);
+  }
+  const double control_dt = cube_opt.scene.timestep * cube_opt.substeps;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
-  WriteAllEpisodes(args, writer, episodes, val, image_episodes, opt.episode_length, env_name,
-                   env_name + "-play", [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
-                     sim::CubeCollectOptions o = opt;
-                     o.images = images;
-                     const sim::CubeEpisode ep =
-                         sim::CollectCubeEpisode(env, o, static_cast<uint64_t>(k));
-                     meta.seed = ep.seed;
-                     meta.start.assign(ep.observations.begin(),
-                                       ep.observations.begin() + sim::CubeEnv::kObservationSize);
-                     // play data has no goal: meta.goal stays empty, so no step is marked success
-                     writer.WriteEpisode(meta, ep.length, sim::CubeEnv::kObservationSize,
-                                         sim::CubeEnv::kActionSize, ep.observations.data(),
-                                         ep.actions.data(), images ? ep.images.data() : nullptr,
-                                         env_opt.image_size, env_opt.success_distance);
-                     return ep.length;
-                   });
+  WriteAllEpisodes(
+      args, writer, episodes, val, image_episodes, episode_length, env_name, env_name + "-play",
+      [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
+        sim::PlayEpisode ep;
+        if (puzzle) {
+          sim::PuzzleCollectOptions o;
+          o.episode_length = episode_length;
+          o.seed = seed;
+          o.images = images;
+          ep = sim::CollectPuzzleEpisode(*board, o, static_cast<uint64_t>(k));
+        } else {
+          sim::CubeCollectOptions o;
+          o.episode_length = episode_length;
+          o.seed = seed;
+          o.images = images;
+          ep = sim::CollectCubeEpisode(*cube, o, static_cast<uint64_t>(k));
+        }
+        meta.seed = ep.seed;
+        meta.start.assign(ep.observations.begin(), ep.observations.begin() + obs_dim);
+        // play data has no goal: meta.goal stays empty, so no step is marked success
+        writer.WriteEpisode(meta, ep.length, obs_dim, sim::CubeEnv::kActionSize,
+                            ep.observations.data(), ep.actions.data(),
+                            images ? ep.images.data() : nullptr, image_size,
+                            cube_opt.success_distance);
+        return ep.length;
+      });
   return 0;
 }
 
@@ -257,8 +289,8 @@ int main(int argc, char** argv) {
     try {
       env_id = sim::ParseEnvFlag(args.Get("env", "pointmaze"), args.Get("maze", ""),
                                  sim::AllEnvIds(), &maze);
-      if (env_id != sim::EnvId::kCubeSingle && args.Has("urdf"))
-        throw cli::CliError("--urdf needs --env " + sim::EnvIdName(sim::EnvId::kCubeSingle));
+      if (env_id != sim::EnvId::kCubeSingle && !sim::IsPuzzle(env_id) && args.Has("urdf"))
+        throw cli::CliError("--urdf needs --env cube-single, puzzle-3x3 or puzzle-4x4");
       if (!sim::IsAntMaze(env_id) && args.Has("expert"))
         throw cli::CliError("--expert needs --env antmaze-medium or antmaze-large");
     } catch (const std::exception& e) {
@@ -267,7 +299,9 @@ int main(int argc, char** argv) {
     }
     switch (env_id) {
       case sim::EnvId::kCubeSingle:
-        return CollectCube(args);
+      case sim::EnvId::kPuzzle3x3:
+      case sim::EnvId::kPuzzle4x4:
+        return CollectManipulation(args, env_id);
       case sim::EnvId::kAntMazeMedium:
       case sim::EnvId::kAntMazeLarge:
         return CollectAnt(args, env_id);
