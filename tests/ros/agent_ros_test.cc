@@ -38,6 +38,7 @@
 #include "msspr_eval/ant_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
+#include "msspr_eval/puzzle_evaluator.h"
 #include "test_util.h"
 #include "torch_test_util.h"
 
@@ -219,6 +220,45 @@ TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
   auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D: not a cube policy
   opt.tasks = {1};
   EXPECT_THROW(EvaluateOnCube(maze_policy, opt), std::invalid_argument);
+}
+
+// An untrained puzzle-3x3 policy (55-D states, 5-D actions): the evaluator's bookkeeping,
+// determinism, report and errors.
+TEST(PuzzleEvaluator, DeterministicAndChecksThePolicy) {
+  torch::manual_seed(0);
+  core::DatasetBuilder b(55, 5);
+  std::vector<float> obs(10 * 55, 0.1f), act(10 * 5, 0.2f);
+  b.AddEpisode(obs, act);
+  b.AddEpisode(obs, act);
+  core::Trainer trainer(core::testing_util::TinyOptions(),
+                        std::make_shared<const core::Dataset>(b.Build()));
+  trainer.Step();
+  core::Policy policy = trainer.MakePolicy();
+  PuzzleEvalOptions opt;
+  opt.tasks = {1, 4};
+  opt.episodes = 2;
+  opt.max_steps = 12;
+  const auto a = EvaluateOnPuzzle(policy, opt);
+  const auto c = EvaluateOnPuzzle(policy, opt);
+  ASSERT_EQ(a.tasks, opt.tasks);
+  ASSERT_EQ(a.success.size(), 2u);
+  EXPECT_EQ(a.success, c.success);
+  EXPECT_EQ(a.mean_steps_success, c.mean_steps_success);
+  // 12 steps cannot solve tasks of 2 and 9 presses.
+  EXPECT_EQ(a.success, (std::vector<double>{0.0, 0.0}));
+  const auto report = MakePuzzleEvalReport(a, opt, "untrained");
+  EXPECT_EQ(report.env, "puzzle-3x3");
+  ASSERT_EQ(report.tasks.size(), 2u);
+  EXPECT_EQ(report.tasks[0].goal, (std::vector<double>{1, 1, 0, 1, 0, 1, 0, 1, 1}));
+  EXPECT_NE(sim::EvalReportTable(report).find("000/000/000->110/101/011"), std::string::npos)
+      << sim::EvalReportTable(report);
+  opt.tasks = {6};
+  EXPECT_THROW(EvaluateOnPuzzle(policy, opt), std::invalid_argument);
+  opt.tasks = {1};
+  opt.side = 4;  // 83-D observations: not this policy's
+  EXPECT_THROW(EvaluateOnPuzzle(policy, opt), std::invalid_argument);
+  opt.side = 5;
+  EXPECT_THROW(EvaluateOnPuzzle(policy, opt), std::invalid_argument);
 }
 
 // An untrained pixels policy of cube-single (16x16 camera images, two frames

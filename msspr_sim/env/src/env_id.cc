@@ -26,7 +26,7 @@ const std::vector<EnvId>& AllEnvIds() {
   return ids;
 }
 
-const std::vector<EnvId>& EvaluatedEnvIds() {
+const std::vector<EnvId>& SimNodeEnvIds() {
   static const std::vector<EnvId> ids = {EnvId::kPointMaze, EnvId::kCubeSingle,
                                          EnvId::kAntMazeMedium, EnvId::kAntMazeLarge};
   return ids;

@@ -1,5 +1,6 @@
 #include "msspr_sim/eval_protocol.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -74,6 +75,17 @@ std::string ReportJson(const MazeMap* map, const EvalReport& r) {
   return j.str();
 }
 
+// A puzzle board's states (0 / 1, row by row) as "110/101/011".
+std::string BoardText(const std::vector<double>& states) {
+  const size_t side = static_cast<size_t>(std::lround(std::sqrt(states.size())));
+  std::string text;
+  for (size_t k = 0; k < states.size(); ++k) {
+    if (k > 0 && side > 0 && k % side == 0) text += '/';
+    text += states[k] > 0.5 ? '1' : '0';
+  }
+  return text;
+}
+
 std::string ReportTable(const MazeMap* map, const EvalReport& r) {
   std::ostringstream t;
   t << "\n  " << r.env << " / " << r.agent << ": " << r.episodes_per_task << " episodes per task, "
@@ -85,6 +97,8 @@ std::string ReportTable(const MazeMap* map, const EvalReport& r) {
       std::snprintf(line, sizeof line, "(%.2f,%.2f)->(%.2f,%.2f)", x.start[0], x.start[1],
                     x.goal[0], x.goal[1]);
       cells = line;
+    } else if (x.start.size() == x.goal.size() && x.start.size() > 2) {
+      cells = BoardText(x.start) + "->" + BoardText(x.goal);  // the puzzles' boards
     } else if (map != nullptr && x.task_id >= 1 &&
                x.task_id <= static_cast<int>(map->Tasks().size())) {
       const auto& task = map->Tasks()[static_cast<size_t>(x.task_id - 1)];

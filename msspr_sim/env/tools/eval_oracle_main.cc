@@ -41,14 +41,14 @@ int main(int argc, char** argv) {
   sim::EpisodeFlags flags;
   std::string urdf, out;
   try {
-    const msspr::cli::CliArgs args(argc, argv, {"help"},
-                                   {"env", "episodes", "tasks", "max-steps", "seed", "urdf", "out"});
+    const msspr::cli::CliArgs args(
+        argc, argv, {"help"}, {"env", "episodes", "tasks", "max-steps", "seed", "urdf", "out"});
     if (args.Has("help") || !args.positional().empty())
       throw msspr::cli::CliError(
           args.Has("help") ? "" : "unexpected argument '" + args.positional()[0] + "'");
     if (!args.Has("env")) throw msspr::cli::CliError("--env is required");
-    env_id = sim::ParseEnvId(
-        args.GetChoice("env", "", sim::EnvIdNames({sim::EnvId::kPuzzle3x3, sim::EnvId::kPuzzle4x4})));
+    env_id = sim::ParseEnvId(args.GetChoice(
+        "env", "", sim::EnvIdNames({sim::EnvId::kPuzzle3x3, sim::EnvId::kPuzzle4x4})));
     flags = sim::ReadEpisodeFlags(args, 500, 5);
     urdf = args.Get("urdf", sim::DefaultArmUrdf());
     out = args.Get("out", "");

@@ -16,6 +16,7 @@
 #include "msspr_eval/ant_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
+#include "msspr_eval/puzzle_evaluator.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
@@ -27,23 +28,25 @@ namespace {
 constexpr const char* kUsage = R"(usage: msspr_eval_inprocess --policy POLICY.pt [options]
 Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_eval --seed S).
   --policy FILE       a policy export (policy.pt) or a training checkpoint (required)
-  --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large (default pointmaze)
+  --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large | puzzle-3x3 |
+                      puzzle-4x4 (default pointmaze)
   --maze NAME         arena, medium, large or giant (default medium; pointmaze only;
                       --env pointmaze-NAME says the same)
   --tasks LIST        task ids (default 1,2,3,4,5)
   --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format; pointmaze only)
   --episodes N        episodes per task (default 50)
-  --max-steps N       step limit (default 1000; cube-single 200)
+  --max-steps N       step limit (default 1000; cube-single 200, puzzles 500)
   --seed S            evaluation seed (default 0)
   --threads N         torch threads (default: torch's choice; the results do not depend on it)
   --device DEV        where the policy runs: cpu, cuda, cuda:1 (default cpu)
   --agent NAME        label in the results (default: the policy's file name)
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories on the maze (default: none; pointmaze only)
-  --urdf FILE         cube-single: the arm (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
+  --urdf FILE         cube-single, puzzles: the arm (default: the package's
+                      msspr_sim/urdf/ur5e_2f85.urdf)
 Prints the per-task table. The point mazes and cube-single take state or pixels
 policies (pixels: the sim's 64x64 camera images and the goal's image); the ant
-mazes, state policies.
+mazes and the puzzles, state policies.
 )";
 
 // The shared episode flags (sim::ReadEpisodeFlags) into an env's options; the tasks too
@@ -72,9 +75,11 @@ struct Request {
   msspr::agent::MazeEvalOptions maze;
   msspr::agent::CubeEvalOptions cube;
   msspr::agent::AntEvalOptions ant;
+  msspr::agent::PuzzleEvalOptions puzzle;
   std::string policy_path, out, plot, agent, device;
   bool is_cube() const { return env == msspr::sim::EnvId::kCubeSingle; }
   bool is_ant() const { return msspr::sim::IsAntMaze(env); }
+  bool is_puzzle() const { return msspr::sim::IsPuzzle(env); }
 };
 
 Request ParseRequest(const msspr::cli::CliArgs& args) {
@@ -86,17 +91,24 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
   if (q.policy_path.empty()) throw msspr::cli::CliError("--policy is required");
   std::string maze;  // --env pointmaze-NAME or --maze NAME
   q.env = sim::ParseEnvFlag(args.Get("env", sim::EnvIdName(sim::EnvId::kPointMaze)),
-                            args.Get("maze", ""), sim::EvaluatedEnvIds(), &maze);
+                            args.Get("maze", ""), sim::AllEnvIds(), &maze);
   if (q.is_ant()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot", "urdf"}, sim::EnvIdName(q.env));
     q.ant.maze = sim::AntMazeName(q.env);
     ReadEpisodeFlags(args, 1000, 5, &q.ant);
+  } else if (q.is_puzzle()) {
+    RefuseFlags(args, {"maze", "tasks-file", "plot"}, sim::EnvIdName(q.env));
+    q.puzzle.side = sim::PuzzleSide(q.env);
+    q.puzzle.urdf_path = args.Get("urdf", "");
+    ReadEpisodeFlags(args, 500, 5, &q.puzzle);
   } else if (q.is_cube()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot"}, "cube-single");
     q.cube.urdf_path = args.Get("urdf", "");
     ReadEpisodeFlags(args, 200, 5, &q.cube);
   } else {
-    if (args.Has("urdf")) throw msspr::cli::CliError("--urdf applies to --env cube-single only");
+    if (args.Has("urdf"))
+      throw msspr::cli::CliError(
+          "--urdf applies to --env cube-single, puzzle-3x3, puzzle-4x4 only");
     q.maze.maze = sim::PointMazeOrDefault(maze);
     const auto map = sim::MazeMap::FromName(q.maze.maze);
     if (args.Has("tasks-file") && args.Has("tasks"))
@@ -155,6 +167,19 @@ void RunCube(msspr::core::Policy& policy, Request q) {
   PrintMean(report.mean_success, result.seconds);
 }
 
+void RunPuzzle(msspr::core::Policy& policy, Request q) {
+  namespace sim = msspr::sim;
+  if (q.puzzle.urdf_path.empty()) q.puzzle.urdf_path = sim::DefaultArmUrdf();
+  std::cerr << "msspr_eval_inprocess: " << q.policy_path << ", " << q.puzzle.tasks.size()
+            << " tasks x " << q.puzzle.episodes << " episodes on " << sim::EnvIdName(q.env)
+            << " (states; arm " << q.puzzle.urdf_path << ") ...\n";
+  const auto result = msspr::agent::EvaluateOnPuzzle(policy, q.puzzle);
+  const sim::EvalReport report = msspr::agent::MakePuzzleEvalReport(result, q.puzzle, q.agent);
+  std::cout << sim::EvalReportTable(report);
+  if (!q.out.empty()) msspr::agent::WritePuzzleResultsJson(result, q.puzzle, q.agent, q.out);
+  PrintMean(report.mean_success, result.seconds);
+}
+
 void RunMaze(msspr::core::Policy& policy, const Request& q) {
   namespace sim = msspr::sim;
   const auto& eo = q.maze;
@@ -207,6 +232,8 @@ int main(int argc, char** argv) {
       RunAnt(policy, q);
     else if (q.is_cube())
       RunCube(policy, q);
+    else if (q.is_puzzle())
+      RunPuzzle(policy, q);
     else
       RunMaze(policy, q);
   } catch (const std::exception& e) {

@@ -172,32 +172,31 @@ int CollectManipulation(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvI
   }
   const double control_dt = cube_opt.scene.timestep * cube_opt.substeps;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
-  WriteAllEpisodes(
-      args, writer, episodes, val, image_episodes, episode_length, env_name, env_name + "-play",
-      [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
-        sim::PlayEpisode ep;
-        if (puzzle) {
-          sim::PuzzleCollectOptions o;
-          o.episode_length = episode_length;
-          o.seed = seed;
-          o.images = images;
-          ep = sim::CollectPuzzleEpisode(*board, o, static_cast<uint64_t>(k));
-        } else {
-          sim::CubeCollectOptions o;
-          o.episode_length = episode_length;
-          o.seed = seed;
-          o.images = images;
-          ep = sim::CollectCubeEpisode(*cube, o, static_cast<uint64_t>(k));
-        }
-        meta.seed = ep.seed;
-        meta.start.assign(ep.observations.begin(), ep.observations.begin() + obs_dim);
-        // play data has no goal: meta.goal stays empty, so no step is marked success
-        writer.WriteEpisode(meta, ep.length, obs_dim, sim::CubeEnv::kActionSize,
-                            ep.observations.data(), ep.actions.data(),
-                            images ? ep.images.data() : nullptr, image_size,
-                            cube_opt.success_distance);
-        return ep.length;
-      });
+  WriteAllEpisodes(args, writer, episodes, val, image_episodes, episode_length, env_name,
+                   env_name + "-play", [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
+                     sim::PlayEpisode ep;
+                     if (puzzle) {
+                       sim::PuzzleCollectOptions o;
+                       o.episode_length = episode_length;
+                       o.seed = seed;
+                       o.images = images;
+                       ep = sim::CollectPuzzleEpisode(*board, o, static_cast<uint64_t>(k));
+                     } else {
+                       sim::CubeCollectOptions o;
+                       o.episode_length = episode_length;
+                       o.seed = seed;
+                       o.images = images;
+                       ep = sim::CollectCubeEpisode(*cube, o, static_cast<uint64_t>(k));
+                     }
+                     meta.seed = ep.seed;
+                     meta.start.assign(ep.observations.begin(), ep.observations.begin() + obs_dim);
+                     // play data has no goal: meta.goal stays empty, so no step is marked success
+                     writer.WriteEpisode(meta, ep.length, obs_dim, sim::CubeEnv::kActionSize,
+                                         ep.observations.data(), ep.actions.data(),
+                                         images ? ep.images.data() : nullptr, image_size,
+                                         cube_opt.success_distance);
+                     return ep.length;
+                   });
   return 0;
 }
 
