@@ -27,8 +27,6 @@ TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
   }
   EXPECT_EQ(EnvIdNames(), (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium",
                                                  "antmaze-large", "puzzle-3x3", "puzzle-4x4"}));
-  EXPECT_EQ(EnvIdNames(SimNodeEnvIds()),
-            (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium", "antmaze-large"}));
   EXPECT_EQ(EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle}),
             (std::set<std::string>{"pointmaze", "cube-single"}));
 }

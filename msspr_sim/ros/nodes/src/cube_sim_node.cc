@@ -15,7 +15,7 @@
 #include "msspr_bridge/msg_conversion.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/package_files.h"
-#include "msspr_sim_nodes/robot_model.h"
+#include "msspr_sim_nodes/arm_messages.h"
 
 namespace msspr::ros_bridge {
 
@@ -24,50 +24,20 @@ namespace {
 constexpr int kObs = sim::CubeEnv::kObservationSize;
 constexpr int kAct = sim::CubeEnv::kActionSize;
 
-// Joint values q [num_dofs] of the ArmModel from MuJoCo's qpos (arm 0-5, left finger 6).
-Eigen::VectorXd ArmQ(const sim::CubeEnv& env) {
-  const std::vector<double> qpos = env.Qpos();
-  const int n = env.arm().num_dofs();
-  Eigen::VectorXd q(n);
-  for (int i = 0; i < n; ++i) q[i] = qpos[static_cast<size_t>(i)];
-  return q;
-}
 }  // namespace
 
 CubeStandardMessages MakeCubeStandardMessages(const sim::CubeEnv& env, const ros::Time& stamp,
                                               const std::string& world_frame,
                                               const std::string& cube_frame,
                                               const std::string& goal_frame) {
-  CubeStandardMessages out;
-  const auto& arm = env.arm();
-  const auto& links = arm.links();
-  const Eigen::VectorXd q = ArmQ(env);
-  const std::vector<Eigen::Isometry3d> poses = arm.LinkPoses(q);
-  const std::vector<double> qvel = env.Qvel();
-  sensor_msgs::JointState& js = out.joint_states;
-  js.header.stamp = stamp;
-  for (size_t i = 1; i < links.size(); ++i) {
-    const auto& l = links[i];
-    if (l.type == sim::ArmModel::JointType::kFixed) continue;
-    js.name.push_back(l.joint);
-    js.position.push_back(l.multiplier * q[l.dof] + l.offset);
-    // qvel: arm 0-5, then the fingers (the mimic one follows the left's dof)
-    js.velocity.push_back(l.multiplier * qvel[static_cast<size_t>(l.dof)]);
-    out.transforms.push_back(ToTf(poses[static_cast<size_t>(l.parent)].inverse() * poses[i], stamp,
-                                  links[static_cast<size_t>(l.parent)].name, l.name));
-  }
-  // The gripper: the first finger joint that is not a mimic (its dof drives the opening).
-  out.gripper_state.header.stamp = stamp;
-  const sim::CubeEnv::Observation obs = env.GetObservation();
-  for (size_t i = 0; i < js.name.size(); ++i) {
-    if (i < 6) continue;  // the arm's six joints come first
-    out.gripper_state.name = {js.name[i]};
-    out.gripper_state.position = {js.position[i]};
-    out.gripper_state.velocity = {js.velocity[i]};
-    out.gripper_state.effort = {50.0 * static_cast<double>(obs[18])};
-    break;
-  }
   const std::vector<double> qpos = env.Qpos();
+  ArmStandardMessages arm = MakeArmStandardMessages(
+      env.arm(), qpos, env.Qvel(), static_cast<double>(env.GetObservation()[18]),
+      env.PinchPosition(), env.PinchRotation(), stamp, world_frame);
+  CubeStandardMessages out;
+  out.joint_states = std::move(arm.joint_states);
+  out.gripper_state = std::move(arm.gripper_state);
+  out.transforms = std::move(arm.transforms);
   out.cube_pose.header.stamp = stamp;
   out.cube_pose.header.frame_id = world_frame;
   out.cube_pose.pose.position.x = qpos[8];
@@ -86,29 +56,11 @@ CubeStandardMessages MakeCubeStandardMessages(const sim::CubeEnv& env, const ros
   goal.translation() = env.GoalPosition();
   goal.linear() = Eigen::AngleAxisd(env.GoalYaw(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   out.transforms.push_back(ToTf(goal, stamp, world_frame, goal_frame));
-  // The pinch pose as the arm's controller measures it (as ur_robot_driver's
-  // tool0_controller frame): the simulator's own pinch site, which the
-  // observation reads. It comes from the physics' last kinematics pass, one
-  // 2 ms substep before the joint positions, so it differs from the URDF's
-  // pinch link (forward kinematics of joint_states) by up to about a millimetre.
-  Eigen::Isometry3d pinch = Eigen::Isometry3d::Identity();
-  pinch.translation() = env.PinchPosition();
-  pinch.linear() = env.PinchRotation();
-  out.transforms.push_back(ToTf(pinch, stamp, world_frame, kCubePinchControllerFrame));
   return out;
 }
 
 std::vector<geometry_msgs::TransformStamped> MakeCubeStaticTransforms(const sim::CubeEnv& env) {
-  const auto& links = env.arm().links();
-  const std::vector<Eigen::Isometry3d> poses = env.arm().LinkPoses(ArmQ(env));
-  std::vector<geometry_msgs::TransformStamped> tfs;
-  for (size_t i = 1; i < links.size(); ++i) {
-    if (links[i].type != sim::ArmModel::JointType::kFixed) continue;
-    const auto& parent = links[static_cast<size_t>(links[i].parent)];
-    tfs.push_back(ToTf(poses[static_cast<size_t>(links[i].parent)].inverse() * poses[i],
-                       ros::Time(0), parent.name, links[i].name));
-  }
-  return tfs;
+  return MakeArmStaticTransforms(env.arm());
 }
 
 CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh) {
@@ -141,38 +93,13 @@ CubeSimNode::CubeSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const CubeSimN
                   sim::CubeSceneOptions().timestep * sim::CubeEnvOptions().substeps,
                   sim::EnvLabel(sim::EnvId::kCubeSingle)),
       options_(options) {
-  // The URDF: robot_description when set (written to a temporary file for
-  // CubeEnv, which parses a path), else ~urdf, then served as robot_description.
-  const RobotDescription desc =
-      LoadRobotDescription(nh_, options_.robot_description, options_.urdf);
-  const std::string &key = desc.key, &xml = desc.xml, &source = desc.source;
   sim::CubeEnvOptions env_opt;
   env_opt.enable_rendering = pixels();
   env_opt.image_size = options_.image_size;
   env_opt.max_episode_steps = options_.max_episode_steps;
   env_opt.scene.pixel_style = pixels();
-  const std::string tmp = "/tmp/msspr_cube_sim_" + std::to_string(getpid()) + ".urdf";
-  {
-    std::ofstream f(tmp);
-    f << xml;
-    if (!f) throw std::runtime_error("cannot write " + tmp);
-  }
-  env_opt.urdf_path = tmp;
-  try {
-    env_ = std::make_unique<sim::CubeEnv>(env_opt);
-  } catch (const std::exception& e) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(source + ": " + e.what());
-  }
-  std::remove(tmp.c_str());
-  const auto& root = env_->arm().links().front().name;
-  if (root != options_.world_frame)
-    throw std::invalid_argument(source + ": the URDF's root link is '" + root +
-                                "', ~world_frame is '" + options_.world_frame + "'");
-  ROS_INFO_STREAM_NAMED(
-      "msspr_sim", "robot_description " << key << " (from " << source << "): robot '"
-                                        << env_->arm().name() << "', " << env_->arm().links().size()
-                                        << " links; simulated from the same text");
+  env_ = MakeArmEnv<sim::CubeEnv>(nh_, options_.robot_description, options_.urdf,
+                                  options_.world_frame, env_opt);
 
   joint_state_pub_ = nh_.advertise<sensor_msgs::JointState>("joint_states", kStepTopicQueue);
   marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
@@ -239,45 +166,25 @@ void CubeSimNode::PublishGoalObservation() {
 }
 
 void CubeSimNode::OnEeTwist(const geometry_msgs::TwistStamped::ConstPtr& msg) {
-  pending_twists_.push_back(*msg);
+  standard_commands_.AddTwist(*msg);
   MaybeStepStandard();
 }
 
 void CubeSimNode::OnGripperCommand(const std_msgs::Float64MultiArray::ConstPtr& msg) {
-  pending_grips_.push_back(msg->data.empty() ? std::nan("") : msg->data[0]);
+  standard_commands_.AddGrip(msg->data.empty() ? std::nan("") : msg->data[0]);
   MaybeStepStandard();
 }
 
 void CubeSimNode::MaybeStepStandard() {
-  constexpr size_t kMaxPending = 10;
-  while (pending_twists_.size() > kMaxPending) pending_twists_.pop_front();
-  while (pending_grips_.size() > kMaxPending) pending_grips_.pop_front();
-  while (!pending_twists_.empty() && !pending_grips_.empty()) {
-    const geometry_msgs::TwistStamped twist = pending_twists_.front();
-    const double grip = pending_grips_.front();
-    pending_twists_.pop_front();
-    pending_grips_.pop_front();
-    // Stamped for an earlier observation (a zero stamp counts as now).
-    if (!twist.header.stamp.isZero() && twist.header.stamp + ros::Duration(1e-6) < Now()) {
-      if (stale_standard_commands_++ == 0 || stale_standard_commands_ % 100 == 0)
-        ROS_WARN_STREAM_NAMED(
-            "msspr_sim", "ee_twist stamped " << twist.header.stamp << " for an observation before "
-                                             << Now() << ": dropped with its gripper command ("
-                                             << stale_standard_commands_ << " so far)");
-      continue;
-    }
+  standard_commands_.Drain(Now(), [this](const std::vector<float>& action) {
     // The same checks, counters and stepping as an msspr/Action for the current step.
     auto a = boost::make_shared<msspr::Action>();
     a->header.stamp = Now();
     a->episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
     a->step = EpisodeStep();
-    const auto& t = twist.twist;
-    a->action = {static_cast<float>(t.linear.x / kCubeEeSpeed),
-                 static_cast<float>(t.linear.y / kCubeEeSpeed),
-                 static_cast<float>(t.linear.z / kCubeEeSpeed),
-                 static_cast<float>(t.angular.z / kCubeEeYawRate), static_cast<float>(grip)};
+    a->action = action;
     OnAction(a);
-  }
+  });
 }
 
 void CubeSimNode::StartEpisode(int task_id, uint64_t seed) {

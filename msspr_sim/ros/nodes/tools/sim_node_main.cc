@@ -6,9 +6,11 @@
 #include "msspr_sim_nodes/ant_sim_node.h"
 #include "msspr_sim_nodes/cube_sim_node.h"
 #include "msspr_sim_nodes/point_maze_sim_node.h"
+#include "msspr_sim_nodes/puzzle_sim_node.h"
 
 // ~env picks the environment: pointmaze (default; ~maze picks the maze),
-// cube-single (the URDF arm, cube_sim_node.h) or antmaze-medium / antmaze-large
+// cube-single (the URDF arm, cube_sim_node.h), puzzle-3x3 / puzzle-4x4 (the arm and a button
+// grid, puzzle_sim_node.h) or antmaze-medium / antmaze-large
 // (the ant, ant_sim_node.h). All serve the same topics, messages and services.
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_sim_node");
@@ -26,14 +28,19 @@ int main(int argc, char** argv) {
       const auto options = msspr::ros_bridge::LoadPointMazeSimNodeOptions(pnh);
       msspr::ros_bridge::PointMazeSimNode node(nh, pnh, options);
       ros::spin();
+    } else if (id && msspr::sim::IsPuzzle(*id)) {
+      const auto options = msspr::ros_bridge::LoadPuzzleSimNodeOptions(pnh, *id);
+      msspr::ros_bridge::PuzzleSimNode node(nh, pnh, options);
+      ros::spin();
     } else if (id && msspr::sim::IsAntMaze(*id)) {
       const auto options = msspr::ros_bridge::LoadAntSimNodeOptions(pnh, *id);
       msspr::ros_bridge::AntSimNode node(nh, pnh, options);
       ros::spin();
     } else {
       throw std::invalid_argument(
-          "~env must be pointmaze, cube-single, antmaze-medium or antmaze-large, got '" + env +
-          "'");
+          "~env must be pointmaze, cube-single, puzzle-3x3, puzzle-4x4, antmaze-medium or "
+          "antmaze-large, got '" +
+          env + "'");
     }
   } catch (const std::exception& e) {
     ROS_FATAL_STREAM("msspr_sim_node: " << e.what());

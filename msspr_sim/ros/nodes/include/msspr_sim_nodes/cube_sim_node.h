@@ -36,6 +36,7 @@
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
 #include "msspr_sim/cube_env.h"
+#include "msspr_sim_nodes/arm_messages.h"
 #include "msspr_sim_nodes/sim_node_base.h"
 
 namespace msspr::ros_bridge {
@@ -73,7 +74,7 @@ struct CubeStandardMessages {
   // pinch pose (kCubePinchControllerFrame, a child of the world frame).
   std::vector<geometry_msgs::TransformStamped> transforms;
 };
-inline constexpr char kCubePinchControllerFrame[] = "pinch_controller";
+inline constexpr const char* kCubePinchControllerFrame = kPinchControllerFrame;
 CubeStandardMessages MakeCubeStandardMessages(const sim::CubeEnv& env, const ros::Time& stamp,
                                               const std::string& world_frame,
                                               const std::string& cube_frame,
@@ -83,8 +84,8 @@ std::vector<geometry_msgs::TransformStamped> MakeCubeStaticTransforms(const sim:
 // The end-effector command of a cube action: ee_twist's linear (m/s) = action[0:3] * kCubeEeSpeed,
 // angular.z (rad/s) = action[3] * kCubeEeYawRate (OGBench's 0.05 m and 0.3 rad per 0.05 s step);
 // gripper_command data[0] = action[4] (the change of the opening, 0 open .. 1 closed, over a step).
-inline constexpr double kCubeEeSpeed = 1.0;
-inline constexpr double kCubeEeYawRate = 6.0;
+inline constexpr double kCubeEeSpeed = kEeSpeed;
+inline constexpr double kCubeEeYawRate = kEeYawRate;
 
 // Reads ~params into CubeSimNodeOptions, logs every value; throws std::invalid_argument.
 CubeSimNodeOptions LoadCubeSimNodeOptions(const ros::NodeHandle& pnh);
@@ -114,10 +115,7 @@ class CubeSimNode : public SimNodeBase {
   }
   void OnEeTwist(const geometry_msgs::TwistStamped::ConstPtr& msg);
   void OnGripperCommand(const std_msgs::Float64MultiArray::ConstPtr& msg);
-  // Pairs the k-th twist with the k-th gripper command (each topic arrives in
-  // order); a pair whose twist is stamped before the current observation (made
-  // for an earlier step or episode, e.g. answering an episode's last
-  // observation after a reset) is dropped; otherwise it steps the sim.
+  // Steps the sim with each complete (twist, gripper command) pair (EeCommandPairs).
   void MaybeStepStandard();
   void PublishGoalObservation();
 
@@ -136,9 +134,7 @@ class CubeSimNode : public SimNodeBase {
   tf2_ros::StaticTransformBroadcaster static_tf_;
   ros::Publisher gripper_state_pub_, cube_pose_pub_, goal_obs_pub_;
   ros::Subscriber ee_twist_sub_, gripper_cmd_sub_;
-  std::deque<geometry_msgs::TwistStamped> pending_twists_;
-  std::deque<double> pending_grips_;
-  uint64_t stale_standard_commands_ = 0;
+  EeCommandPairs standard_commands_;
 };
 
 }  // namespace msspr::ros_bridge
