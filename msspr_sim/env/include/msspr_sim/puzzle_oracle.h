@@ -1,11 +1,11 @@
 // The puzzles' scripted oracles, on OGBench's button plan (ogbench/manipspace/oracles/plan/
 // button_plan.py): from the measured pinch pose, 0.06 m above the button's top, down to
-// 0.035 m below it (OGBench's plan says 0.025, see PuzzleOracleOptions::depth), back up, then a random pose in the env's start box; the gripper closed
-// throughout. Keyframe times as OGBench's: 0.4 (0.5 + 4 d) s to the first (d: the distance
-// to it, m), then 0.32, 0.32 and 0.5 s, each but the first jittered by U(-0.04, 0.04) s;
-// smoothed noise and actions as the cube's play oracle (cube_oracle.h). The press yaw is the
-// button top's x coordinate (in rad), a slip of OGBench's that its data carries and this
-// copies.
+// 0.035 m below it (OGBench's plan says 0.025, see PuzzleOracleOptions::depth), back up, then a
+// random pose in the env's start box; the gripper closed throughout. Keyframe times as OGBench's:
+// 0.4 (0.5 + 4 d) s to the first (d: the distance to it, m), then 0.32, 0.32 and 0.5 s, each but
+// the first jittered by U(-0.04, 0.04) s; smoothed noise and actions as the cube's play oracle
+// (cube_oracle.h). The press yaw is the button top's x coordinate (in rad), a slip of OGBench's
+// that its data carries and this copies.
 //
 // PuzzlePlayOracle makes the play data: a new target button, uniform over the board,
 // whenever a plan ends. PuzzleTaskOracle solves an evaluation task: each plan presses the
@@ -24,7 +24,7 @@ namespace msspr::sim {
 
 struct PuzzleOracleOptions {
   CubePlayOracleOptions plan{0.05, 0.04, 0.1, {0.05, 0.05, 0.05, 0.3, 1.0}};
-  double hover = 0.06;   // m above the button top
+  double hover = 0.06;  // m above the button top
   // m below it. OGBench's plan goes 0.025 m down; on this arm the servos lag the 0.32 s
   // press segment so that only 38 of 61 such presses (no noise) pushed the button past
   // -0.02 m, against 61 of 61 at 0.035 m (tests/sim/puzzle_env_test.cc checks the rate).
