@@ -101,18 +101,19 @@ std::array<double, 5> ActionTowardSample(const CubePlanSample& x, const Eigen::V
 CubePlayOracle::CubePlayOracle(uint64_t seed, const CubePlayOracleOptions& options)
     : options_(options), rng_(Mix64(seed)) {}
 
-void CubePlayOracle::Plan(const CubeEnv& env) {
-  const CubeEnvOptions& eo = env.options();
-  const auto u = [&](double lo, double hi) { return Uniform(rng_, lo, hi); };
+std::vector<CubePlanSample> PlanPickAndPlace(const PickAndPlace& s,
+                                             const CubePlayOracleOptions& options,
+                                             std::mt19937_64& rng) {
+  const auto u = [&](double lo, double hi) { return Uniform(rng, lo, hi); };
   std::vector<PlanKeyframe> k;
   // initial: the measured pinch pose, gripper open.
-  const Eigen::Vector3d p0 = env.PinchPosition();
-  const Eigen::Quaterniond q0(env.PinchRotation());
+  const Eigen::Vector3d p0 = s.pinch;
+  const Eigen::Quaterniond q0(s.pinch_rotation);
   k.push_back({0.0, p0, q0, 0.0});
   // pick: above the cube, at the cube's symmetric yaw nearest the current
   // yaw (both taken in [0, 2 pi), as OGBench's get_yaw does).
-  const double pick_yaw = NearestSymmetricYaw(env.CubeYaw(), env.PinchYaw());
-  const Eigen::Vector3d cube = env.CubePosition();
+  const double pick_yaw = NearestSymmetricYaw(s.cube_yaw, s.pinch_yaw);
+  const Eigen::Vector3d cube = s.cube;
   const Eigen::Vector3d above_cube = cube + Eigen::Vector3d(0, 0, 0.1 + u(0, 0.1));
   const Eigen::Quaterniond pick_rot = Down(pick_yaw);
   k.push_back({0.4, above_cube, pick_rot, 0.0});
@@ -121,9 +122,9 @@ void CubePlayOracle::Plan(const CubeEnv& env) {
   k.push_back({0.4, above_cube, pick_rot, 1.0});  // postpick
   // place: above the target, at its symmetric yaw nearest postpick's (the
   // pick yaw read back from its rotation, so in [0, 2 pi) too).
-  const Eigen::Vector3d target = env.GoalPosition();
+  const Eigen::Vector3d target = s.target;
   const Eigen::Vector3d above_target = target + Eigen::Vector3d(0, 0, 0.1 + u(0, 0.1));
-  const Eigen::Quaterniond place_rot = Down(NearestSymmetricYaw(env.GoalYaw(), pick_yaw));
+  const Eigen::Quaterniond place_rot = Down(NearestSymmetricYaw(s.target_yaw, pick_yaw));
   // clearance: the SE(3) midpoint of postpick and place, at the initial
   // height, jittered (its draws come after place's, as its pose needs place).
   Eigen::Vector3d clearance = (above_cube + above_target) / 2;
@@ -134,11 +135,25 @@ void CubePlayOracle::Plan(const CubeEnv& env) {
   k.push_back({0.6, target, place_rot, 1.0});        // place_start
   k.push_back({0.4, target, place_rot, 0.0});        // place_end: opens in between
   k.push_back({0.4, above_target, place_rot, 0.0});  // postplace
-  // final: a random pose in the initial-pose box.
+  // final: a random pose in the start box.
   Eigen::Vector3d final_p;
-  for (int i = 0; i < 3; ++i) final_p[i] = u(eo.init_low[i], eo.init_high[i]);
+  for (int i = 0; i < 3; ++i) final_p[i] = u(s.final_low[i], s.final_high[i]);
   k.push_back({0.4, final_p, Down(u(-M_PI, M_PI)), 0.0});
-  plan_ = SamplePlan(std::move(k), options_.time_jitter, options_, rng_);
+  return SamplePlan(std::move(k), options.time_jitter, options, rng);
+}
+
+void CubePlayOracle::Plan(const CubeEnv& env) {
+  PickAndPlace s;
+  s.pinch = env.PinchPosition();
+  s.pinch_rotation = env.PinchRotation();
+  s.pinch_yaw = env.PinchYaw();
+  s.cube = env.CubePosition();
+  s.cube_yaw = env.CubeYaw();
+  s.target = env.GoalPosition();
+  s.target_yaw = env.GoalYaw();
+  s.final_low = env.options().init_low;
+  s.final_high = env.options().init_high;
+  plan_ = PlanPickAndPlace(s, options_, rng_);
   step_ = 0;
   ++cycles_;
 }

@@ -55,6 +55,28 @@ std::array<double, 5> ActionTowardSample(const CubePlanSample& x, const Eigen::V
                                          double pinch_yaw, double opening,
                                          const std::array<double, 5>& action_scale);
 
+// What a pick-and-place plan starts from: the measured pinch pose, the cube's pose, the
+// target's, and the box of the final random pose.
+struct PickAndPlace {
+  Eigen::Vector3d pinch;
+  Eigen::Matrix3d pinch_rotation;
+  double pinch_yaw = 0;
+  Eigen::Vector3d cube;
+  double cube_yaw = 0;
+  Eigen::Vector3d target;
+  double target_yaw = 0;
+  Eigen::Vector3d final_low, final_high;
+};
+
+// OGBench's cube plan (cube_plan.py): above the cube (0.1 + U(0, 0.1) m), down, close, up,
+// a jittered clearance point, above the target, down, open, up, a random final pose; the
+// pick and place yaws the cube's and the target's symmetric yaws nearest the effector's.
+// Draws from `rng`: the pick height, the place height, the clearance jitter, the final pose,
+// then SamplePlan's.
+std::vector<CubePlanSample> PlanPickAndPlace(const PickAndPlace& scene,
+                                             const CubePlayOracleOptions& options,
+                                             std::mt19937_64& rng);
+
 // SciPy's gaussian_filter1d with sigma 0.5 (5 taps, reflected edges:
 // x[-1] = x[0], x[-2] = x[1]) along time, per column. [T, 5] -> [T, 5].
 std::vector<CubePlanSample> SmoothPlanNoise(const std::vector<CubePlanSample>& noise);
