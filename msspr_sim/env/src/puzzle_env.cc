@@ -7,10 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "arm_rig.h"
 #include "msspr_sim/random_util.h"
-#include "mujoco_util.h"
-#include "offscreen_renderer.h"
 
 namespace msspr::sim {
 namespace {
@@ -76,63 +73,32 @@ std::string PuzzleButtonsMjcf(int side) {
   return x.str();
 }
 
-struct PuzzleEnv::Impl {
-  Impl(const std::string& urdf_path, const ArmIkOptions& ik) : rig(urdf_path, ik) {}
-  internal::ArmRig rig;
-  internal::ModelPtr model;
-  internal::DataPtr data;
-  std::vector<int> button_qpos, button_qvel, button_site, button_geom;
-  std::unique_ptr<internal::OffscreenRenderer> renderer;
-};
-
 PuzzleEnv::PuzzleEnv(const PuzzleEnvOptions& options)
-    : options_(options), board_(CheckedSide(options.side), options.side) {
-  if (options.substeps < 1) throw std::invalid_argument("PuzzleEnvOptions: substeps must be >= 1");
-  internal::InstallMujocoHandlers();
-  impl_ = std::make_unique<Impl>(options.urdf_path, options.ik);
-  const std::string name =
-      "puzzle_" + std::to_string(options.side) + "x" + std::to_string(options.side);
-  mjcf_ = ArmSceneMjcf(impl_->rig.arm(), options.scene, name + "_" + impl_->rig.arm().name(),
-                       PuzzleButtonsMjcf(options.side));
-  impl_->model = internal::LoadInlineModel(mjcf_, name + "_scene");
-  const mjModel* m = impl_->model.get();
-  impl_->data.reset(mj_makeData(m));
-  if (!impl_->data) throw std::runtime_error("MuJoCo: mj_makeData failed");
-  impl_->rig.Bind(m, options.scene.pad_geoms[1], options.scene.gripper_travel, "PuzzleEnv");
+    : ArmEnv(options,
+             "puzzle_" + std::to_string(CheckedSide(options.side)) + "x" +
+                 std::to_string(options.side),
+             PuzzleButtonsMjcf(options.side), "PuzzleEnv"),
+      options_(options),
+      board_(options.side, options.side) {
+  const mjModel* m = model();
   for (int k = 0; k < num_buttons(); ++k) {
     const std::string s = std::to_string(k);
-    const int j = internal::RequireId(m, mjOBJ_JOINT, "buttonbox_joint_" + s, "joint", "PuzzleEnv");
-    impl_->button_qpos.push_back(m->jnt_qposadr[j]);
-    impl_->button_qvel.push_back(m->jnt_dofadr[j]);
-    impl_->button_site.push_back(
-        internal::RequireId(m, mjOBJ_SITE, "btntop_" + s, "site", "PuzzleEnv"));
-    impl_->button_geom.push_back(
-        internal::RequireId(m, mjOBJ_GEOM, "btngeom_" + s, "geom", "PuzzleEnv"));
+    const int j = RequireId(mjOBJ_JOINT, "buttonbox_joint_" + s, "joint");
+    button_qpos_.push_back(m->jnt_qposadr[j]);
+    button_qvel_.push_back(m->jnt_dofadr[j]);
+    button_site_.push_back(RequireId(mjOBJ_SITE, "btntop_" + s, "site"));
+    button_geom_.push_back(RequireId(mjOBJ_GEOM, "btngeom_" + s, "geom"));
   }
   states_.assign(num_buttons(), 0);
   goal_states_.assign(num_buttons(), 0);
   goal_observation_.assign(observation_size(), 0.f);
-  SetArmJoints(Eigen::Map<const Eigen::Matrix<double, 6, 1>>(internal::kArmHome));
-  SetOpening(0.0);
-  if (options.enable_rendering) {
-    const int size = options.image_size;
-    if (size < 1 || size > 4096)
-      throw std::invalid_argument("PuzzleEnvOptions: image_size must be in [1, 4096], got " +
-                                  std::to_string(size));
-    const int camera = internal::RequireId(m, mjOBJ_CAMERA, options.camera, "camera", "PuzzleEnv");
-    impl_->renderer = std::make_unique<internal::OffscreenRenderer>(m, size, camera);
-  }
 }
 
-PuzzleEnv::~PuzzleEnv() = default;
-
-const ArmModel& PuzzleEnv::arm() const { return impl_->rig.arm(); }
-
 void PuzzleEnv::ApplyButtonColours() {
-  mjModel* m = impl_->model.get();
+  mjModel* m = model();
   for (int k = 0; k < num_buttons(); ++k)
     std::copy(kStateColour[states_[k]], kStateColour[states_[k]] + 4,
-              m->geom_rgba + 4 * impl_->button_geom[k]);
+              m->geom_rgba + 4 * button_geom_[k]);
 }
 
 void PuzzleEnv::SetButtonStates(const LightsOutState& states) {
@@ -147,17 +113,14 @@ void PuzzleEnv::SetGoalStates(const LightsOutState& states) {
 }
 
 bool PuzzleEnv::Step(const Action& action) {
-  const mjModel* m = impl_->model.get();
-  mjData* d = impl_->data.get();
-  last_ik_converged_ = impl_->rig.SetControls(d, action, options_.action_scale, options_.pinch_low,
-                                              options_.pinch_high);
+  const mjModel* m = model();
+  mjData* d = data();
   const int n = num_buttons();
   std::vector<double> before(n);
-  for (int k = 0; k < n; ++k) before[k] = d->qpos[impl_->button_qpos[k]];
-  for (int s = 0; s < options_.substeps; ++s) mj_step(m, d);
+  for (int k = 0; k < n; ++k) before[k] = d->qpos[button_qpos_[k]];
+  StepPhysics(action);
   for (int k = 0; k < n; ++k) {
-    if (before[k] > options_.press_depth &&
-        d->qpos[impl_->button_qpos[k]] <= options_.press_depth) {
+    if (before[k] > options_.press_depth && d->qpos[button_qpos_[k]] <= options_.press_depth) {
       board_.Press(k, &states_);
       ++presses_;
     }
@@ -170,28 +133,21 @@ bool PuzzleEnv::Step(const Action& action) {
   return Success();
 }
 
-void PuzzleEnv::RandomizeArm(std::mt19937_64& rng) {
-  impl_->rig.Randomize(impl_->data.get(), rng, options_.init_low, options_.init_high);
-}
-
 PuzzleEnv::Observation PuzzleEnv::ResetToTask(int task, uint64_t seed) {
   const std::vector<LightsOutTask>& tasks = PuzzleTasks(options_.side);
   if (task < 1 || task > static_cast<int>(tasks.size()))
     throw std::out_of_range("PuzzleEnv::ResetToTask: task must be 1 to 5, got " +
                             std::to_string(task));
   const LightsOutTask& t = tasks[task - 1];
-  const mjModel* m = impl_->model.get();
-  mjData* d = impl_->data.get();
+  mjData* d = data();
   std::mt19937_64 rng(Mix64(seed));
-  mj_resetData(m, d);
+  mj_resetData(model(), d);
   presses_ = 0;
 
   // The goal observation: the goal board, a random arm, random actions closing the gripper.
   SetButtonStates(t.goal);
   RandomizeArm(rng);
-  const std::vector<mjtNum> qpos(d->qpos, d->qpos + m->nq), qvel(d->qvel, d->qvel + m->nv),
-      ctrl(d->ctrl, d->ctrl + m->nu), act(d->act, d->act + m->na);
-  const mjtNum time = d->time;
+  const SavedState saved = Save();
   for (int k = 0; k < options_.goal_random_steps; ++k) {
     Action a;
     for (double& x : a) x = Uniform(rng, -1.0, 1.0);
@@ -199,17 +155,13 @@ PuzzleEnv::Observation PuzzleEnv::ResetToTask(int task, uint64_t seed) {
     Step(a);
   }
   goal_observation_ = GetObservation();
-  goal_image_ = impl_->renderer ? Render() : std::vector<uint8_t>();
-  std::copy(qpos.begin(), qpos.end(), d->qpos);
-  std::copy(qvel.begin(), qvel.end(), d->qvel);
-  std::copy(ctrl.begin(), ctrl.end(), d->ctrl);
-  std::copy(act.begin(), act.end(), d->act);
-  d->time = time;
+  goal_image_ = options_.enable_rendering ? Render() : std::vector<uint8_t>();
+  Restore(saved);
 
   RandomizeArm(rng);
   SetButtonStates(t.start);
   SetGoalStates(t.goal);
-  mj_forward(m, d);
+  mj_forward(model(), d);
   presses_ = 0;
   episode_steps_ = 0;
   return GetObservation();
@@ -217,13 +169,13 @@ PuzzleEnv::Observation PuzzleEnv::ResetToTask(int task, uint64_t seed) {
 
 PuzzleEnv::Observation PuzzleEnv::ResetForCollection(uint64_t seed) {
   std::mt19937_64 rng(Mix64(seed));
-  mj_resetData(impl_->model.get(), impl_->data.get());
+  mj_resetData(model(), data());
   RandomizeArm(rng);
   LightsOutState s(num_buttons());
   for (uint8_t& x : s) x = static_cast<uint8_t>(UniformIndex(rng, 2));
   SetButtonStates(s);
   SetGoalStates(s);
-  mj_forward(impl_->model.get(), impl_->data.get());
+  mj_forward(model(), data());
   goal_observation_.assign(observation_size(), 0.f);
   goal_image_.clear();
   presses_ = 0;
@@ -232,57 +184,24 @@ PuzzleEnv::Observation PuzzleEnv::ResetForCollection(uint64_t seed) {
 }
 
 PuzzleEnv::Observation PuzzleEnv::GetObservation() const {
-  const mjData* d = impl_->data.get();
+  const mjData* d = data();
   Observation o(observation_size());
-  impl_->rig.WriteProprio(d, o.data());
+  WriteProprio(o.data());
   for (int k = 0; k < num_buttons(); ++k) {
     float* b = o.data() + kProprioSize + 4 * k;
     b[0] = states_[k] == 0 ? 1.f : 0.f;
     b[1] = states_[k] == 0 ? 0.f : 1.f;
-    b[2] = static_cast<float>(120 * d->qpos[impl_->button_qpos[k]]);
-    b[3] = static_cast<float>(d->qvel[impl_->button_qvel[k]]);
+    b[2] = static_cast<float>(120 * d->qpos[button_qpos_[k]]);
+    b[3] = static_cast<float>(d->qvel[button_qvel_[k]]);
   }
   return o;
 }
 
 Eigen::Vector3d PuzzleEnv::ButtonTop(int k) const {
-  const mjtNum* p = impl_->data->site_xpos + 3 * impl_->button_site.at(k);
+  const mjtNum* p = data()->site_xpos + 3 * button_site_.at(k);
   return Eigen::Vector3d(p[0], p[1], p[2]);
 }
 
-double PuzzleEnv::ButtonJoint(int k) const { return impl_->data->qpos[impl_->button_qpos.at(k)]; }
-
-void PuzzleEnv::SetArmJoints(const Eigen::Matrix<double, 6, 1>& q) {
-  impl_->rig.SetArmJoints(impl_->data.get(), q);
-}
-bool PuzzleEnv::PlacePinch(const Eigen::Vector3d& position, double yaw) {
-  return impl_->rig.PlacePinch(impl_->data.get(), position, yaw);
-}
-void PuzzleEnv::SetOpening(double opening) { impl_->rig.SetOpening(impl_->data.get(), opening); }
-Eigen::Vector3d PuzzleEnv::PinchPosition() const {
-  return impl_->rig.PinchPosition(impl_->data.get());
-}
-double PuzzleEnv::PinchYaw() const { return impl_->rig.PinchYaw(impl_->data.get()); }
-Eigen::Matrix3d PuzzleEnv::PinchRotation() const {
-  return impl_->rig.PinchRotation(impl_->data.get());
-}
-double PuzzleEnv::Opening() const { return impl_->rig.Opening(impl_->data.get()); }
-Eigen::Matrix<double, 6, 1> PuzzleEnv::ArmJoints() const {
-  return impl_->rig.ArmJoints(impl_->data.get());
-}
-std::vector<double> PuzzleEnv::Qpos() const {
-  return std::vector<double>(impl_->data->qpos, impl_->data->qpos + impl_->model->nq);
-}
-std::vector<double> PuzzleEnv::Qvel() const {
-  return std::vector<double>(impl_->data->qvel, impl_->data->qvel + impl_->model->nv);
-}
-
-std::vector<uint8_t> PuzzleEnv::Render() const {
-  if (!impl_->renderer)
-    throw std::logic_error("PuzzleEnv::Render: construct with enable_rendering = true");
-  std::vector<uint8_t> rgb(static_cast<size_t>(options_.image_size) * options_.image_size * 3);
-  impl_->renderer->Render(impl_->model.get(), impl_->data.get(), rgb.data());
-  return rgb;
-}
+double PuzzleEnv::ButtonJoint(int k) const { return data()->qpos[button_qpos_.at(k)]; }
 
 }  // namespace msspr::sim

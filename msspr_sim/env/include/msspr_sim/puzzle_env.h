@@ -19,50 +19,29 @@
 #include <string>
 #include <vector>
 
-#include "msspr_sim/arm_ik.h"
-#include "msspr_sim/arm_model.h"
-#include "msspr_sim/cube_scene.h"
+#include "msspr_sim/arm_env.h"
 #include "msspr_sim/lights_out.h"
 
 namespace msspr::sim {
 
-struct PuzzleEnvOptions {
-  std::string urdf_path;  // the arm (msspr_sim/urdf/ur5e_2f85.urdf); required
-  int side = 3;           // 3 (puzzle-3x3) or 4 (puzzle-4x4)
-  CubeSceneOptions scene;
-  ArmIkOptions ik;
-  int substeps = 25;  // physics steps per action (0.05 s at 2 ms)
-  std::array<double, 5> action_scale{0.05, 0.05, 0.05, 0.3, 1.0};
-  // The pinch target is clipped to this box each step (m).
-  Eigen::Vector3d pinch_low{0.25, -0.35, 0.02};
-  Eigen::Vector3d pinch_high{0.60, 0.35, 0.35};
-  // Random pinch poses (episode starts, the play oracle's final poses): this box (m),
-  // yaw U(-pi, pi).
-  Eigen::Vector3d init_low{0.25, -0.20, 0.20};
-  Eigen::Vector3d init_high{0.60, 0.20, 0.25};
+struct PuzzleEnvOptions : ArmEnvOptions {
+  // Random pinch poses (episode starts, the play oracle's final poses): OGBench's puzzle box.
+  PuzzleEnvOptions() {
+    init_low = {0.25, -0.20, 0.20};
+    init_high = {0.60, 0.20, 0.25};
+  }
+  int side = 3;                // 3 (puzzle-3x3) or 4 (puzzle-4x4)
   double press_depth = -0.02;  // m: a button is pressed when its joint crosses this
   int goal_random_steps = 5;   // random actions after posing a task's goal (gripper closed)
   int max_episode_steps = 500;
-  // Images: [S, S, 3] uint8 from `camera`, as CubeEnvOptions.
-  bool enable_rendering = false;
-  int image_size = 64;
-  std::string camera = "front_pixels";
 };
 
-class PuzzleEnv {
+class PuzzleEnv : public ArmEnv {
  public:
-  static constexpr int kActionSize = 5;
-  static constexpr int kProprioSize = 19;
-  using Action = std::array<double, kActionSize>;
-  using Observation = std::vector<float>;
-
   // Parses the URDF, generates and compiles the scene. Throws UrdfError for a bad URDF,
   // std::invalid_argument for a side other than 3 or 4 and std::runtime_error when MuJoCo
   // rejects the scene. Every button starts up and in state 0, the arm at home.
   explicit PuzzleEnv(const PuzzleEnvOptions& options);
-  ~PuzzleEnv();
-  PuzzleEnv(const PuzzleEnv&) = delete;
-  PuzzleEnv& operator=(const PuzzleEnv&) = delete;
 
   int num_buttons() const { return board_.size(); }
   int observation_size() const { return kProprioSize + 4 * num_buttons(); }
@@ -102,42 +81,20 @@ class PuzzleEnv {
   Eigen::Vector3d ButtonTop(int k) const;
   double ButtonJoint(int k) const;
 
-  void SetArmJoints(const Eigen::Matrix<double, 6, 1>& q);
-  bool PlacePinch(const Eigen::Vector3d& position, double yaw);
-  void SetOpening(double opening);
-  Eigen::Vector3d PinchPosition() const;
-  double PinchYaw() const;
-  Eigen::Matrix3d PinchRotation() const;
-  double Opening() const;
-  Eigen::Matrix<double, 6, 1> ArmJoints() const;
-  std::vector<double> Qpos() const;
-  std::vector<double> Qvel() const;
-
-  // Renders the current state ([S, S, 3] uint8, row 0 = top); std::logic_error unless
-  // enable_rendering.
-  std::vector<uint8_t> Render() const;
-
   int episode_steps() const { return episode_steps_; }
   bool EpisodeOver() const { return Success() || episode_steps_ >= options_.max_episode_steps; }
-  bool last_ik_converged() const { return last_ik_converged_; }
   const PuzzleEnvOptions& options() const { return options_; }
-  const std::string& mjcf() const { return mjcf_; }
-  const ArmModel& arm() const;
 
  private:
-  struct Impl;
   void ApplyButtonColours();
-  void RandomizeArm(std::mt19937_64& rng);
 
   PuzzleEnvOptions options_;
   LightsOut board_;
-  std::string mjcf_;
-  std::unique_ptr<Impl> impl_;
+  std::vector<int> button_qpos_, button_qvel_, button_site_, button_geom_;
   LightsOutState states_, goal_states_;
   Observation goal_observation_;
   std::vector<uint8_t> goal_image_;
   int episode_steps_ = 0, presses_ = 0;
-  bool last_ik_converged_ = true;
 };
 
 // The button MJCF of an R x R puzzle (bodies buttonbox_k with the slide joint
