@@ -17,9 +17,9 @@
 #include "msspr_core/process_env.h"
 #include "msspr_core/train_cli.h"
 #include "msspr_eval/ant_evaluator.h"
+#include "msspr_eval/arm_task_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
-#include "msspr_eval/puzzle_evaluator.h"
 #include "msspr_robot_interface/robot_spec.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/learning_curve.h"
@@ -131,17 +131,18 @@ namespace {
 
 const char kEvalUsage[] =
     "\nEvaluation in the simulator (every --eval-every steps, when --eval-every > 0): the point\n"
-    "maze, or the 5 tasks of cube-single, an ant maze or a puzzle for those envs' bags\n"
-    "  --eval-env ENV     env to evaluate in: pointmaze-NAME, cube-single, antmaze-medium,\n"
-    "                     antmaze-large, puzzle-3x3, puzzle-4x4 (default: the bags' env;\n"
-    "                     give it for .npz data, e.g.\n"
-    "                     OGBench's antmaze-medium-navigate-v0.npz with --eval-env "
-    "antmaze-medium)\n"
+    "maze, or the 5 tasks of cube-single, cube-double, an ant maze or a puzzle for those\n"
+    "envs' bags\n"
+    "  --eval-env ENV     env to evaluate in: pointmaze-NAME, cube-single, cube-double,\n"
+    "                     antmaze-medium, antmaze-large, puzzle-3x3, puzzle-4x4 (default: the\n"
+    "                     bags' env; give it for .npz data, e.g. OGBench's\n"
+    "                     antmaze-medium-navigate-v0.npz with --eval-env antmaze-medium)\n"
     "  --eval-maze NAME   point maze to evaluate in (default: the bags' env, e.g. medium)\n"
     "  --eval-episodes N  episodes per task (default 50)\n"
     "  --eval-tasks LIST  task ids (default 1,2,3,4,5)\n"
     "  --eval-seed S      evaluation seed (default 0; same episodes as msspr_eval --seed S)\n"
-    "  --eval-max-steps N step limit (default 1000; cube-single 200, puzzles 500)\n"
+    "  --eval-max-steps N step limit (default 1000; cube-single 200, cube-double and puzzles\n"
+    "                     500)\n"
     "  --eval-tasks-file YAML  also evaluate custom start/goal pairs (msspr_eval --tasks-file\n"
     "                     format; msspr_make_tasks draws random ones), --eval-episodes each\n"
     "Each evaluation appends success_task<i> and mean_success to DIR/eval.csv and writes\n"
@@ -160,7 +161,7 @@ const char kEvalUsage[] =
 struct EvalFlags {
   msspr::agent::MazeEvalOptions maze;  // episodes, seed, max_steps, tasks (and maze, if one)
   std::optional<msspr::sim::EnvLabelParts> env;  // --eval-env, else the bags' env
-  bool cube = false, ant = false, puzzle = false;
+  bool cube = false, ant = false, puzzle = false, cube_double = false;
   std::string tasks_file;
 };
 
@@ -185,14 +186,15 @@ EvalFlags ParseEvalFlags(const std::map<std::string, std::string>& extra) {
     if (!f.env)
       throw msspr::cli::CliError("--eval-env: '" + get("eval-env", "") +
                                  "' is not an env (pointmaze-arena|medium|large|giant, "
-                                 "cube-single, antmaze-medium, antmaze-large, puzzle-3x3, "
-                                 "puzzle-4x4)");
+                                 "cube-single, cube-double, antmaze-medium, antmaze-large, "
+                                 "puzzle-3x3, puzzle-4x4)");
   }
   const bool no_maze = get("eval-maze", "").empty();
   f.cube = no_maze && f.env && f.env->id == msspr::sim::EnvId::kCubeSingle;
   f.ant = no_maze && f.env && msspr::sim::IsAntMaze(f.env->id);
   f.puzzle = no_maze && f.env && msspr::sim::IsPuzzle(f.env->id);
-  const char* max_steps = f.cube ? "200" : f.puzzle ? "500" : "1000";
+  f.cube_double = no_maze && f.env && f.env->id == msspr::sim::EnvId::kCubeDouble;
+  const char* max_steps = f.cube ? "200" : (f.puzzle || f.cube_double) ? "500" : "1000";
   eo.max_steps =
       static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", max_steps), 1, 100000000));
   eo.tasks.clear();
@@ -209,7 +211,7 @@ EvalFlags ParseEvalFlags(const std::map<std::string, std::string>& extra) {
     }
   }
   f.tasks_file = get("eval-tasks-file", "");
-  if ((f.cube || f.ant || f.puzzle) && extra.count("eval-tasks-file"))
+  if ((f.cube || f.ant || f.puzzle || f.cube_double) && extra.count("eval-tasks-file"))
     throw msspr::cli::CliError(
         "--eval-tasks-file: custom tasks are point-maze tasks (these bags are " +
         msspr::sim::EnvIdName(f.env->id) + ")");
@@ -292,6 +294,10 @@ msspr::core::Evaluator MakeSimEvaluator(msspr::core::Trainer& trainer,
   if (f.cube)
     return TaskEvaluator(msspr::agent::CubeEvalOptions(), f, msspr::agent::EvaluateOnCube,
                          msspr::agent::WriteCubeResultsJson, out_dir, start);
+  if (f.cube_double)
+    return TaskEvaluator(msspr::agent::CubeDoubleEvalOptions(), f,
+                         msspr::agent::EvaluateOnCubeDouble,
+                         msspr::agent::WriteCubeDoubleResultsJson, out_dir, start);
   if (f.puzzle) {
     msspr::agent::PuzzleEvalOptions po;
     po.side = msspr::sim::PuzzleSide(f.env->id);

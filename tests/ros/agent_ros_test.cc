@@ -36,9 +36,9 @@
 #include "msspr_core/policy.h"
 #include "msspr_core/trainer.h"
 #include "msspr_eval/ant_evaluator.h"
+#include "msspr_eval/arm_task_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
-#include "msspr_eval/puzzle_evaluator.h"
 #include "test_util.h"
 #include "torch_test_util.h"
 
@@ -259,6 +259,30 @@ TEST(PuzzleEvaluator, DeterministicAndChecksThePolicy) {
   EXPECT_THROW(EvaluateOnPuzzle(policy, opt), std::invalid_argument);
   opt.side = 5;
   EXPECT_THROW(EvaluateOnPuzzle(policy, opt), std::invalid_argument);
+}
+
+// An untrained cube-double policy (37-D states): determinism, the report, the policy check.
+TEST(CubeDoubleEvaluator, DeterministicAndChecksThePolicy) {
+  torch::manual_seed(0);
+  core::DatasetBuilder b(37, 5);
+  std::vector<float> obs(10 * 37, 0.1f), act(10 * 5, 0.2f);
+  b.AddEpisode(obs, act);
+  b.AddEpisode(obs, act);
+  core::Trainer trainer(core::testing_util::TinyOptions(),
+                        std::make_shared<const core::Dataset>(b.Build()));
+  trainer.Step();
+  core::Policy policy = trainer.MakePolicy();
+  CubeDoubleEvalOptions opt;
+  opt.tasks = {4};
+  opt.episodes = 2;
+  opt.max_steps = 10;
+  const auto a = EvaluateOnCubeDouble(policy, opt);
+  const auto c = EvaluateOnCubeDouble(policy, opt);
+  EXPECT_EQ(a.success, c.success);
+  EXPECT_EQ(a.success, (std::vector<double>{0.0}));  // no swap in 10 steps
+  EXPECT_EQ(MakeCubeDoubleEvalReport(a, opt, "untrained").env, "cube-double");
+  auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D
+  EXPECT_THROW(EvaluateOnCubeDouble(maze_policy, opt), std::invalid_argument);
 }
 
 // An untrained pixels policy of cube-single (16x16 camera images, two frames

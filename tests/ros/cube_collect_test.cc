@@ -157,7 +157,7 @@ TEST(CubeCollect, UsageErrors) {
   std::string out;
   EXPECT_EQ(RunCollect("--env cube-single --maze large --out /tmp/x.bag", &out), 2);
   EXPECT_NE(out.find("--maze does not apply"), std::string::npos) << out;
-  EXPECT_EQ(RunCollect("--env cube-double --out /tmp/x.bag", &out), 2);
+  EXPECT_EQ(RunCollect("--env cube-triple --out /tmp/x.bag", &out), 2);
   EXPECT_EQ(RunCollect("--urdf a.urdf --out /tmp/x.bag", &out), 2);
   EXPECT_EQ(RunCollect("--env puzzle-3x3 --kind stitch --out /tmp/x.bag", &out), 2);
   EXPECT_NE(out.find("--kind does not apply to --env puzzle-3x3"), std::string::npos) << out;

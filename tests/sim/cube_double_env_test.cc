@@ -86,10 +86,10 @@ TEST(CubeDoubleEnvTest, NewTargetsStackOnlyOnTopCubes) {
   }
   env.SetCube(1, Eigen::Vector3d(0.50, 0.1, 0.02), 0);
   const int target = env.SetNewTarget(rng, 1.0);  // p_stack 1: on the other cube
-  EXPECT_LT((env.GoalPosition(target) - (env.CubePosition(1 - target) +
-                                         Eigen::Vector3d(0, 0, 0.04)))
-                .norm(),
-            1e-9);
+  EXPECT_LT(
+      (env.GoalPosition(target) - (env.CubePosition(1 - target) + Eigen::Vector3d(0, 0, 0.04)))
+          .norm(),
+      1e-9);
 }
 
 TEST(CubeDoubleEnvTest, TaskOracleSolvesEveryTask) {
@@ -98,8 +98,7 @@ TEST(CubeDoubleEnvTest, TaskOracleSolvesEveryTask) {
     env.ResetToTask(task, 21);
     CubeDoubleTaskOracle oracle(21);
     while (!env.EpisodeOver()) env.Step(oracle.Act(env));
-    EXPECT_TRUE(env.Success()) << "task " << task << " after " << env.episode_steps()
-                               << " steps";
+    EXPECT_TRUE(env.Success()) << "task " << task << " after " << env.episode_steps() << " steps";
   }
 }
 

@@ -16,7 +16,8 @@ TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
   const std::vector<std::pair<EnvId, std::string>> expected = {
       {EnvId::kPointMaze, "pointmaze"},          {EnvId::kCubeSingle, "cube-single"},
       {EnvId::kAntMazeMedium, "antmaze-medium"}, {EnvId::kAntMazeLarge, "antmaze-large"},
-      {EnvId::kPuzzle3x3, "puzzle-3x3"},         {EnvId::kPuzzle4x4, "puzzle-4x4"}};
+      {EnvId::kPuzzle3x3, "puzzle-3x3"},         {EnvId::kPuzzle4x4, "puzzle-4x4"},
+      {EnvId::kCubeDouble, "cube-double"}};
   ASSERT_EQ(AllEnvIds().size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) {
     const auto& [id, name] = expected[i];
@@ -25,14 +26,17 @@ TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
     EXPECT_EQ(ParseEnvId(name), id) << name;
     EXPECT_EQ(TryParseEnvId(name), id) << name;
   }
-  EXPECT_EQ(EnvIdNames(), (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium",
-                                                 "antmaze-large", "puzzle-3x3", "puzzle-4x4"}));
+  EXPECT_EQ(EnvIdNames(),
+            (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium", "antmaze-large",
+                                   "puzzle-3x3", "puzzle-4x4", "cube-double"}));
+  EXPECT_EQ(EnvIdNames(SimNodeEnvIds()).count("cube-double"), 0u);
+  EXPECT_EQ(SimNodeEnvIds().size(), AllEnvIds().size() - 1);
   EXPECT_EQ(EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle}),
             (std::set<std::string>{"pointmaze", "cube-single"}));
 }
 
 TEST(EnvIdTest, AnUnknownIdIsRejectedByNameWithTheValidOnes) {
-  for (const std::string bad : {"cube-double", "pointmaze-medium", "PointMaze", "antmaze", ""}) {
+  for (const std::string bad : {"cube-triple", "pointmaze-medium", "PointMaze", "antmaze", ""}) {
     EXPECT_EQ(TryParseEnvId(bad), std::nullopt) << bad;
     try {
       ParseEnvId(bad);
@@ -41,7 +45,7 @@ TEST(EnvIdTest, AnUnknownIdIsRejectedByNameWithTheValidOnes) {
       EXPECT_EQ(std::string(e.what()),
                 "unknown env id '" + bad +
                     "'; valid ids: pointmaze cube-single antmaze-medium antmaze-large "
-                    "puzzle-3x3 puzzle-4x4");
+                    "puzzle-3x3 puzzle-4x4 cube-double");
     }
   }
 }

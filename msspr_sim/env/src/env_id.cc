@@ -20,6 +20,13 @@ std::string JoinNames(const std::vector<EnvId>& ids) {
 }  // namespace
 
 const std::vector<EnvId>& AllEnvIds() {
+  static const std::vector<EnvId> ids = {
+      EnvId::kPointMaze, EnvId::kCubeSingle, EnvId::kAntMazeMedium, EnvId::kAntMazeLarge,
+      EnvId::kPuzzle3x3, EnvId::kPuzzle4x4,  EnvId::kCubeDouble};
+  return ids;
+}
+
+const std::vector<EnvId>& SimNodeEnvIds() {
   static const std::vector<EnvId> ids = {EnvId::kPointMaze,     EnvId::kCubeSingle,
                                          EnvId::kAntMazeMedium, EnvId::kAntMazeLarge,
                                          EnvId::kPuzzle3x3,     EnvId::kPuzzle4x4};
@@ -40,6 +47,8 @@ std::string EnvIdName(EnvId id) {
       return "puzzle-3x3";
     case EnvId::kPuzzle4x4:
       return "puzzle-4x4";
+    case EnvId::kCubeDouble:
+      return "cube-double";
   }
   throw std::invalid_argument("EnvIdName: not an EnvId (" + std::to_string(static_cast<int>(id)) +
                               ")");
@@ -81,6 +90,7 @@ std::string AntMazeName(EnvId id) {
     case EnvId::kCubeSingle:
     case EnvId::kPuzzle3x3:
     case EnvId::kPuzzle4x4:
+    case EnvId::kCubeDouble:
       break;
   }
   throw std::invalid_argument("'" + EnvIdName(id) +

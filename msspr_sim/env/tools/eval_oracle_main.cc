@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "msspr_core/cli_args.h"
+#include "msspr_sim/cube_double_oracle.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/package_files.h"
@@ -21,8 +22,9 @@ namespace {
 constexpr char kUsage[] = R"(usage: msspr_eval_oracle --env ENV [options]
 Runs the scripted task oracle on an env's evaluation tasks and prints its success per task:
 puzzle-3x3, puzzle-4x4 (PuzzleTaskOracle: presses the fewest-press solution, one button
-plan at a time, with the play data's plan noise).
-  --env ENV          puzzle-3x3 | puzzle-4x4 (required)
+plan at a time) and cube-double (CubeDoubleTaskOracle: one pick and place per cube, parking
+one first where needed), with the play data's plan noise.
+  --env ENV          puzzle-3x3 | puzzle-4x4 | cube-double (required)
   --episodes N       episodes per task (default 50)
   --tasks LIST       task ids (default 1,2,3,4,5)
   --max-steps N      steps per episode (default: the env's cap, 500)
@@ -32,6 +34,37 @@ plan at a time, with the play data's plan noise).
 Example:
   rosrun msspr msspr_eval_oracle --env puzzle-3x3 --episodes 50
 )";
+
+// The task oracle's episodes of every task of `flags` in `env`.
+template <class Oracle, class Env>
+std::vector<msspr::sim::TaskResult> RunOracle(Env& env, const msspr::sim::EpisodeFlags& flags,
+                                              const std::string& name) {
+  namespace sim = msspr::sim;
+  std::vector<sim::TaskResult> results;
+  for (int task : flags.tasks) {
+    sim::TaskResult r;
+    r.task_id = task;
+    r.episodes = flags.episodes;
+    int successes = 0;
+    double steps = 0;
+    for (int e = 0; e < flags.episodes; ++e) {
+      const uint64_t seed = sim::EvalEpisodeSeed(flags.seed, task, e);
+      env.ResetToTask(task, seed);
+      Oracle oracle(sim::Mix64(seed));
+      while (!env.EpisodeOver()) env.Step(oracle.Act(env));
+      if (env.Success()) {
+        ++successes;
+        steps += env.episode_steps();
+      }
+    }
+    r.success = static_cast<double>(successes) / flags.episodes;
+    r.mean_steps_successful = successes > 0 ? steps / successes : 0;
+    results.push_back(r);
+    std::cerr << "[msspr_eval_oracle] " << name << " task " << task << ": " << 100.0 * r.success
+              << "% of " << flags.episodes << " episodes\n";
+  }
+  return results;
+}
 
 }  // namespace
 
@@ -58,11 +91,6 @@ int main(int argc, char** argv) {
     return *e.what() ? 2 : 0;
   }
   try {
-    sim::PuzzleEnvOptions opt;
-    opt.urdf_path = urdf;
-    opt.side = sim::PuzzleSide(env_id);
-    opt.max_episode_steps = flags.max_steps;
-    sim::PuzzleEnv env(opt);
     const auto t0 = std::chrono::steady_clock::now();
     sim::EvalReport report;
     report.env = sim::EnvLabel(env_id);
@@ -71,30 +99,24 @@ int main(int argc, char** argv) {
     report.episodes_per_task = flags.episodes;
     report.max_steps = flags.max_steps;
     report.seed = flags.seed;
-    const auto& tasks = sim::PuzzleTasks(opt.side);
-    for (int task : flags.tasks) {
-      sim::TaskResult r;
-      r.task_id = task;
-      r.episodes = flags.episodes;
-      int successes = 0;
-      double steps = 0;
-      for (int e = 0; e < flags.episodes; ++e) {
-        const uint64_t seed = sim::EvalEpisodeSeed(flags.seed, task, e);
-        env.ResetToTask(task, seed);
-        sim::PuzzleTaskOracle oracle(sim::Mix64(seed));
-        while (!env.EpisodeOver()) env.Step(oracle.Act(env));
-        if (env.Success()) {
-          ++successes;
-          steps += env.episode_steps();
-        }
+    if (sim::IsPuzzle(env_id)) {
+      sim::PuzzleEnvOptions opt;
+      opt.urdf_path = urdf;
+      opt.side = sim::PuzzleSide(env_id);
+      opt.max_episode_steps = flags.max_steps;
+      sim::PuzzleEnv env(opt);
+      report.tasks = RunOracle<sim::PuzzleTaskOracle>(env, flags, report.env);
+      for (auto& r : report.tasks) {  // the boards, row by row
+        const auto& t = sim::PuzzleTasks(opt.side)[static_cast<size_t>(r.task_id - 1)];
+        r.start.assign(t.start.begin(), t.start.end());
+        r.goal.assign(t.goal.begin(), t.goal.end());
       }
-      r.success = static_cast<double>(successes) / flags.episodes;
-      r.mean_steps_successful = successes > 0 ? steps / successes : 0;
-      r.start.assign(tasks[task - 1].start.begin(), tasks[task - 1].start.end());
-      r.goal.assign(tasks[task - 1].goal.begin(), tasks[task - 1].goal.end());
-      report.tasks.push_back(r);
-      std::cerr << "[msspr_eval_oracle] " << report.env << " task " << task << ": "
-                << 100.0 * r.success << "% of " << flags.episodes << " episodes\n";
+    } else {
+      sim::CubeDoubleEnvOptions opt;
+      opt.urdf_path = urdf;
+      opt.max_episode_steps = flags.max_steps;
+      sim::CubeDoubleEnv env(opt);
+      report.tasks = RunOracle<sim::CubeDoubleTaskOracle>(env, flags, report.env);
     }
     report.wall_time_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

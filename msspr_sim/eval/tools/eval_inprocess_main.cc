@@ -14,9 +14,9 @@
 #include "msspr_core/policy.h"
 #include "msspr_core/process_env.h"
 #include "msspr_eval/ant_evaluator.h"
+#include "msspr_eval/arm_task_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
-#include "msspr_eval/puzzle_evaluator.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
@@ -28,25 +28,25 @@ namespace {
 constexpr const char* kUsage = R"(usage: msspr_eval_inprocess --policy POLICY.pt [options]
 Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_eval --seed S).
   --policy FILE       a policy export (policy.pt) or a training checkpoint (required)
-  --env ENV           pointmaze | cube-single | antmaze-medium | antmaze-large | puzzle-3x3 |
-                      puzzle-4x4 (default pointmaze)
+  --env ENV           pointmaze | cube-single | cube-double | antmaze-medium | antmaze-large |
+                      puzzle-3x3 | puzzle-4x4 (default pointmaze)
   --maze NAME         arena, medium, large or giant (default medium; pointmaze only;
                       --env pointmaze-NAME says the same)
   --tasks LIST        task ids (default 1,2,3,4,5)
   --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format; pointmaze only)
   --episodes N        episodes per task (default 50)
-  --max-steps N       step limit (default 1000; cube-single 200, puzzles 500)
+  --max-steps N       step limit (default 1000; cube-single 200, cube-double and puzzles 500)
   --seed S            evaluation seed (default 0)
   --threads N         torch threads (default: torch's choice; the results do not depend on it)
   --device DEV        where the policy runs: cpu, cuda, cuda:1 (default cpu)
   --agent NAME        label in the results (default: the policy's file name)
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories on the maze (default: none; pointmaze only)
-  --urdf FILE         cube-single, puzzles: the arm (default: the package's
+  --urdf FILE         cube-single, cube-double, puzzles: the arm (default: the package's
                       msspr_sim/urdf/ur5e_2f85.urdf)
 Prints the per-task table. The point mazes and cube-single take state or pixels
 policies (pixels: the sim's 64x64 camera images and the goal's image); the ant
-mazes and the puzzles, state policies.
+mazes, cube-double and the puzzles, state policies.
 )";
 
 // The shared episode flags (sim::ReadEpisodeFlags) into an env's options; the tasks too
@@ -76,10 +76,12 @@ struct Request {
   msspr::agent::CubeEvalOptions cube;
   msspr::agent::AntEvalOptions ant;
   msspr::agent::PuzzleEvalOptions puzzle;
+  msspr::agent::CubeDoubleEvalOptions cube_double;
   std::string policy_path, out, plot, agent, device;
   bool is_cube() const { return env == msspr::sim::EnvId::kCubeSingle; }
   bool is_ant() const { return msspr::sim::IsAntMaze(env); }
   bool is_puzzle() const { return msspr::sim::IsPuzzle(env); }
+  bool is_cube_double() const { return env == msspr::sim::EnvId::kCubeDouble; }
 };
 
 Request ParseRequest(const msspr::cli::CliArgs& args) {
@@ -101,6 +103,10 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
     q.puzzle.side = sim::PuzzleSide(q.env);
     q.puzzle.urdf_path = args.Get("urdf", "");
     ReadEpisodeFlags(args, 500, 5, &q.puzzle);
+  } else if (q.is_cube_double()) {
+    RefuseFlags(args, {"maze", "tasks-file", "plot"}, "cube-double");
+    q.cube_double.urdf_path = args.Get("urdf", "");
+    ReadEpisodeFlags(args, 500, 5, &q.cube_double);
   } else if (q.is_cube()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot"}, "cube-single");
     q.cube.urdf_path = args.Get("urdf", "");
@@ -180,6 +186,21 @@ void RunPuzzle(msspr::core::Policy& policy, Request q) {
   PrintMean(report.mean_success, result.seconds);
 }
 
+void RunCubeDouble(msspr::core::Policy& policy, Request q) {
+  namespace sim = msspr::sim;
+  if (q.cube_double.urdf_path.empty()) q.cube_double.urdf_path = sim::DefaultArmUrdf();
+  std::cerr << "msspr_eval_inprocess: " << q.policy_path << ", " << q.cube_double.tasks.size()
+            << " tasks x " << q.cube_double.episodes << " episodes on cube-double (states; arm "
+            << q.cube_double.urdf_path << ") ...\n";
+  const auto result = msspr::agent::EvaluateOnCubeDouble(policy, q.cube_double);
+  const sim::EvalReport report =
+      msspr::agent::MakeCubeDoubleEvalReport(result, q.cube_double, q.agent);
+  std::cout << sim::EvalReportTable(report);
+  if (!q.out.empty())
+    msspr::agent::WriteCubeDoubleResultsJson(result, q.cube_double, q.agent, q.out);
+  PrintMean(report.mean_success, result.seconds);
+}
+
 void RunMaze(msspr::core::Policy& policy, const Request& q) {
   namespace sim = msspr::sim;
   const auto& eo = q.maze;
@@ -234,6 +255,8 @@ int main(int argc, char** argv) {
       RunCube(policy, q);
     else if (q.is_puzzle())
       RunPuzzle(policy, q);
+    else if (q.is_cube_double())
+      RunCubeDouble(policy, q);
     else
       RunMaze(policy, q);
   } catch (const std::exception& e) {

@@ -222,7 +222,7 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
     throw std::invalid_argument("--observation-mode must be state or pixels, got '" + m + "'");
   std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
   q.env = msspr::sim::ParseEnvFlag(args.Get("env", msspr::sim::EnvIdName(q.env)),
-                                   args.Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
+                                   args.Get("maze", ""), msspr::sim::SimNodeEnvIds(), &maze_arg);
   const bool ant = msspr::sim::IsAntMaze(q.env);
   for (const char* f : {"maze", "plot", "tasks-file"})
     if ((q.env == EnvId::kCubeSingle || msspr::sim::IsPuzzle(q.env) ||

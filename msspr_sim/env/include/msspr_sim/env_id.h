@@ -14,12 +14,24 @@
 
 namespace msspr::sim {
 
-enum class EnvId { kPointMaze, kCubeSingle, kAntMazeMedium, kAntMazeLarge, kPuzzle3x3, kPuzzle4x4 };
+enum class EnvId {
+  kPointMaze,
+  kCubeSingle,
+  kAntMazeMedium,
+  kAntMazeLarge,
+  kPuzzle3x3,
+  kPuzzle4x4,
+  kCubeDouble
+};
 
 // Every id, in the order above.
 const std::vector<EnvId>& AllEnvIds();
+// The ids msspr_sim_node serves, and so msspr_eval over ROS: all but cube-double, which has
+// datasets and in-process evaluation (msspr_eval_inprocess, the trainer) but no node yet.
+const std::vector<EnvId>& SimNodeEnvIds();
 
-// "pointmaze", "cube-single", "antmaze-medium", "antmaze-large", "puzzle-3x3", "puzzle-4x4".
+// "pointmaze", "cube-single", "antmaze-medium", "antmaze-large", "puzzle-3x3", "puzzle-4x4",
+// "cube-double".
 std::string EnvIdName(EnvId id);
 // The inverse of EnvIdName; nullopt for any other name.
 std::optional<EnvId> TryParseEnvId(const std::string& name);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <set>
@@ -13,6 +14,7 @@
 #include "msspr_bags/dataset_bag.h"
 #include "msspr_bridge/cli_args.h"
 #include "msspr_sim/cube_dataset.h"
+#include "msspr_sim/cube_double_oracle.h"
 #include "msspr_sim/dataset_gen.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/expert.h"
@@ -30,10 +32,11 @@ namespace {
 
 constexpr char kUsage[] = R"(usage: msspr_collect --out FILE.bag [options]
 Writes an expert dataset of an msspr point maze, OGBench's cube-single-play,
-puzzle-3x3-play or puzzle-4x4-play dataset of the URDF arm, or an ant maze's
-dataset, into a rosbag (LZ4).
-  --env ENV              pointmaze | cube-single | puzzle-3x3 | puzzle-4x4 |
-                         antmaze-medium | antmaze-large        (default pointmaze)
+cube-double-play, puzzle-3x3-play or puzzle-4x4-play dataset of the URDF arm,
+or an ant maze's dataset, into a rosbag (LZ4).
+  --env ENV              pointmaze | cube-single | cube-double | puzzle-3x3 |
+                         puzzle-4x4 | antmaze-medium | antmaze-large
+                                                               (default pointmaze)
   --maze NAME            arena | medium | large | giant        (default medium;
                          --env pointmaze-NAME says the same)
   --kind KIND            navigate | stitch                     (default navigate)
@@ -47,10 +50,10 @@ dataset, into a rosbag (LZ4).
   --seed S               base seed; episode k uses EpisodeSeed(S, k) (default 0)
   --no-compress          write an uncompressed bag
   --quiet                no progress output
-cube-single, puzzle-3x3, puzzle-4x4 (--maze, --kind and --noise do not apply):
-the play oracle (CubePlayOracle: pick and place; PuzzlePlayOracle: presses of
-random buttons) from collection resets, 1000 + 100 episodes of 1001 steps by
-default; --episodes, --val-episodes, --length, --images,
+cube-single, cube-double, puzzle-3x3, puzzle-4x4 (--maze, --kind and --noise do
+not apply): the play oracle (CubePlayOracle and CubeDoublePlayOracle: pick and
+place; PuzzlePlayOracle: presses of random buttons) from collection resets,
+1000 + 100 episodes of 1001 steps by default; --episodes, --val-episodes, --length, --images,
 --image-episodes, --seed as above, and
   --urdf FILE            the arm's URDF (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
 antmaze-medium, antmaze-large (--maze and images do not apply): OGBench's
@@ -125,8 +128,24 @@ void WriteAllEpisodes(const msspr::ros_bridge::CliArgs& args,
                transitions / std::max(s, 1e-9));
 }
 
-// cube-single-play, puzzle-3x3-play, puzzle-4x4-play: the play oracle's episodes
-// (CollectCubeEpisode, CollectPuzzleEpisode), state-only or with images.
+// An episode collector of a play env (the env kept alive by it): `collect_episode(env, options,
+// k)` with the options' length, seed and images set.
+template <class Options, class Env, class CollectEpisode>
+std::function<msspr::sim::PlayEpisode(long, bool)> Collector(std::shared_ptr<Env> env, int length,
+                                                             uint64_t seed,
+                                                             CollectEpisode collect_episode) {
+  return [env, length, seed, collect_episode](long k, bool images) {
+    Options o;
+    o.episode_length = length;
+    o.seed = seed;
+    o.images = images;
+    return collect_episode(*env, o, static_cast<uint64_t>(k));
+  };
+}
+
+// cube-single-play, cube-double-play, puzzle-3x3-play, puzzle-4x4-play: the play oracle's
+// episodes (CollectCubeEpisode, CollectCubeDoubleEpisode, CollectPuzzleEpisode), state-only
+// or with images.
 int CollectManipulation(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvId env_id) {
   using namespace msspr;
   const std::string env_name = sim::EnvLabel(env_id);
@@ -155,45 +174,40 @@ int CollectManipulation(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvI
   ros::Time::init();
   sim::CubeEnvOptions cube_opt;
   sim::PuzzleEnvOptions puzzle_opt;
-  cube_opt.urdf_path = puzzle_opt.urdf_path = urdf;
-  cube_opt.enable_rendering = puzzle_opt.enable_rendering = image_episodes > 0;
-  // OGBench's visual look for the cube (the goal marker hidden)
-  cube_opt.scene.pixel_style = cube_opt.enable_rendering;
-  std::unique_ptr<sim::CubeEnv> cube;
-  std::unique_ptr<sim::PuzzleEnv> board;
-  int obs_dim = sim::CubeEnv::kObservationSize, image_size = cube_opt.image_size;
+  sim::CubeDoubleEnvOptions double_opt;
+  cube_opt.urdf_path = puzzle_opt.urdf_path = double_opt.urdf_path = urdf;
+  cube_opt.enable_rendering = puzzle_opt.enable_rendering = double_opt.enable_rendering =
+      image_episodes > 0;
+  // OGBench's visual look for the cubes (the goal markers hidden)
+  cube_opt.scene.pixel_style = double_opt.scene.pixel_style = image_episodes > 0;
+  std::function<sim::PlayEpisode(long, bool)> collect;  // episode k, with images or not
+  int obs_dim = sim::CubeEnv::kObservationSize;
   if (puzzle) {
     puzzle_opt.side = sim::PuzzleSide(env_id);
-    board = std::make_unique<sim::PuzzleEnv>(puzzle_opt);
-    obs_dim = board->observation_size();
-    image_size = puzzle_opt.image_size;
+    auto env = std::make_shared<sim::PuzzleEnv>(puzzle_opt);
+    obs_dim = env->observation_size();
+    collect =
+        Collector<sim::PuzzleCollectOptions>(env, episode_length, seed, sim::CollectPuzzleEpisode);
+  } else if (env_id == sim::EnvId::kCubeDouble) {
+    obs_dim = sim::CubeDoubleEnv::kObservationSize;
+    collect = Collector<sim::CubeDoubleCollectOptions>(
+        std::make_shared<sim::CubeDoubleEnv>(double_opt), episode_length, seed,
+        sim::CollectCubeDoubleEpisode);
   } else {
-    cube = std::make_unique<sim::CubeEnv>(cube_opt);
+    collect = Collector<sim::CubeCollectOptions>(std::make_shared<sim::CubeEnv>(cube_opt),
+                                                 episode_length, seed, sim::CollectCubeEpisode);
   }
   const double control_dt = cube_opt.scene.timestep * cube_opt.substeps;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
   WriteAllEpisodes(args, writer, episodes, val, image_episodes, episode_length, env_name,
                    env_name + "-play", [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
-                     sim::PlayEpisode ep;
-                     if (puzzle) {
-                       sim::PuzzleCollectOptions o;
-                       o.episode_length = episode_length;
-                       o.seed = seed;
-                       o.images = images;
-                       ep = sim::CollectPuzzleEpisode(*board, o, static_cast<uint64_t>(k));
-                     } else {
-                       sim::CubeCollectOptions o;
-                       o.episode_length = episode_length;
-                       o.seed = seed;
-                       o.images = images;
-                       ep = sim::CollectCubeEpisode(*cube, o, static_cast<uint64_t>(k));
-                     }
+                     const sim::PlayEpisode ep = collect(k, images);
                      meta.seed = ep.seed;
                      meta.start.assign(ep.observations.begin(), ep.observations.begin() + obs_dim);
                      // play data has no goal: meta.goal stays empty, so no step is marked success
                      writer.WriteEpisode(meta, ep.length, obs_dim, sim::CubeEnv::kActionSize,
                                          ep.observations.data(), ep.actions.data(),
-                                         images ? ep.images.data() : nullptr, image_size,
+                                         images ? ep.images.data() : nullptr, cube_opt.image_size,
                                          cube_opt.success_distance);
                      return ep.length;
                    });
@@ -288,8 +302,11 @@ int main(int argc, char** argv) {
     try {
       env_id = sim::ParseEnvFlag(args.Get("env", "pointmaze"), args.Get("maze", ""),
                                  sim::AllEnvIds(), &maze);
-      if (env_id != sim::EnvId::kCubeSingle && !sim::IsPuzzle(env_id) && args.Has("urdf"))
-        throw cli::CliError("--urdf needs --env cube-single, puzzle-3x3 or puzzle-4x4");
+      if (env_id != sim::EnvId::kCubeSingle && env_id != sim::EnvId::kCubeDouble &&
+          !sim::IsPuzzle(env_id) && args.Has("urdf"))
+        throw cli::CliError(
+            "--urdf needs an arm env: cube-single, cube-double, puzzle-3x3 or "
+            "puzzle-4x4");
       if (!sim::IsAntMaze(env_id) && args.Has("expert"))
         throw cli::CliError("--expert needs --env antmaze-medium or antmaze-large");
     } catch (const std::exception& e) {
@@ -300,6 +317,7 @@ int main(int argc, char** argv) {
       case sim::EnvId::kCubeSingle:
       case sim::EnvId::kPuzzle3x3:
       case sim::EnvId::kPuzzle4x4:
+      case sim::EnvId::kCubeDouble:
         return CollectManipulation(args, env_id);
       case sim::EnvId::kAntMazeMedium:
       case sim::EnvId::kAntMazeLarge:

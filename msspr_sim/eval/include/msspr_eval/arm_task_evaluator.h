@@ -1,0 +1,64 @@
+// In-process evaluation of a state Policy on the arm's tasks beyond cube-single (puzzle-3x3,
+// puzzle-4x4, cube-double) by OGBench's protocol (no ROS): the 5 tasks' resets with the
+// evaluation seeds of every msspr evaluator (sim::EvalEpisodeSeed), up to max_steps steps
+// (OGBench's cap: 500), success as the env's (the episode ends there). Episodes run side by
+// side, each action computed on its own (Policy::Act), as the cube's evaluator
+// (cube_evaluator.h).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "msspr_eval/eval_result.h"
+
+namespace msspr::core {
+class Policy;
+}
+
+namespace msspr::agent {
+
+struct PuzzleEvalOptions {
+  std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf() (package_files.h)
+  int side = 3;           // 3: puzzle-3x3, 4: puzzle-4x4
+  std::vector<int> tasks = {1, 2, 3, 4, 5};
+  int episodes = 50;  // per task
+  int max_steps = 500;
+  uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e)
+};
+
+using PuzzleEvalResult = TaskSuccessResult;
+
+// Runs the evaluation. Throws std::invalid_argument on a bad side or task, for a pixels
+// policy, or when the policy does not fit the puzzle (19 + 4 N states, 5-D actions).
+PuzzleEvalResult EvaluateOnPuzzle(core::Policy& policy, const PuzzleEvalOptions& options);
+
+// The results in msspr_eval's report format (env "puzzle-3x3" or "puzzle-4x4"; each task's
+// start and goal are its boards' states, row by row).
+sim::EvalReport MakePuzzleEvalReport(const PuzzleEvalResult& result,
+                                     const PuzzleEvalOptions& options, const std::string& agent);
+// Writes the results JSON; throws std::runtime_error naming the path.
+void WritePuzzleResultsJson(const PuzzleEvalResult& result, const PuzzleEvalOptions& options,
+                            const std::string& agent, const std::string& path);
+
+struct CubeDoubleEvalOptions {
+  std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf()
+  std::vector<int> tasks = {1, 2, 3, 4, 5};
+  int episodes = 50;  // per task
+  int max_steps = 500;
+  uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e)
+};
+using CubeDoubleEvalResult = TaskSuccessResult;
+
+// cube-double (37-D states, 5-D actions); throws std::invalid_argument as EvaluateOnPuzzle.
+CubeDoubleEvalResult EvaluateOnCubeDouble(core::Policy& policy,
+                                          const CubeDoubleEvalOptions& options);
+// The report (env "cube-double").
+sim::EvalReport MakeCubeDoubleEvalReport(const CubeDoubleEvalResult& result,
+                                         const CubeDoubleEvalOptions& options,
+                                         const std::string& agent);
+void WriteCubeDoubleResultsJson(const CubeDoubleEvalResult& result,
+                                const CubeDoubleEvalOptions& options, const std::string& agent,
+                                const std::string& path);
+
+}  // namespace msspr::agent

@@ -1,0 +1,157 @@
+#include "msspr_eval/arm_task_evaluator.h"
+
+#include <torch/torch.h>
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "msspr_core/policy.h"
+#include "msspr_eval/batched_episodes.h"
+#include "msspr_sim/cube_double_env.h"
+#include "msspr_sim/env_id.h"
+#include "msspr_sim/package_files.h"
+#include "msspr_sim/puzzle_env.h"
+
+namespace msspr::agent {
+namespace {
+
+sim::EnvId PuzzleId(int side) {
+  if (side == 3) return sim::EnvId::kPuzzle3x3;
+  if (side == 4) return sim::EnvId::kPuzzle4x4;
+  throw std::invalid_argument("EvaluateOnPuzzle: side must be 3 or 4, got " + std::to_string(side));
+}
+
+// Checks the policy and options against an env of `env_name` (obs_dim states, 5-D actions);
+// throws std::invalid_argument naming what does not fit.
+template <class Options>
+void CheckStatePolicy(const core::Policy& policy, const Options& options,
+                      const std::string& env_name, int obs_dim, const char* who) {
+  const std::string w = std::string(who) + ": ";
+  if (policy.pixels())
+    throw std::invalid_argument(w + env_name +
+                                " is evaluated from states; this policy takes images");
+  if (policy.obs_dim() != obs_dim)
+    throw std::invalid_argument(w + "the policy expects " + std::to_string(policy.obs_dim()) +
+                                "-dimensional observations, " + env_name + " gives " +
+                                std::to_string(obs_dim));
+  if (policy.action_dim() != sim::ArmEnv::kActionSize)
+    throw std::invalid_argument(w + "the policy has " + std::to_string(policy.action_dim()) +
+                                " action dimensions, " + env_name + " takes 5");
+  for (int t : options.tasks)
+    if (t < 1 || t > 5)
+      throw std::invalid_argument(w + "task " + std::to_string(t) + " is not a task of " +
+                                  env_name + " (1 to 5)");
+  if (options.episodes < 1 || options.max_steps < 1)
+    throw std::invalid_argument(w + "episodes and max_steps must be at least 1");
+}
+
+// Every (task, episode) of `options` in an env of its own (make_env()), side by side.
+template <class Env, class Options, class MakeEnv>
+TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, int obs_dim,
+                                 MakeEnv make_env) {
+  const auto t0 = std::chrono::steady_clock::now();
+  struct Slot {
+    std::unique_ptr<Env> env;
+    typename Env::Observation obs;
+    bool done = false, success = false;
+    int steps = 0;
+  };
+  std::vector<Slot> slots;
+  slots.reserve(options.tasks.size() * static_cast<size_t>(options.episodes));
+  for (int t : options.tasks)
+    for (int e = 0; e < options.episodes; ++e) {
+      Slot s;
+      s.env = make_env();
+      s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
+      s.success = s.done = s.env->Success();
+      slots.push_back(std::move(s));
+    }
+  const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
+                          torch::Tensor* goal) {
+    const int64_t B = static_cast<int64_t>(active.size());
+    *obs = torch::empty({B, obs_dim}, torch::kFloat32);
+    *goal = torch::empty({B, obs_dim}, torch::kFloat32);
+    for (int64_t b = 0; b < B; ++b) {
+      std::copy(active[b]->obs.begin(), active[b]->obs.end(), (*obs)[b].data_ptr<float>());
+      const auto& g = active[b]->env->goal_observation();
+      std::copy(g.begin(), g.end(), (*goal)[b].data_ptr<float>());
+    }
+  };
+  StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
+    typename Env::Action u;
+    for (int k = 0; k < sim::ArmEnv::kActionSize; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
+    s.success = s.env->Step(u);
+    s.obs = s.env->GetObservation();
+    ++s.steps;
+    s.done = s.success || s.steps >= options.max_steps;
+  });
+  std::vector<EpisodeResult> episodes;
+  for (const Slot& s : slots)
+    episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
+  TaskSuccessResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace
+
+PuzzleEvalResult EvaluateOnPuzzle(core::Policy& policy, const PuzzleEvalOptions& options) {
+  const std::string env_name = sim::EnvLabel(PuzzleId(options.side));
+  const int obs_dim = sim::ArmEnv::kProprioSize + 4 * options.side * options.side;
+  CheckStatePolicy(policy, options, env_name, obs_dim, "EvaluateOnPuzzle");
+  sim::PuzzleEnvOptions eo;
+  eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
+  eo.side = options.side;
+  eo.max_episode_steps = options.max_steps;
+  return EvaluateStates<sim::PuzzleEnv>(policy, options, obs_dim,
+                                        [&] { return std::make_unique<sim::PuzzleEnv>(eo); });
+}
+
+CubeDoubleEvalResult EvaluateOnCubeDouble(core::Policy& policy,
+                                          const CubeDoubleEvalOptions& options) {
+  CheckStatePolicy(policy, options, "cube-double", sim::CubeDoubleEnv::kObservationSize,
+                   "EvaluateOnCubeDouble");
+  sim::CubeDoubleEnvOptions eo;
+  eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
+  eo.max_episode_steps = options.max_steps;
+  return EvaluateStates<sim::CubeDoubleEnv>(
+      policy, options, sim::CubeDoubleEnv::kObservationSize,
+      [&] { return std::make_unique<sim::CubeDoubleEnv>(eo); });
+}
+
+sim::EvalReport MakePuzzleEvalReport(const PuzzleEvalResult& result,
+                                     const PuzzleEvalOptions& options, const std::string& agent) {
+  sim::EvalReport report = MakeTaskReport(result, sim::EnvLabel(PuzzleId(options.side)), agent,
+                                          options.episodes, options.max_steps, options.seed);
+  const auto& tasks = sim::PuzzleTasks(options.side);
+  for (auto& t : report.tasks) {
+    const auto& pt = tasks[static_cast<size_t>(t.task_id - 1)];
+    t.start.assign(pt.start.begin(), pt.start.end());
+    t.goal.assign(pt.goal.begin(), pt.goal.end());
+  }
+  return report;
+}
+
+void WritePuzzleResultsJson(const PuzzleEvalResult& result, const PuzzleEvalOptions& options,
+                            const std::string& agent, const std::string& path) {
+  sim::WriteTextFile(path, sim::EvalReportJson(MakePuzzleEvalReport(result, options, agent)));
+}
+
+sim::EvalReport MakeCubeDoubleEvalReport(const CubeDoubleEvalResult& result,
+                                         const CubeDoubleEvalOptions& options,
+                                         const std::string& agent) {
+  return MakeTaskReport(result, sim::EnvLabel(sim::EnvId::kCubeDouble), agent, options.episodes,
+                        options.max_steps, options.seed);
+}
+
+void WriteCubeDoubleResultsJson(const CubeDoubleEvalResult& result,
+                                const CubeDoubleEvalOptions& options, const std::string& agent,
+                                const std::string& path) {
+  sim::WriteTextFile(path, sim::EvalReportJson(MakeCubeDoubleEvalReport(result, options, agent)));
+}
+
+}  // namespace msspr::agent
