@@ -80,8 +80,10 @@ int main(int argc, char** argv) {
       throw msspr::cli::CliError(
           args.Has("help") ? "" : "unexpected argument '" + args.positional()[0] + "'");
     if (!args.Has("env")) throw msspr::cli::CliError("--env is required");
-    env_id = sim::ParseEnvId(args.GetChoice(
-        "env", "", sim::EnvIdNames({sim::EnvId::kPuzzle3x3, sim::EnvId::kPuzzle4x4})));
+    env_id = sim::ParseEnvId(
+        args.GetChoice("env", "",
+                       sim::EnvIdNames({sim::EnvId::kPuzzle3x3, sim::EnvId::kPuzzle4x4,
+                                        sim::EnvId::kCubeDouble})));
     flags = sim::ReadEpisodeFlags(args, 500, 5);
     urdf = args.Get("urdf", sim::DefaultArmUrdf());
     out = args.Get("out", "");
