@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "msspr_bags/dataset_bag.h"
+#include "msspr_sim/cube_double_env.h"
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/puzzle_env.h"
@@ -114,43 +115,57 @@ TEST(CubeCollect, Images) {
   std::filesystem::remove(bag);
 }
 
+// Collects `env_name` (1 train + 1 val episode of 50 steps) and replays every stored action in
+// `env` from its episode's collection reset: every stored row of `dim` floats comes back.
+template <class Env>
+void ExpectCollectionReplays(const std::string& env_name, Env& env, int dim) {
+  const std::string bag = TempPath(env_name + ".bag");
+  std::string out;
+  ASSERT_EQ(RunCollect("--env " + env_name +
+                           " --episodes 1 --val-episodes 1 --length 50 --seed 2 --out " + bag,
+                       &out),
+            0)
+      << out;
+  const int A = 5;
+  DatasetBagReader reader(bag);
+  std::vector<std::string> splits;
+  reader.ForEachEpisode([&](BagEpisode&& ep) {
+    ASSERT_TRUE(ep.complete()) << ep.problems.front();
+    EXPECT_EQ(ep.meta.env, env_name);
+    ASSERT_EQ(ep.obs_dim, dim);
+    EXPECT_EQ(ep.act_dim, A);
+    splits.push_back(ep.meta.split);
+    env.ResetForCollection(ep.meta.seed);
+    for (int t = 0; t < ep.num_steps; ++t) {
+      const auto o = env.GetObservation();
+      for (int i = 0; i < dim; ++i)
+        ASSERT_EQ(o[i], ep.observations[t * dim + i])
+            << env_name << " episode " << ep.meta.episode_id << " step " << t;
+      typename Env::Action a;
+      for (int i = 0; i < A; ++i) a[i] = ep.actions[t * A + i];
+      if (t + 1 < ep.num_steps) env.Step(a);
+    }
+  });
+  EXPECT_EQ(splits, (std::vector<std::string>{"train", "val"})) << env_name;
+  std::filesystem::remove(bag);
+}
+
 TEST(PuzzleCollect, WritesFiftyFiveAndEightyThreeFloatRowsThatReplay) {
   for (const int side : {3, 4}) {
-    const std::string env_name = "puzzle-" + std::to_string(side) + "x" + std::to_string(side);
-    const std::string bag = TempPath(env_name + ".bag");
-    std::string out;
-    ASSERT_EQ(RunCollect("--env " + env_name +
-                             " --episodes 1 --val-episodes 1 --length 50 --seed 2 --out " + bag,
-                         &out),
-              0)
-        << out;
     sim::PuzzleEnvOptions eo;
     eo.urdf_path = sim::DefaultArmUrdf();
     eo.side = side;
     sim::PuzzleEnv env(eo);
-    const int D = side == 3 ? 55 : 83, A = 5;
-    DatasetBagReader reader(bag);
-    std::vector<std::string> splits;
-    reader.ForEachEpisode([&](BagEpisode&& ep) {
-      ASSERT_TRUE(ep.complete()) << ep.problems.front();
-      EXPECT_EQ(ep.meta.env, env_name);
-      ASSERT_EQ(ep.obs_dim, D);
-      EXPECT_EQ(ep.act_dim, A);
-      splits.push_back(ep.meta.split);
-      env.ResetForCollection(ep.meta.seed);
-      for (int t = 0; t < ep.num_steps; ++t) {
-        const sim::PuzzleEnv::Observation o = env.GetObservation();
-        for (int i = 0; i < D; ++i)
-          ASSERT_EQ(o[i], ep.observations[t * D + i])
-              << env_name << " episode " << ep.meta.episode_id << " step " << t;
-        sim::PuzzleEnv::Action a;
-        for (int i = 0; i < A; ++i) a[i] = ep.actions[t * A + i];
-        if (t + 1 < ep.num_steps) env.Step(a);
-      }
-    });
-    EXPECT_EQ(splits, (std::vector<std::string>{"train", "val"})) << env_name;
-    std::filesystem::remove(bag);
+    ExpectCollectionReplays("puzzle-" + std::to_string(side) + "x" + std::to_string(side), env,
+                            side == 3 ? 55 : 83);
   }
+}
+
+TEST(CubeDoubleCollect, WritesThirtySevenFloatRowsThatReplay) {
+  sim::CubeDoubleEnvOptions eo;
+  eo.urdf_path = sim::DefaultArmUrdf();
+  sim::CubeDoubleEnv env(eo);
+  ExpectCollectionReplays("cube-double", env, 37);
 }
 
 TEST(CubeCollect, UsageErrors) {
