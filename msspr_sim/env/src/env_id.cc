@@ -26,13 +26,6 @@ const std::vector<EnvId>& AllEnvIds() {
   return ids;
 }
 
-const std::vector<EnvId>& SimNodeEnvIds() {
-  static const std::vector<EnvId> ids = {EnvId::kPointMaze,     EnvId::kCubeSingle,
-                                         EnvId::kAntMazeMedium, EnvId::kAntMazeLarge,
-                                         EnvId::kPuzzle3x3,     EnvId::kPuzzle4x4};
-  return ids;
-}
-
 std::string EnvIdName(EnvId id) {
   switch (id) {
     case EnvId::kPointMaze:

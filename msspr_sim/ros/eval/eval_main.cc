@@ -40,13 +40,14 @@ namespace {
 
 constexpr char kUsage[] = R"(usage: rosrun msspr msspr_eval [options]
 Evaluates the agent that answers the sim's observations (lockstep), by OGBench's protocol.
-  --env ENV           pointmaze | cube-single | puzzle-3x3 | puzzle-4x4 | antmaze-medium |
-                      antmaze-large: the running sim's env (default pointmaze)
+  --env ENV           pointmaze | cube-single | cube-double | puzzle-3x3 | puzzle-4x4 |
+                      antmaze-medium | antmaze-large: the running sim's env (default pointmaze)
   --maze NAME         maze of the running point-maze sim (default medium; --env
                       pointmaze-NAME says the same)
   --tasks LIST        comma-separated task ids (default 1,2,3,4,5)
   --episodes N        episodes per task (default 50)
-  --max-steps N       step limit per episode (default 1000; cube-single 200, puzzles 500)
+  --max-steps N       step limit per episode (default 1000; cube-single 200, cube-double and
+                      puzzles 500)
   --seed S            evaluation seed (default 0)
   --agent NAME        label written into the results (default "agent")
   --robot NAME        the robot interface spec the agent is served through, written into the
@@ -65,8 +66,9 @@ antmaze-medium, antmaze-large: the maze's 5 tasks with the ant (29-D goal states
 reset; success: the torso within 0.5 m of the goal); --maze and --tasks-file do not apply.
 cube-single: the 5 tasks of OGBench's cube-single (success: the cube within 4 cm of the goal,
 at the step that ends the episode); --maze, --plot and --tasks-file do not apply.
-puzzle-3x3, puzzle-4x4: OGBench's 5 tasks of each (success: every button's state as the
-goal's); --maze, --plot and --tasks-file do not apply.
+puzzle-3x3, puzzle-4x4, cube-double: OGBench's 5 tasks of each (success: every button's
+state as the goal's; both cubes within 4 cm of their own goals); --maze, --plot and
+--tasks-file do not apply.
   --step-timeout S    seconds without a new observation before an episode counts as stalled (default 10)
   --sims N            drive N sim + agent pairs at once, in namespaces PREFIX0..PREFIX{N-1}, one
                       thread each, the episodes shared out; the results equal the serial run's
@@ -222,11 +224,11 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
     throw std::invalid_argument("--observation-mode must be state or pixels, got '" + m + "'");
   std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
   q.env = msspr::sim::ParseEnvFlag(args.Get("env", msspr::sim::EnvIdName(q.env)),
-                                   args.Get("maze", ""), msspr::sim::SimNodeEnvIds(), &maze_arg);
+                                   args.Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
   const bool ant = msspr::sim::IsAntMaze(q.env);
   for (const char* f : {"maze", "plot", "tasks-file"})
-    if ((q.env == EnvId::kCubeSingle || msspr::sim::IsPuzzle(q.env) ||
-         (ant && std::string(f) != "plot")) &&
+    if ((q.env == EnvId::kCubeSingle || q.env == EnvId::kCubeDouble ||
+         msspr::sim::IsPuzzle(q.env) || (ant && std::string(f) != "plot")) &&
         args.Has(f))
       throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
                                   msspr::sim::EnvIdName(q.env));
@@ -234,9 +236,9 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
   q.map = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(q.maze));
   const msspr::sim::EpisodeFlags f = msspr::sim::ReadEpisodeFlags(
       args,
-      q.env == EnvId::kCubeSingle   ? 200
-      : msspr::sim::IsPuzzle(q.env) ? 500
-                                    : 1000,
+      q.env == EnvId::kCubeSingle                                  ? 200
+      : msspr::sim::IsPuzzle(q.env) || q.env == EnvId::kCubeDouble ? 500
+                                                                   : 1000,
       static_cast<long>(q.map->Tasks().size()), !args.Has("tasks-file"));
   q.tasks = f.tasks;
   if (args.Has("tasks-file")) {

@@ -36,8 +36,10 @@ const std::array<CubeDoubleTask, 5>& CubeDoubleTasks();
 
 class CubeDoubleEnv : public ArmEnv {
  public:
+  using Options = CubeDoubleEnvOptions;
   static constexpr int kCubes = 2;
   static constexpr int kObservationSize = kProprioSize + 9 * kCubes;  // 37
+  int observation_size() const { return kObservationSize; }
 
   // Throws as ArmEnv's constructor. The cubes start at (0.30, -0.05 / 0.05, 0.02), the arm at
   // home.

@@ -26,9 +26,6 @@ enum class EnvId {
 
 // Every id, in the order above.
 const std::vector<EnvId>& AllEnvIds();
-// The ids msspr_sim_node serves, and so msspr_eval over ROS: all but cube-double, which has
-// datasets and in-process evaluation (msspr_eval_inprocess, the trainer) but no node yet.
-const std::vector<EnvId>& SimNodeEnvIds();
 
 // "pointmaze", "cube-single", "antmaze-medium", "antmaze-large", "puzzle-3x3", "puzzle-4x4",
 // "cube-double".

@@ -38,6 +38,7 @@ struct PuzzleEnvOptions : ArmEnvOptions {
 
 class PuzzleEnv : public ArmEnv {
  public:
+  using Options = PuzzleEnvOptions;
   // Parses the URDF, generates and compiles the scene. Throws UrdfError for a bad URDF,
   // std::invalid_argument for a side other than 3 or 4 and std::runtime_error when MuJoCo
   // rejects the scene. Every button starts up and in state 0, the arm at home.

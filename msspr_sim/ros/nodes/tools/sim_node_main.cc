@@ -4,13 +4,13 @@
 
 #include "msspr_sim/env_id.h"
 #include "msspr_sim_nodes/ant_sim_node.h"
+#include "msspr_sim_nodes/arm_task_sim_node.h"
 #include "msspr_sim_nodes/cube_sim_node.h"
 #include "msspr_sim_nodes/point_maze_sim_node.h"
-#include "msspr_sim_nodes/puzzle_sim_node.h"
 
 // ~env picks the environment: pointmaze (default; ~maze picks the maze),
-// cube-single (the URDF arm, cube_sim_node.h), puzzle-3x3 / puzzle-4x4 (the arm and a button
-// grid, puzzle_sim_node.h) or antmaze-medium / antmaze-large
+// cube-single (the URDF arm, cube_sim_node.h), puzzle-3x3 / puzzle-4x4 and cube-double (the
+// arm and a button grid or two cubes, arm_task_sim_node.h) or antmaze-medium / antmaze-large
 // (the ant, ant_sim_node.h). All serve the same topics, messages and services.
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_sim_node");
@@ -29,8 +29,12 @@ int main(int argc, char** argv) {
       msspr::ros_bridge::PointMazeSimNode node(nh, pnh, options);
       ros::spin();
     } else if (id && msspr::sim::IsPuzzle(*id)) {
-      const auto options = msspr::ros_bridge::LoadPuzzleSimNodeOptions(pnh, *id);
+      const auto options = msspr::ros_bridge::LoadArmTaskSimNodeOptions(pnh, *id);
       msspr::ros_bridge::PuzzleSimNode node(nh, pnh, options);
+      ros::spin();
+    } else if (id == EnvId::kCubeDouble) {
+      const auto options = msspr::ros_bridge::LoadArmTaskSimNodeOptions(pnh, *id);
+      msspr::ros_bridge::CubeDoubleSimNode node(nh, pnh, options);
       ros::spin();
     } else if (id && msspr::sim::IsAntMaze(*id)) {
       const auto options = msspr::ros_bridge::LoadAntSimNodeOptions(pnh, *id);

@@ -1,8 +1,10 @@
-// rostest scenarios of msspr_sim_node with ~env puzzle-3x3 (sim.launch env:=puzzle-3x3): a
-// reset to each of the 5 tasks gives the task's start board, the goal's observation and
-// the standard topics (joint_states, buttons/joint_states, markers, tf2); the task oracle,
-// run on an in-process twin of the sim and sending its actions over ROS, solves a task with
-// the sim's observations equal to the twin's at every step (over ROS = in process).
+// rostest scenarios of msspr_sim_node with ~env puzzle-3x3 (sim_puzzle.test, PuzzleSim.*) and
+// ~env cube-double (sim_cube_double.test, CubeDoubleSim.*), as sim.launch starts them: a reset
+// to each of the 5 tasks gives the task's start, the goal's observation and the standard
+// topics; the task oracle, run on an in-process twin of the sim and sending its actions over
+// ROS, solves a task with the sim's observations equal to the twin's at every step (over ROS
+// = in process).
+#include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
 #include <sensor_msgs/JointState.h>
 #include <tf2_ros/buffer.h>
@@ -14,10 +16,11 @@
 #include <vector>
 
 #include "msspr/Reset.h"
+#include "msspr_sim/cube_double_oracle.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/puzzle_env.h"
 #include "msspr_sim/puzzle_oracle.h"
-#include "msspr_sim_nodes/puzzle_sim_node.h"
+#include "msspr_sim_nodes/arm_task_sim_node.h"
 #include "ros_test_helper.h"
 
 namespace msspr::testing {
@@ -80,37 +83,87 @@ TEST(PuzzleSim, ResetsToEachTaskAndServesTheStandardTopics) {
   EXPECT_NE(bad.response.message.find("task_id must be 1..5"), std::string::npos);
 }
 
-TEST(PuzzleSim, TaskOracleOverRosSolvesATaskStepForStepAsInProcess) {
-  RosTestHelper h;
-  ASSERT_TRUE(h.WaitForSim());
-  const int task = 1;
-  const uint64_t seed = 5;
-  sim::PuzzleEnv twin(TwinOptions());
-  const sim::PuzzleEnv::Observation first = twin.ResetToTask(task, seed);
+// Resets the sim and an in-process twin to `task`, then lets `oracle` act on the twin and
+// sends each action over ROS: every observation of the sim equals the twin's; returns the
+// steps to success (-1 without one).
+template <class Env, class Oracle>
+int RunTwinEpisode(RosTestHelper& h, Env& twin, Oracle& oracle, int task, uint64_t seed) {
+  const auto first = twin.ResetToTask(task, seed);
   const auto res = CallReset(h.nh(), task, seed);
-  ASSERT_TRUE(res.ok) << res.message;
+  EXPECT_TRUE(res.ok) << res.message;
+  if (!res.ok) return -1;
   EXPECT_EQ(res.observation.state, first);
   EXPECT_EQ(res.goal, twin.goal_observation());
-  sim::PuzzleTaskOracle oracle(seed);
   const uint32_t id = res.observation.episode_id;
   msspr::Observation::ConstPtr o = boost::make_shared<msspr::Observation>(res.observation);
   uint32_t step = 0;
   while (!o->success && !o->last) {
-    const sim::PuzzleEnv::Action raw = oracle.Act(twin);
+    const typename Env::Action raw = oracle.Act(twin);
     std::vector<float> sent(raw.begin(), raw.end());
-    sim::PuzzleEnv::Action a;
+    typename Env::Action a;
     for (size_t i = 0; i < a.size(); ++i) a[i] = sent[i];
     twin.Step(a);
     h.SendAction(id, step, sent);
     ++step;
-    ASSERT_TRUE(h.WaitFor([&] { return h.latest() && h.latest()->step == step; }, 10.0))
-        << "stalled at step " << step;
+    const bool answered = h.WaitFor([&] { return h.latest() && h.latest()->step == step; }, 10.0);
+    EXPECT_TRUE(answered) << "stalled at step " << step;
+    if (!answered) return -1;
     o = h.latest();
-    ASSERT_EQ(o->state, twin.GetObservation()) << "step " << step;
+    EXPECT_EQ(o->state, twin.GetObservation()) << "step " << step;
+    if (o->state != twin.GetObservation()) return -1;
   }
-  EXPECT_TRUE(o->success) << "after " << step << " steps";
-  EXPECT_TRUE(twin.Success());
-  EXPECT_LT(step, 200u);  // two presses
+  EXPECT_EQ(o->success, twin.Success());
+  return o->success ? static_cast<int>(step) : -1;
+}
+
+TEST(PuzzleSim, TaskOracleOverRosSolvesATaskStepForStepAsInProcess) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  sim::PuzzleEnv twin(TwinOptions());
+  sim::PuzzleTaskOracle oracle(5);
+  const int steps = RunTwinEpisode(h, twin, oracle, 1, 5);
+  EXPECT_GT(steps, 0);
+  EXPECT_LT(steps, 200);  // two presses
+}
+
+TEST(CubeDoubleSim, ResetsToEachTaskAndServesTheCubes) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  geometry_msgs::PoseStamped::ConstPtr cube1;
+  auto sub = h.nh().subscribe<geometry_msgs::PoseStamped>(
+      "cube_1_pose", 100, [&](const geometry_msgs::PoseStamped::ConstPtr& p) { cube1 = p; });
+  tf2_ros::Buffer tf_buffer;
+  tf2_ros::TransformListener tf_listener(tf_buffer);
+  ASSERT_TRUE(h.WaitFor([&] { return sub.getNumPublishers() > 0; }, 10.0));
+  sim::CubeDoubleEnvOptions eo;
+  eo.urdf_path = sim::DefaultArmUrdf();
+  sim::CubeDoubleEnv twin(eo);
+  for (int task = 1; task <= 5; ++task) {
+    twin.ResetToTask(task, 7);
+    const auto res = CallReset(h.nh(), task, 7);
+    ASSERT_TRUE(res.ok) << res.message;
+    ASSERT_EQ(res.observation.state.size(), 37u);
+    EXPECT_EQ(res.goal, twin.goal_observation()) << "task " << task;
+    const ros::Time stamp = res.observation.header.stamp;
+    ASSERT_TRUE(h.WaitFor([&] { return cube1 && cube1->header.stamp == stamp; }, 5.0));
+    EXPECT_NEAR(cube1->pose.position.x, twin.CubePosition(1).x(), 1e-9);
+    EXPECT_NEAR(cube1->pose.position.y, twin.CubePosition(1).y(), 1e-9);
+    ASSERT_TRUE(tf_buffer.canTransform("world", "cube_0_goal", stamp, ros::Duration(5.0)));
+    const auto goal = tf_buffer.lookupTransform("world", "cube_0_goal", stamp);
+    EXPECT_NEAR(goal.transform.translation.y, twin.GoalPosition(0).y(), 1e-9);
+  }
+}
+
+TEST(CubeDoubleSim, TaskOracleOverRosSolvesATaskStepForStepAsInProcess) {
+  RosTestHelper h;
+  ASSERT_TRUE(h.WaitForSim());
+  sim::CubeDoubleEnvOptions eo;
+  eo.urdf_path = sim::DefaultArmUrdf();
+  sim::CubeDoubleEnv twin(eo);
+  sim::CubeDoubleTaskOracle oracle(3);
+  const int steps = RunTwinEpisode(h, twin, oracle, 1, 3);
+  EXPECT_GT(steps, 0);
+  EXPECT_LT(steps, 200);  // one pick and place
 }
 
 }  // namespace
@@ -118,7 +171,7 @@ TEST(PuzzleSim, TaskOracleOverRosSolvesATaskStepForStepAsInProcess) {
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "msspr_puzzle_rostest", ros::init_options::AnonymousName);
+  ros::init(argc, argv, "msspr_arm_tasks_rostest", ros::init_options::AnonymousName);
   ros::Time::init();
   return RUN_ALL_TESTS();
 }

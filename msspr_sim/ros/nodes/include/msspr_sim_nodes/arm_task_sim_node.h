@@ -1,0 +1,137 @@
+// msspr_sim_node's side for the arm's tasks beyond cube-single: ~env puzzle-3x3 | puzzle-4x4
+// (PuzzleSimNode: the arm and a grid of push buttons, "Lights Out") and ~env cube-double
+// (CubeDoubleSimNode: two cubes). Both have the interface of cube-single's node
+// (cube_sim_node.h): the same topics, messages and services (observation, action, episode,
+// camera/image, goal_image, reset, set_goal, pause, /clock, /diagnostics), lockstep or
+// real-time stepping, the arm's robot_description, joint_states and tf2, gripper/joint_states,
+// goal_observation and the end-effector commands (ee_twist with gripper_command); each adds
+// its objects:
+// - the puzzles: buttons/joint_states (names buttonbox_joint_k, position the cap's slide in
+//   m, velocity, and as effort the button's state 0 or 1) and markers (a box and a cap per
+//   button, the cap red in state 0 and blue in state 1, sent again when a state changes);
+// - cube-double: cube_<i>_pose (geometry_msgs/PoseStamped) and tf2 world -> cube_<i> and
+//   cube_<i>_goal, and markers for the cubes and their goals.
+#pragma once
+
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <ros/ros.h>
+#include <sensor_msgs/JointState.h>
+#include <std_msgs/Float64MultiArray.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "msspr/Observation.h"
+#include "msspr/Reset.h"
+#include "msspr/SetGoal.h"
+#include "msspr_sim/cube_double_env.h"
+#include "msspr_sim/env_id.h"
+#include "msspr_sim/puzzle_env.h"
+#include "msspr_sim_nodes/arm_messages.h"
+#include "msspr_sim_nodes/sim_node_base.h"
+
+namespace msspr::ros_bridge {
+
+struct ArmTaskSimNodeOptions : SimNodeCommonOptions {
+  ArmTaskSimNodeOptions() { control_rate = 20.0; }  // Hz, real-time stepping (1 / 0.05 s)
+  sim::EnvId env = sim::EnvId::kPuzzle3x3;          // puzzle-3x3, puzzle-4x4 or cube-double
+  int max_episode_steps = 500;                      // OGBench's episodes of these tasks
+  int initial_task = -1;                            // -1: wait for reset; 1..5: task
+  std::string world_frame = "world";                // the URDF's root link
+  std::string robot_description = "robot_description";
+  std::string urdf;  // default: the package's ur5e_2f85.urdf
+  bool standard_topics = true;
+};
+
+// Reads ~params into ArmTaskSimNodeOptions for `id`, logs every value; throws
+// std::invalid_argument.
+ArmTaskSimNodeOptions LoadArmTaskSimNodeOptions(const ros::NodeHandle& pnh, sim::EnvId id);
+
+// The buttons' joint states (see above), stamped `stamp`.
+sensor_msgs::JointState MakePuzzleButtonStates(const sim::PuzzleEnv& env, const ros::Time& stamp);
+// A goal observation's button states, read from its one-hot entries; throws
+// std::invalid_argument unless each button's pair is (1, 0) or (0, 1).
+sim::LightsOutState PuzzleGoalStates(const std::vector<float>& goal, int buttons);
+
+template <class Env>
+class ArmTaskSimNode : public SimNodeBase {
+ public:
+  ~ArmTaskSimNode() override;
+
+ protected:
+  ArmTaskSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const ArmTaskSimNodeOptions& options,
+                 const typename Env::Options& env_options);
+
+  // The env's own standard topics and markers at `stamp` (after every step and reset).
+  virtual void PublishObjects(const ros::Time& stamp) = 0;
+  // Makes `goal` (an observation of the env's size, finite) the episode's goal in the env;
+  // returns "" or what is wrong with it.
+  virtual std::string ApplyGoal(const std::vector<float>& goal) = 0;
+
+  const ArmTaskSimNodeOptions& options() const { return options_; }
+  std::unique_ptr<Env> env_;
+
+ private:
+  void DoStep(const std::vector<double>& action) override;
+  uint32_t EpisodeStep() const override { return static_cast<uint32_t>(env_->episode_steps()); }
+  void Publish() override;
+  bool Reset(msspr::Reset::Request& req, msspr::Reset::Response& res) override;
+  bool SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Response& res) override;
+  void StartCollectionEpisode(uint64_t seed, const std::string& split) override;
+  void StartInitialEpisode() override;
+  uint32_t StandardCommandPublishers() const override { return ee_twist_sub_.getNumPublishers(); }
+  uint32_t StandardObservationSubscribers() const override {
+    return joint_state_pub_.getNumSubscribers();
+  }
+  void OnEeTwist(const geometry_msgs::TwistStamped::ConstPtr& msg);
+  void OnGripperCommand(const std_msgs::Float64MultiArray::ConstPtr& msg);
+  // Steps the sim with each complete (twist, gripper command) pair (EeCommandPairs).
+  void MaybeStepStandard();
+
+  void StartEpisode(int task_id, uint64_t seed);
+  void BeginEpisode(int task_id, uint64_t seed, const std::string& split,
+                    const std::vector<float>& start);
+  void PublishGoalObservation();
+  msspr::Observation MakeObservation() const;
+  void PublishRobot(const ros::Time& stamp);
+
+  ArmTaskSimNodeOptions options_;
+  std::vector<float> goal_;
+  ros::Publisher joint_state_pub_, gripper_state_pub_, goal_obs_pub_;
+  tf2_ros::TransformBroadcaster tf_;
+  tf2_ros::StaticTransformBroadcaster static_tf_;
+  ros::Subscriber ee_twist_sub_, gripper_cmd_sub_;
+  EeCommandPairs standard_commands_;
+};
+
+class PuzzleSimNode : public ArmTaskSimNode<sim::PuzzleEnv> {
+ public:
+  PuzzleSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const ArmTaskSimNodeOptions& options);
+
+ private:
+  void PublishObjects(const ros::Time& stamp) override;
+  std::string ApplyGoal(const std::vector<float>& goal) override;
+
+  ros::Publisher buttons_pub_, marker_pub_;
+  sim::LightsOutState drawn_states_;  // the states the markers show
+};
+
+class CubeDoubleSimNode : public ArmTaskSimNode<sim::CubeDoubleEnv> {
+ public:
+  CubeDoubleSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const ArmTaskSimNodeOptions& options);
+
+ private:
+  void PublishObjects(const ros::Time& stamp) override;
+  std::string ApplyGoal(const std::vector<float>& goal) override;
+
+  std::vector<ros::Publisher> cube_pose_pubs_;
+  ros::Publisher marker_pub_;
+  tf2_ros::TransformBroadcaster object_tf_;
+};
+
+}  // namespace msspr::ros_bridge
