@@ -63,6 +63,7 @@ double CubeYawFromObservation(const float* obs);
 
 class CubeEnv {
  public:
+  using Options = CubeEnvOptions;
   static constexpr int kObservationSize = 28;
   static constexpr int kActionSize = 5;
   using Observation = std::array<float, kObservationSize>;
@@ -167,6 +168,7 @@ class CubeEnv {
   bool last_ik_converged() const { return last_ik_converged_; }
 
   const ArmModel& arm() const;
+  int observation_size() const { return kObservationSize; }
   const CubeEnvOptions& options() const { return options_; }
   const std::string& mjcf() const { return mjcf_; }
 

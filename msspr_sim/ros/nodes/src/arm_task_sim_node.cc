@@ -15,10 +15,11 @@ namespace msspr::ros_bridge {
 
 ArmTaskSimNodeOptions LoadArmTaskSimNodeOptions(const ros::NodeHandle& pnh, sim::EnvId id) {
   ArmTaskSimNodeOptions o;
-  if (!sim::IsPuzzle(id) && id != sim::EnvId::kCubeDouble)
+  if (!sim::IsPuzzle(id) && id != sim::EnvId::kCubeDouble && id != sim::EnvId::kCubeSingle)
     throw std::invalid_argument("LoadArmTaskSimNodeOptions: '" + sim::EnvIdName(id) +
-                                "' is not puzzle-3x3, puzzle-4x4 or cube-double");
+                                "' is not cube-single, puzzle-3x3, puzzle-4x4 or cube-double");
   o.env = id;
+  if (id == sim::EnvId::kCubeSingle) o.max_episode_steps = 200;
   ROS_INFO_STREAM_NAMED("msspr_sim",
                         "msspr_sim_node (env " << sim::EnvIdName(id) << ") parameters:");
   LoadSimNodeCommonOptions(pnh, &o);
@@ -47,6 +48,7 @@ ArmTaskSimNode<Env>::ArmTaskSimNode(ros::NodeHandle nh, ros::NodeHandle pnh,
       options_(options) {
   typename Env::Options eo = env_options;
   eo.enable_rendering = pixels();
+  eo.scene.pixel_style = pixels();  // OGBench's visual look (translucent arm, goals hidden)
   eo.image_size = options_.image_size;
   eo.max_episode_steps = options_.max_episode_steps;
   env_ = MakeArmEnv<Env>(nh_, options_.robot_description, options_.urdf, options_.world_frame, eo);
@@ -104,9 +106,10 @@ void ArmTaskSimNode<Env>::MaybeStepStandard() {
 
 template <class Env>
 void ArmTaskSimNode<Env>::StartEpisode(int task_id, uint64_t seed) {
-  const std::vector<float> o = env_->ResetToTask(task_id, seed);
-  goal_ = env_->goal_observation();
-  BeginEpisode(task_id, seed, "", o);
+  const auto o = env_->ResetToTask(task_id, seed);
+  const auto& g = env_->goal_observation();
+  goal_.assign(g.begin(), g.end());
+  BeginEpisode(task_id, seed, "", std::vector<float>(o.begin(), o.end()));
 }
 
 template <class Env>
@@ -133,7 +136,8 @@ msspr::Observation ArmTaskSimNode<Env>::MakeObservation() const {
   o.header.frame_id = options_.world_frame;
   o.episode_id = static_cast<uint32_t>(std::max<int64_t>(episode_id_, 0));
   o.step = static_cast<uint32_t>(env_->episode_steps());
-  o.state = env_->GetObservation();
+  const auto state = env_->GetObservation();
+  o.state.assign(state.begin(), state.end());
   o.goal = goal_;
   o.success = !options_.auto_reset && env_->Success();  // play data: no goal
   o.last = IsLastStep(env_->episode_steps(), options_.max_episode_steps);
@@ -172,9 +176,9 @@ void ArmTaskSimNode<Env>::StartInitialEpisode() {
 // Collection mode: OGBench's play resets; play data has no goal, as msspr_collect writes it.
 template <class Env>
 void ArmTaskSimNode<Env>::StartCollectionEpisode(uint64_t seed, const std::string& split) {
-  const std::vector<float> o = env_->ResetForCollection(seed);
+  const auto o = env_->ResetForCollection(seed);
   goal_.clear();
-  BeginEpisode(0, seed, split, o);
+  BeginEpisode(0, seed, split, std::vector<float>(o.begin(), o.end()));
 }
 
 template <class Env>
@@ -227,6 +231,7 @@ bool ArmTaskSimNode<Env>::SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::
   return true;
 }
 
+template class ArmTaskSimNode<sim::CubeEnv>;
 template class ArmTaskSimNode<sim::PuzzleEnv>;
 template class ArmTaskSimNode<sim::CubeDoubleEnv>;
 
@@ -274,7 +279,7 @@ PuzzleSimNode::PuzzleSimNode(ros::NodeHandle nh, ros::NodeHandle pnh,
   marker_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("markers", 1, /*latch=*/true);
   if (options.standard_topics)
     buttons_pub_ = nh_.advertise<sensor_msgs::JointState>("buttons/joint_states", kStepTopicQueue);
-  PublishObjects(Now());
+  PublishRobot(Now());  // the arm at home, before any episode
   StartRos();
 }
 
@@ -369,7 +374,7 @@ CubeDoubleSimNode::CubeDoubleSimNode(ros::NodeHandle nh, ros::NodeHandle pnh,
       arr.markers.push_back(m);
     }
   marker_pub_.publish(arr);
-  PublishObjects(Now());
+  PublishRobot(Now());  // the arm at home, before any episode
   StartRos();
 }
 

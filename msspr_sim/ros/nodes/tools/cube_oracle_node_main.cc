@@ -46,9 +46,13 @@ class CubeOracleNode {
     if (command != "action" && command != "standard")
       throw std::invalid_argument("~command must be action or standard, got '" + command + "'");
     standard_ = command == "standard";
+    int wait = 0;
+    pnh.param("wait_for_command_subscribers", wait, wait);
+    wait_ = msspr::ros_bridge::CommandSubscriberWait(wait);
     ROS_INFO_STREAM("msspr_cube_oracle_node parameters:\n  urdf: "
                     << urdf << "\n  mode: " << mode << "\n  noise_scale: " << noise
-                    << "\n  seed: " << seed_ << "\n  command: " << command);
+                    << "\n  seed: " << seed_ << "\n  command: " << command
+                    << "\n  wait_for_command_subscribers: " << wait);
     auto opt = msspr::ros_bridge::CubeGoalOracle::NoNoise();
     opt.noise_scale = noise;
     oracle_ = std::make_unique<msspr::ros_bridge::CubeGoalOracle>(
@@ -77,6 +81,9 @@ class CubeOracleNode {
     // Goal mode: the episode is over. Play mode: the last step's action is
     // recorded too (the collection's next reset follows it).
     if (!play_ && (obs->last || obs->success)) return;
+    if (!(standard_ ? wait_.Ready({&twist_pub_, &grip_pub_}, "msspr_cube_oracle_node")
+                    : wait_.Ready({&action_pub_}, "msspr_cube_oracle_node")))
+      return;
     if (static_cast<int64_t>(obs->episode_id) != episode_) {  // a new episode: a fresh plan
       episode_ = obs->episode_id;
       step_ = -1;
@@ -113,6 +120,7 @@ class CubeOracleNode {
   ros::NodeHandle nh_;
   ros::Publisher action_pub_, twist_pub_, grip_pub_;
   ros::Subscriber obs_sub_;
+  msspr::ros_bridge::CommandSubscriberWait wait_;
   std::unique_ptr<msspr::ros_bridge::CubeGoalOracle> oracle_;
   int seed_ = 0;
   bool play_ = false, standard_ = false;

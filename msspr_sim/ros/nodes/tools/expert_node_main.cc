@@ -33,12 +33,16 @@ class ExpertNode {
     // linear = cmd_vel_max_speed * action (a robot's command).
     pnh.param<std::string>("command", command_, "action");
     pnh.param("cmd_vel_max_speed", max_speed_, 2.0);
+    int wait = 0;
+    pnh.param("wait_for_command_subscribers", wait, wait);
+    wait_ = msspr::ros_bridge::CommandSubscriberWait(wait);
     if (command_ != "action" && command_ != "cmd_vel")
       throw std::invalid_argument("~command must be action or cmd_vel, got '" + command_ + "'");
     ROS_INFO_STREAM("msspr_expert_node parameters:\n  maze: "
                     << maze << "\n  mode: " << mode_ << "\n  noise_std: " << noise_
                     << "\n  seed: " << seed_ << "\n  command: " << command_
-                    << "\n  cmd_vel_max_speed: " << max_speed_);
+                    << "\n  cmd_vel_max_speed: " << max_speed_
+                    << "\n  wait_for_command_subscribers: " << wait);
     map_ = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(maze));
     if (mode_ == "goal") {
       goal_expert_ =
@@ -76,6 +80,8 @@ class ExpertNode {
       ++rejected_;
       return;
     }
+    if (!wait_.Ready({command_ == "cmd_vel" ? &cmd_vel_pub_ : &action_pub_}, "msspr_expert_node"))
+      return;
     // A re-sent observation gets the same answer (the noise stream must not advance).
     if (answered_ && obs->episode_id == last_episode_ && obs->step == last_step_) {
       Send(last_action_);
@@ -134,6 +140,7 @@ class ExpertNode {
   std::map<uint32_t, msspr::Observation::ConstPtr> pending_;
   ros::Publisher action_pub_;
   ros::Subscriber obs_sub_, episode_sub_;
+  msspr::ros_bridge::CommandSubscriberWait wait_;
   msspr::Action last_action_;
   uint32_t last_episode_ = 0, last_step_ = 0;
   bool answered_ = false;

@@ -1,11 +1,10 @@
-// msspr_sim_node's side for the arm's tasks beyond cube-single: ~env puzzle-3x3 | puzzle-4x4
-// (PuzzleSimNode: the arm and a grid of push buttons, "Lights Out") and ~env cube-double
-// (CubeDoubleSimNode: two cubes). Both have the interface of cube-single's node
-// (cube_sim_node.h): the same topics, messages and services (observation, action, episode,
-// camera/image, goal_image, reset, set_goal, pause, /clock, /diagnostics), lockstep or
-// real-time stepping, the arm's robot_description, joint_states and tf2, gripper/joint_states,
-// goal_observation and the end-effector commands (ee_twist with gripper_command); each adds
-// its objects:
+// msspr_sim_node's side for the arm's tasks: ~env cube-single (CubeSimNode, cube_sim_node.h),
+// puzzle-3x3 | puzzle-4x4 (PuzzleSimNode: the arm and a grid of push buttons, "Lights Out")
+// and cube-double (CubeDoubleSimNode: two cubes). All share ArmTaskSimNode: the same topics,
+// messages and services (observation, action, episode, camera/image, goal_image, reset, set_goal,
+// pause, /clock, /diagnostics), lockstep or real-time stepping, the arm's robot_description,
+// joint_states and tf2, gripper/joint_states, goal_observation and the end-effector commands
+// (ee_twist with gripper_command); each adds its objects:
 // - the puzzles: buttons/joint_states (names buttonbox_joint_k, position the cap's slide in
 //   m, velocity, and as effort the button's state 0 or 1) and markers (a box and a cap per
 //   button, the cap red in state 0 and blue in state 1, sent again when a state changes);
@@ -30,6 +29,7 @@
 #include "msspr/Reset.h"
 #include "msspr/SetGoal.h"
 #include "msspr_sim/cube_double_env.h"
+#include "msspr_sim/cube_env.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/puzzle_env.h"
 #include "msspr_sim_nodes/arm_messages.h"
@@ -39,10 +39,10 @@ namespace msspr::ros_bridge {
 
 struct ArmTaskSimNodeOptions : SimNodeCommonOptions {
   ArmTaskSimNodeOptions() { control_rate = 20.0; }  // Hz, real-time stepping (1 / 0.05 s)
-  sim::EnvId env = sim::EnvId::kPuzzle3x3;          // puzzle-3x3, puzzle-4x4 or cube-double
-  int max_episode_steps = 500;                      // OGBench's episodes of these tasks
-  int initial_task = -1;                            // -1: wait for reset; 1..5: task
-  std::string world_frame = "world";                // the URDF's root link
+  sim::EnvId env = sim::EnvId::kPuzzle3x3;  // cube-single, puzzle-3x3, puzzle-4x4, cube-double
+  int max_episode_steps = 500;              // OGBench's episodes of these tasks (cube-single: 200)
+  int initial_task = -1;                    // -1: wait for reset; 1..5: task
+  std::string world_frame = "world";        // the URDF's root link
   std::string robot_description = "robot_description";
   std::string urdf;  // default: the package's ur5e_2f85.urdf
   bool standard_topics = true;
@@ -72,6 +72,8 @@ class ArmTaskSimNode : public SimNodeBase {
   // Makes `goal` (an observation of the env's size, finite) the episode's goal in the env;
   // returns "" or what is wrong with it.
   virtual std::string ApplyGoal(const std::vector<float>& goal) = 0;
+  // The arm's messages and tf2, then PublishObjects.
+  void PublishRobot(const ros::Time& stamp);
 
   const ArmTaskSimNodeOptions& options() const { return options_; }
   std::unique_ptr<Env> env_;
@@ -98,7 +100,6 @@ class ArmTaskSimNode : public SimNodeBase {
                     const std::vector<float>& start);
   void PublishGoalObservation();
   msspr::Observation MakeObservation() const;
-  void PublishRobot(const ros::Time& stamp);
 
   ArmTaskSimNodeOptions options_;
   std::vector<float> goal_;

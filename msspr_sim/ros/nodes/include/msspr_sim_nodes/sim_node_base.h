@@ -72,6 +72,30 @@ T SimParam(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
 // lose steps from the middle of a recording.
 constexpr uint32_t kStepTopicQueue = 1000;
 
+// An agent node's wait before its first answer (~wait_for_command_subscribers): until each of
+// its command publishers has `wanted` subscribers (the sim and a recorder: 2), so that a
+// recording that starts with the sim's first step has every command. Unanswered, the sim
+// sends the observation again after republish_timeout.
+class CommandSubscriberWait {
+ public:
+  explicit CommandSubscriberWait(int wanted = 0) : wanted_(wanted) {}
+  bool Ready(std::initializer_list<const ros::Publisher*> publishers, const char* who) {
+    if (ready_ || wanted_ <= 0) return true;
+    for (const ros::Publisher* p : publishers) {
+      if (p->getNumSubscribers() < static_cast<uint32_t>(wanted_)) {
+        ROS_INFO_THROTTLE(5.0, "%s: waiting for %d subscribers of %s", who, wanted_,
+                          p->getTopic().c_str());
+        return false;
+      }
+    }
+    return ready_ = true;
+  }
+
+ private:
+  int wanted_;
+  bool ready_ = false;
+};
+
 // Reads the common ~params into `o` (its values are the defaults), logging
 // each; throws std::invalid_argument naming a bad one.
 void LoadSimNodeCommonOptions(const ros::NodeHandle& pnh, SimNodeCommonOptions* o);
