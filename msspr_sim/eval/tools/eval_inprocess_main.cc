@@ -173,31 +173,19 @@ void RunCube(msspr::core::Policy& policy, Request q) {
   PrintMean(report.mean_success, result.seconds);
 }
 
-void RunPuzzle(msspr::core::Policy& policy, Request q) {
+// A state-only arm task (a puzzle, cube-double): evaluate, print the table, write the JSON.
+template <class Options, class Evaluate, class MakeReport, class Write>
+void RunArmTask(msspr::core::Policy& policy, const Request& q, Options options, Evaluate evaluate,
+                MakeReport make_report, Write write) {
   namespace sim = msspr::sim;
-  if (q.puzzle.urdf_path.empty()) q.puzzle.urdf_path = sim::DefaultArmUrdf();
-  std::cerr << "msspr_eval_inprocess: " << q.policy_path << ", " << q.puzzle.tasks.size()
-            << " tasks x " << q.puzzle.episodes << " episodes on " << sim::EnvIdName(q.env)
-            << " (states; arm " << q.puzzle.urdf_path << ") ...\n";
-  const auto result = msspr::agent::EvaluateOnPuzzle(policy, q.puzzle);
-  const sim::EvalReport report = msspr::agent::MakePuzzleEvalReport(result, q.puzzle, q.agent);
+  if (options.urdf_path.empty()) options.urdf_path = sim::DefaultArmUrdf();
+  std::cerr << "msspr_eval_inprocess: " << q.policy_path << ", " << options.tasks.size()
+            << " tasks x " << options.episodes << " episodes on " << sim::EnvIdName(q.env)
+            << " (states; arm " << options.urdf_path << ") ...\n";
+  const auto result = evaluate(policy, options);
+  const sim::EvalReport report = make_report(result, options, q.agent);
   std::cout << sim::EvalReportTable(report);
-  if (!q.out.empty()) msspr::agent::WritePuzzleResultsJson(result, q.puzzle, q.agent, q.out);
-  PrintMean(report.mean_success, result.seconds);
-}
-
-void RunCubeDouble(msspr::core::Policy& policy, Request q) {
-  namespace sim = msspr::sim;
-  if (q.cube_double.urdf_path.empty()) q.cube_double.urdf_path = sim::DefaultArmUrdf();
-  std::cerr << "msspr_eval_inprocess: " << q.policy_path << ", " << q.cube_double.tasks.size()
-            << " tasks x " << q.cube_double.episodes << " episodes on cube-double (states; arm "
-            << q.cube_double.urdf_path << ") ...\n";
-  const auto result = msspr::agent::EvaluateOnCubeDouble(policy, q.cube_double);
-  const sim::EvalReport report =
-      msspr::agent::MakeCubeDoubleEvalReport(result, q.cube_double, q.agent);
-  std::cout << sim::EvalReportTable(report);
-  if (!q.out.empty())
-    msspr::agent::WriteCubeDoubleResultsJson(result, q.cube_double, q.agent, q.out);
+  if (!q.out.empty()) write(result, options, q.agent, q.out);
   PrintMean(report.mean_success, result.seconds);
 }
 
@@ -254,9 +242,11 @@ int main(int argc, char** argv) {
     else if (q.is_cube())
       RunCube(policy, q);
     else if (q.is_puzzle())
-      RunPuzzle(policy, q);
+      RunArmTask(policy, q, q.puzzle, msspr::agent::EvaluateOnPuzzle,
+                 msspr::agent::MakePuzzleEvalReport, msspr::agent::WritePuzzleResultsJson);
     else if (q.is_cube_double())
-      RunCubeDouble(policy, q);
+      RunArmTask(policy, q, q.cube_double, msspr::agent::EvaluateOnCubeDouble,
+                 msspr::agent::MakeCubeDoubleEvalReport, msspr::agent::WriteCubeDoubleResultsJson);
     else
       RunMaze(policy, q);
   } catch (const std::exception& e) {

@@ -11,12 +11,16 @@
 
 namespace msspr::sim {
 
-struct CubeCollectOptions {
+// How a play dataset is collected (cube-single, cube-double, the puzzles), with the options of
+// its play oracle.
+template <class OracleOptions>
+struct PlayCollectOptions {
   int episode_length = 1001;  // rows per episode (OGBench: 1001)
   bool images = false;        // needs a rendering env
   uint64_t seed = 0;          // base seed; episode k uses EpisodeSeed(seed, k)
-  CubePlayOracleOptions oracle;
+  OracleOptions oracle;
 };
+using CubeCollectOptions = PlayCollectOptions<CubePlayOracleOptions>;
 
 // One play episode (cube-single, the puzzles); every row holds the state before its action.
 struct PlayEpisode {

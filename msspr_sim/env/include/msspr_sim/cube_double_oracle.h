@@ -53,12 +53,7 @@ class CubeDoubleTaskOracle {
   Eigen::Vector3d destination_ = Eigen::Vector3d::Zero();
 };
 
-struct CubeDoubleCollectOptions {
-  int episode_length = 1001;  // rows per episode (OGBench: 1001)
-  bool images = false;        // needs a rendering env
-  uint64_t seed = 0;          // base seed; episode k uses EpisodeSeed(seed, k)
-  CubePlayOracleOptions oracle;
-};
+using CubeDoubleCollectOptions = PlayCollectOptions<CubePlayOracleOptions>;
 
 // Episode `index` of cube-double-play: env.ResetForCollection(EpisodeSeed(seed, index)), the
 // play oracle seeded from it; rows as cube-single's (37 floats). Replaying the stored

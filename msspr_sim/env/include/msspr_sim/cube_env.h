@@ -15,36 +15,21 @@
 #include <string>
 #include <vector>
 
+#include "msspr_sim/arm_env.h"
 #include "msspr_sim/arm_ik.h"
 #include "msspr_sim/arm_model.h"
 #include "msspr_sim/cube_scene.h"
 
 namespace msspr::sim {
 
-struct CubeEnvOptions {
-  std::string urdf_path;  // the arm (msspr_sim/urdf/ur5e_2f85.urdf); required
-  CubeSceneOptions scene;
-  ArmIkOptions ik;
-  int substeps = 25;  // physics steps per action (0.05 s at 2 ms)
-  // Action scale: pinch dx, dy, dz (m), dyaw (rad), dopening per unit action.
-  std::array<double, 5> action_scale{0.05, 0.05, 0.05, 0.3, 1.0};
-  // The pinch target is clipped to this box each step (m).
-  Eigen::Vector3d pinch_low{0.25, -0.35, 0.02};
-  Eigen::Vector3d pinch_high{0.60, 0.35, 0.35};
+// The arm's options (ArmEnvOptions: URDF, scene, IK, substeps, action scale, pinch clip box,
+// random start box, images) and the cube's.
+struct CubeEnvOptions : ArmEnvOptions {
   double success_distance = 0.04;  // m, cube centre to goal centre
-  // Random initial pinch pose: position in this box (m), yaw U(-pi, pi).
-  Eigen::Vector3d init_low{0.25, -0.35, 0.20};
-  Eigen::Vector3d init_high{0.60, 0.35, 0.35};
   // Data collection: cube and target xy drawn in this box (m).
   Eigen::Vector2d object_low{0.30, -0.30};
   Eigen::Vector2d object_high{0.55, 0.30};
   int max_episode_steps = 200;
-  // Images: create a headless GL context; frames are [S, S, 3] uint8 from
-  // `camera` (front_pixels: OGBench's visual variant; set
-  // scene.pixel_style for its look, "front" for state-mode videos).
-  bool enable_rendering = false;
-  int image_size = 64;
-  std::string camera = "front_pixels";
 };
 
 // One of OGBench's cube-single evaluation tasks: the cube centre's start and

@@ -10,12 +10,7 @@
 
 namespace msspr::sim {
 
-struct PuzzleCollectOptions {
-  int episode_length = 1001;  // rows per episode (OGBench: 1001)
-  bool images = false;        // needs a rendering env
-  uint64_t seed = 0;          // base seed; episode k uses EpisodeSeed(seed, k)
-  PuzzleOracleOptions oracle;
-};
+using PuzzleCollectOptions = PlayCollectOptions<PuzzleOracleOptions>;
 
 // Collects episode `index`: env.ResetForCollection(EpisodeSeed(seed, index)), the play
 // oracle seeded from it; observations [length, 19 + 4 N], actions [length, 5], qpos and
