@@ -24,53 +24,55 @@ int CheckedSide(int side) {
 
 }  // namespace
 
+std::string PushButtonMjcf(int k, double x, double y, double top_site) {
+  // The box is turned -1.57 rad about x, as OGBench's (its local -y is world +z, up to a
+  // 0.0008 tilt), so local (x, -h, w) is world (x, w, h) from the box origin at z 0.048.
+  std::ostringstream o;
+  o.precision(17);
+  o << "    <body name=\"buttonbox_" << k << "\" pos=\"" << x << ' ' << y
+    << " 0.048\" euler=\"-1.57 0 0\">\n"
+    // The fixed box: 9.6 x 9.6 cm, world z 0.0024-0.084, a 2.08 x 1.92 cm hole for the stem
+    // (four colliding boxes, hidden), drawn as one dark box.
+    << "      <geom type=\"box\" pos=\"0 0.0048 0\" size=\"0.048 0.0408 0.048\""
+       " contype=\"0\" conaffinity=\"0\" group=\"1\" rgba=\"0.15 0.15 0.15 1\"/>\n"
+    << "      <geom type=\"box\" pos=\"0 0.0048 0.0288\" size=\"0.048 0.0408 0.0192\""
+       " group=\"4\"/>\n"
+    << "      <geom type=\"box\" pos=\"0 0.0048 -0.0288\" size=\"0.048 0.0408 0.0192\""
+       " group=\"4\"/>\n"
+    << "      <geom type=\"box\" pos=\"0.0292 0.0048 0\" size=\"0.0188 0.0408 0.0096\""
+       " group=\"4\"/>\n"
+    << "      <geom type=\"box\" pos=\"-0.0292 0.0048 0\" size=\"0.0188 0.0408 0.0096\""
+       " group=\"4\"/>\n"
+    << "      <body name=\"button_" << k
+    << "\">\n"
+    // Up at 0, pressed toward -0.024; the spring (0.5 N/m about 0.5 m) lifts it with about
+    // 0.25 N over the whole travel.
+    << "        <joint name=\"buttonbox_joint_" << k
+    << "\" type=\"slide\" axis=\"0 -1 0\" range=\"-0.024 0\" stiffness=\"0.5\""
+       " springref=\"0.5\" damping=\"1\" armature=\"0.001\"/>\n"
+    << "        <inertial pos=\"0 -0.06 0\" mass=\"0.01\" diaginertia=\"0.001 0.001 0.001\"/>\n"
+    << "        <geom name=\"btngeom_" << k
+    << "\" type=\"cylinder\" fromto=\"0 -0.0688 0 0 -0.0776 0\" size=\"0.0172\""
+       " contype=\"1\" conaffinity=\"1\" group=\"1\" rgba=\"0.96 0.26 0.33 1\"/>\n"
+    << "        <geom type=\"cylinder\" fromto=\"0 -0.0624 0 0 -0.0688 0\" size=\"0.0172\""
+       " contype=\"1\" conaffinity=\"1\" group=\"1\" rgba=\"0.9 0.9 0.9 1\"/>\n"
+    << "        <geom type=\"cylinder\" fromto=\"0 -0.0312 0 0 -0.0624 0\" size=\"0.0084\""
+       " contype=\"1\" conaffinity=\"1\" group=\"1\" rgba=\"0.8 0.8 0.8 1\"/>\n"
+    << "        <site name=\"btntop_" << k << "\" pos=\"0 " << -top_site
+    << " 0\" size=\"0.005\" group=\"4\"/>\n"
+    << "      </body>\n"
+    << "    </body>\n";
+  return o.str();
+}
+
 std::string PuzzleButtonsMjcf(int side) {
   CheckedSide(side);
-  // Each box is turned -1.57 rad about x, as OGBench's (its local -y is world +z, up to a
-  // 0.0008 tilt), so local (x, -h, w) is world (x, w, h) from the box origin at z 0.048.
-  std::ostringstream x;
-  x.precision(17);
-  for (int i = 0; i < side; ++i) {
-    for (int j = 0; j < side; ++j) {
-      const int k = i * side + j;
-      const double bx = 0.425 - 0.05 * (side - 1) + 0.1 * i, by = -0.05 * (side - 1) + 0.1 * j;
-      x << "    <body name=\"buttonbox_" << k << "\" pos=\"" << bx << ' ' << by
-        << " 0.048\" euler=\"-1.57 0 0\">\n"
-        // The fixed box: 9.6 x 9.6 cm, world z 0.0024-0.084, a 2.08 x 1.92 cm hole for the
-        // stem (four colliding boxes, hidden), drawn as one dark box.
-        << "      <geom type=\"box\" pos=\"0 0.0048 0\" size=\"0.048 0.0408 0.048\""
-           " contype=\"0\" conaffinity=\"0\" group=\"1\" rgba=\"0.15 0.15 0.15 1\"/>\n"
-        << "      <geom type=\"box\" pos=\"0 0.0048 0.0288\" size=\"0.048 0.0408 0.0192\""
-           " group=\"4\"/>\n"
-        << "      <geom type=\"box\" pos=\"0 0.0048 -0.0288\" size=\"0.048 0.0408 0.0192\""
-           " group=\"4\"/>\n"
-        << "      <geom type=\"box\" pos=\"0.0292 0.0048 0\" size=\"0.0188 0.0408 0.0096\""
-           " group=\"4\"/>\n"
-        << "      <geom type=\"box\" pos=\"-0.0292 0.0048 0\" size=\"0.0188 0.0408 0.0096\""
-           " group=\"4\"/>\n"
-        << "      <body name=\"button_" << k
-        << "\">\n"
-        // Up at 0, pressed toward -0.024; the spring (0.5 N/m about 0.5 m) lifts it with
-        // about 0.25 N over the whole travel.
-        << "        <joint name=\"buttonbox_joint_" << k
-        << "\" type=\"slide\" axis=\"0 -1 0\" range=\"-0.024 0\" stiffness=\"0.5\""
-           " springref=\"0.5\" damping=\"1\" armature=\"0.001\"/>\n"
-        << "        <inertial pos=\"0 -0.06 0\" mass=\"0.01\" diaginertia=\"0.001 0.001 0.001\"/>\n"
-        << "        <geom name=\"btngeom_" << k
-        << "\" type=\"cylinder\" fromto=\"0 -0.0688 0 0 -0.0776 0\" size=\"0.0172\""
-           " contype=\"1\" conaffinity=\"1\" group=\"1\" rgba=\"0.96 0.26 0.33 1\"/>\n"
-        << "        <geom type=\"cylinder\" fromto=\"0 -0.0624 0 0 -0.0688 0\" size=\"0.0172\""
-           " contype=\"1\" conaffinity=\"1\" group=\"1\" rgba=\"0.9 0.9 0.9 1\"/>\n"
-        << "        <geom type=\"cylinder\" fromto=\"0 -0.0312 0 0 -0.0624 0\" size=\"0.0084\""
-           " contype=\"1\" conaffinity=\"1\" group=\"1\" rgba=\"0.8 0.8 0.8 1\"/>\n"
-        << "        <site name=\"btntop_" << k
-        << "\" pos=\"0 -0.0774 0\" size=\"0.005\""
-           " group=\"4\"/>\n"
-        << "      </body>\n"
-        << "    </body>\n";
-    }
-  }
-  return x.str();
+  std::string xml;
+  for (int i = 0; i < side; ++i)
+    for (int j = 0; j < side; ++j)
+      xml += PushButtonMjcf(i * side + j, 0.425 - 0.05 * (side - 1) + 0.1 * i,
+                            -0.05 * (side - 1) + 0.1 * j, 0.0774);
+  return xml;
 }
 
 PuzzleEnv::PuzzleEnv(const PuzzleEnvOptions& options)

@@ -98,6 +98,11 @@ class PuzzleEnv : public ArmEnv {
   int episode_steps_ = 0, presses_ = 0;
 };
 
+// One push button's MJCF (OGBench's button part): the box buttonbox_k at (x, y, 0.048), the cap
+// on the slide joint buttonbox_joint_k (geom btngeom_k) and the site btntop_k `top_site` m above
+// the box origin.
+std::string PushButtonMjcf(int k, double x, double y, double top_site);
+
 // The button MJCF of an R x R puzzle (bodies buttonbox_k with the slide joint
 // buttonbox_joint_k, the cap geom btngeom_k and the site btntop_k), for ArmSceneMjcf.
 std::string PuzzleButtonsMjcf(int side);

@@ -1,0 +1,130 @@
+#include "msspr_sim/scene_env.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "cube_test_util.h"
+
+namespace msspr::sim {
+namespace {
+
+SceneEnvOptions Options() {
+  SceneEnvOptions o;
+  o.urdf_path = testing_util::ArmUrdfPath();
+  return o;
+}
+
+// A proportional controller to a pinch position, yaw 0 held, the gripper closing.
+SceneEnv::Action Toward(const SceneEnv& env, const Eigen::Vector3d& target) {
+  SceneEnv::Action a{};
+  const Eigen::Vector3d d = (target - env.PinchPosition()) / 0.05;
+  for (int i = 0; i < 3; ++i) a[i] = std::clamp(d[i], -1.0, 1.0);
+  a[3] = std::clamp(-env.PinchYaw() / 0.3, -1.0, 1.0);
+  a[4] = 1.0;
+  return a;
+}
+
+TEST(SceneEnvTest, ObservationLayout) {
+  SceneEnv env(Options());
+  const SceneEnv::Observation o = env.ResetToTask(3, 2);
+  ASSERT_EQ(o.size(), 40u);
+  // arm 6, fingers 2, the cube's free joint, two buttons, the drawer and the window
+  EXPECT_EQ(env.Qpos().size(), 8u + 7 + 2 + 2);
+  EXPECT_NEAR(o[19], 10 * (env.CubePosition().x() - 0.425), 1e-5);
+  EXPECT_EQ(o[28], 0.f);  // task 3 starts with button 0 in state 1: (0, 1)
+  EXPECT_EQ(o[29], 1.f);
+  EXPECT_EQ(o[32], 1.f);  // button 1 in state 0: (1, 0)
+  EXPECT_FLOAT_EQ(o[36], static_cast<float>(18 * env.Drawer()));
+  EXPECT_FLOAT_EQ(o[38], static_cast<float>(15 * env.Window()));
+  EXPECT_NEAR(env.Window(), 0.2, 0.0101);
+}
+
+TEST(SceneEnvTest, TaskResetsSetStartsGoalsAndLocks) {
+  SceneEnv env(Options()), twin(Options());
+  for (int task = 1; task <= 5; ++task) {
+    const SceneTask& t = SceneTasks()[task - 1];
+    EXPECT_EQ(env.ResetToTask(task, 4), twin.ResetToTask(task, 4)) << "task " << task;
+    EXPECT_EQ(env.goal_observation(), twin.goal_observation());
+    EXPECT_EQ(env.button_states(), t.start.buttons) << "task " << task;
+    EXPECT_EQ(env.DrawerLocked(), t.start.buttons[0] == 0);
+    EXPECT_EQ(env.WindowLocked(), t.start.buttons[1] == 0);
+    EXPECT_NEAR(env.Drawer(), t.start.drawer, 0.0101);
+    EXPECT_NEAR(env.Window(), t.start.window, 0.0101);
+    EXPECT_LE((env.CubePosition() - t.start.cube).head<2>().cwiseAbs().maxCoeff(), 0.0101);
+    EXPECT_EQ(env.goal_state().buttons, t.goal.buttons);
+    EXPECT_FALSE(env.Success()) << "task " << task;
+  }
+  EXPECT_THROW(env.ResetToTask(6, 0), std::out_of_range);
+}
+
+TEST(SceneEnvTest, SuccessNeedsEveryPartAtItsGoal) {
+  SceneEnv env(Options());
+  env.ResetToTask(4, 1);  // put_in_drawer
+  SceneState goal = env.goal_state();
+  env.SetSceneState(goal);
+  EXPECT_TRUE(env.Success());
+  SceneState off = goal;
+  off.buttons[0] = 0;
+  env.SetSceneState(off);
+  EXPECT_FALSE(env.Success());
+  off = goal;
+  off.drawer = -0.05;
+  env.SetSceneState(off);
+  EXPECT_FALSE(env.Success());
+}
+
+TEST(SceneEnvTest, ACubeInTheClosedDrawerStaysAtTheTaskGoal) {
+  SceneEnv env(Options());
+  env.ResetToTask(4, 1);
+  env.SetSceneState(env.goal_state());
+  for (int t = 0; t < 20; ++t) env.Step({0, 0, 0, 0, 0});
+  EXPECT_LT((env.CubePosition() - SceneTasks()[3].goal.cube).norm(), 0.01);
+  EXPECT_TRUE(env.Success());
+}
+
+TEST(SceneEnvTest, PressingAButtonTogglesItAndItsLock) {
+  SceneEnv env(Options());
+  env.ResetToTask(2, 0);  // both locked
+  ASSERT_TRUE(env.DrawerLocked());
+  const Eigen::Vector3d top = env.ButtonTop(0);
+  EXPECT_NEAR(top.z(), 0.1254, 2e-3);
+  EXPECT_NEAR(env.ButtonTop(1).z(), 0.1212, 2e-3);
+  int t = 0;
+  for (; t < 40 && (env.PinchPosition() - (top + Eigen::Vector3d(0, 0, 0.06))).norm() > 0.005; ++t)
+    env.Step(Toward(env, top + Eigen::Vector3d(0, 0, 0.06)));
+  for (int k = 0; k < 10; ++k) env.Step(Toward(env, top - Eigen::Vector3d(0, 0, 0.035)));
+  for (int k = 0; k < 10; ++k) env.Step(Toward(env, top + Eigen::Vector3d(0, 0, 0.06)));
+  EXPECT_EQ(env.button_states()[0], 1);
+  EXPECT_EQ(env.button_states()[1], 0);
+  EXPECT_FALSE(env.DrawerLocked());
+  EXPECT_TRUE(env.WindowLocked());
+}
+
+// The arm pushes the drawer's handle bar toward +y (opening): the tray follows when button 0
+// has unlocked it and stays put when it is locked.
+TEST(SceneEnvTest, OnlyAnUnlockedDrawerMoves) {
+  for (const int unlocked : {1, 0}) {
+    SceneEnv env(Options());
+    env.ResetToTask(1, 0);
+    SceneState s = env.GetSceneState();
+    s.buttons = {unlocked, 1};
+    s.drawer = 0;
+    env.SetSceneState(s);
+    const Eigen::Vector3d handle = env.DrawerHandle();
+    const Eigen::Vector3d behind = handle - Eigen::Vector3d(0, 0.035, 0);
+    for (int t = 0; t < 40; ++t) env.Step(Toward(env, behind + Eigen::Vector3d(0, 0, 0.1)));
+    for (int t = 0; t < 20; ++t) env.Step(Toward(env, behind));
+    const double before = env.Drawer();
+    for (int t = 0; t < 20; ++t) env.Step(Toward(env, behind + Eigen::Vector3d(0, 0.08, 0)));
+    if (unlocked)
+      EXPECT_LT(env.Drawer(), before - 0.03) << "unlocked: from " << before;
+    else
+      EXPECT_NEAR(env.Drawer(), before, 1e-3) << "locked";
+  }
+}
+
+}  // namespace
+}  // namespace msspr::sim
