@@ -310,6 +310,10 @@ msspr::core::Evaluator MakeSimEvaluator(msspr::core::Trainer& trainer,
     return TaskEvaluator(ao, f, msspr::agent::EvaluateOnAntMaze, msspr::agent::WriteAntResultsJson,
                          out_dir, start);
   }
+  if (f.env && f.env->id == msspr::sim::EnvId::kScene && f.maze.maze.empty()) {
+    std::cerr << "msspr_train: the scene has no evaluator yet: no success evaluation\n";
+    return nullptr;
+  }
   if (f.maze.maze.empty()) {
     std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no "
                  "success evaluation\n";

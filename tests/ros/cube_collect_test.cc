@@ -17,6 +17,7 @@
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/puzzle_env.h"
+#include "msspr_sim/scene_env.h"
 
 namespace msspr::ros_bridge {
 namespace {
@@ -166,6 +167,13 @@ TEST(CubeDoubleCollect, WritesThirtySevenFloatRowsThatReplay) {
   eo.urdf_path = sim::DefaultArmUrdf();
   sim::CubeDoubleEnv env(eo);
   ExpectCollectionReplays("cube-double", env, 37);
+}
+
+TEST(SceneCollect, WritesFortyFloatRowsThatReplay) {
+  sim::SceneEnvOptions eo;
+  eo.urdf_path = sim::DefaultArmUrdf();
+  sim::SceneEnv env(eo);
+  ExpectCollectionReplays("scene", env, 40);
 }
 
 TEST(CubeCollect, UsageErrors) {

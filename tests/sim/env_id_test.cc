@@ -17,7 +17,7 @@ TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
       {EnvId::kPointMaze, "pointmaze"},          {EnvId::kCubeSingle, "cube-single"},
       {EnvId::kAntMazeMedium, "antmaze-medium"}, {EnvId::kAntMazeLarge, "antmaze-large"},
       {EnvId::kPuzzle3x3, "puzzle-3x3"},         {EnvId::kPuzzle4x4, "puzzle-4x4"},
-      {EnvId::kCubeDouble, "cube-double"}};
+      {EnvId::kCubeDouble, "cube-double"},       {EnvId::kScene, "scene"}};
   ASSERT_EQ(AllEnvIds().size(), expected.size());
   for (size_t i = 0; i < expected.size(); ++i) {
     const auto& [id, name] = expected[i];
@@ -28,7 +28,7 @@ TEST(EnvIdTest, EveryIdHasItsNameAndRoundTrips) {
   }
   EXPECT_EQ(EnvIdNames(),
             (std::set<std::string>{"pointmaze", "cube-single", "antmaze-medium", "antmaze-large",
-                                   "puzzle-3x3", "puzzle-4x4", "cube-double"}));
+                                   "puzzle-3x3", "puzzle-4x4", "cube-double", "scene"}));
   EXPECT_EQ(EnvIdNames({EnvId::kPointMaze, EnvId::kCubeSingle}),
             (std::set<std::string>{"pointmaze", "cube-single"}));
 }
@@ -43,7 +43,7 @@ TEST(EnvIdTest, AnUnknownIdIsRejectedByNameWithTheValidOnes) {
       EXPECT_EQ(std::string(e.what()),
                 "unknown env id '" + bad +
                     "'; valid ids: pointmaze cube-single antmaze-medium antmaze-large "
-                    "puzzle-3x3 puzzle-4x4 cube-double");
+                    "puzzle-3x3 puzzle-4x4 cube-double scene");
     }
   }
 }

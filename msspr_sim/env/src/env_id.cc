@@ -22,7 +22,7 @@ std::string JoinNames(const std::vector<EnvId>& ids) {
 const std::vector<EnvId>& AllEnvIds() {
   static const std::vector<EnvId> ids = {
       EnvId::kPointMaze, EnvId::kCubeSingle, EnvId::kAntMazeMedium, EnvId::kAntMazeLarge,
-      EnvId::kPuzzle3x3, EnvId::kPuzzle4x4,  EnvId::kCubeDouble};
+      EnvId::kPuzzle3x3, EnvId::kPuzzle4x4,  EnvId::kCubeDouble,    EnvId::kScene};
   return ids;
 }
 
@@ -42,6 +42,8 @@ std::string EnvIdName(EnvId id) {
       return "puzzle-4x4";
     case EnvId::kCubeDouble:
       return "cube-double";
+    case EnvId::kScene:
+      return "scene";
   }
   throw std::invalid_argument("EnvIdName: not an EnvId (" + std::to_string(static_cast<int>(id)) +
                               ")");
@@ -84,6 +86,7 @@ std::string AntMazeName(EnvId id) {
     case EnvId::kPuzzle3x3:
     case EnvId::kPuzzle4x4:
     case EnvId::kCubeDouble:
+    case EnvId::kScene:
       break;
   }
   throw std::invalid_argument("'" + EnvIdName(id) +

@@ -262,6 +262,41 @@ SceneEnv::Observation SceneEnv::ResetToTask(int task, uint64_t seed) {
   return GetObservation();
 }
 
+SceneEnv::Observation SceneEnv::ResetForCollection(uint64_t seed) {
+  std::mt19937_64 rng(Mix64(seed));
+  mj_resetData(model(), data());
+  RandomizeArm(rng);
+  SceneState s;
+  s.cube = Eigen::Vector3d(Uniform(rng, options_.object_low.x(), options_.object_high.x()),
+                           Uniform(rng, options_.object_low.y(), options_.object_high.y()), 0.02);
+  const double yaw = Uniform(rng, 0.0, 2 * M_PI);
+  for (int& b : s.buttons) b = static_cast<int>(UniformIndex(rng, 2));
+  s.drawer = Uniform(rng, kDrawerOpen, 0.0);
+  s.window = Uniform(rng, 0.0, kWindowOpen);
+  SetSceneState(s, yaw);
+  goal_ = s;
+  goal_observation_.assign(kObservationSize, 0.f);
+  goal_image_.clear();
+  episode_steps_ = 0;
+  return GetObservation();
+}
+
+void SceneEnv::SetCubeTarget(const Eigen::Vector3d& position, double yaw) {
+  mjData* d = data();
+  for (int k = 0; k < 3; ++k) d->mocap_pos[3 * goal_mocap_ + k] = position[k];
+  mjtNum* q = d->mocap_quat + 4 * goal_mocap_;
+  q[0] = std::cos(yaw / 2);
+  q[1] = q[2] = 0;
+  q[3] = std::sin(yaw / 2);
+}
+
+bool SceneEnv::CubeInDrawer() const {
+  const Eigen::Vector3d c = CubePosition();
+  const double hy = DrawerHandle().y();
+  return c.x() >= 0.21 && c.x() <= 0.45 && c.y() >= hy - 0.27 && c.y() <= hy - 0.07 && c.z() >= 0 &&
+         c.z() <= 0.15;
+}
+
 SceneEnv::Observation SceneEnv::GetObservation() const {
   const mjData* d = data();
   Observation o(kObservationSize);

@@ -94,6 +94,8 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
   std::string maze;  // --env pointmaze-NAME or --maze NAME
   q.env = sim::ParseEnvFlag(args.Get("env", sim::EnvIdName(sim::EnvId::kPointMaze)),
                             args.Get("maze", ""), sim::AllEnvIds(), &maze);
+  if (q.env == sim::EnvId::kScene)
+    throw msspr::cli::CliError("--env scene: the scene has datasets but no evaluator yet");
   if (q.is_ant()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot", "urdf"}, sim::EnvIdName(q.env));
     q.ant.maze = sim::AntMazeName(q.env);

@@ -225,6 +225,8 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
   std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
   q.env = msspr::sim::ParseEnvFlag(args.Get("env", msspr::sim::EnvIdName(q.env)),
                                    args.Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
+  if (q.env == EnvId::kScene)
+    throw std::invalid_argument("--env scene: no sim node serves the scene yet");
   const bool ant = msspr::sim::IsAntMaze(q.env);
   for (const char* f : {"maze", "plot", "tasks-file"})
     if ((q.env == EnvId::kCubeSingle || q.env == EnvId::kCubeDouble ||

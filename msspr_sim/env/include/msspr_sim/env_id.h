@@ -21,14 +21,15 @@ enum class EnvId {
   kAntMazeLarge,
   kPuzzle3x3,
   kPuzzle4x4,
-  kCubeDouble
+  kCubeDouble,
+  kScene
 };
 
 // Every id, in the order above.
 const std::vector<EnvId>& AllEnvIds();
 
 // "pointmaze", "cube-single", "antmaze-medium", "antmaze-large", "puzzle-3x3", "puzzle-4x4",
-// "cube-double".
+// "cube-double", "scene".
 std::string EnvIdName(EnvId id);
 // The inverse of EnvIdName; nullopt for any other name.
 std::optional<EnvId> TryParseEnvId(const std::string& name);

@@ -31,9 +31,11 @@ struct PuzzleOracleOptions {
   double depth = 0.035;
 };
 
-// The plan that presses button `k` of `env` from its current state.
-std::vector<CubePlanSample> PlanButtonPress(const PuzzleEnv& env, int k,
-                                            const PuzzleOracleOptions& options,
+// The plan that presses the button whose top is `top` from env's current pinch pose; `grip`
+// is the gripper's target at the start and the end (the puzzles: 1, closed throughout; the
+// scene: 0, closing on the way down); the final pose is random in env's start box.
+std::vector<CubePlanSample> PlanButtonPress(const ArmEnv& env, const Eigen::Vector3d& top,
+                                            double grip, const PuzzleOracleOptions& options,
                                             std::mt19937_64& rng);
 
 class PuzzlePlayOracle {

@@ -70,6 +70,11 @@ class SceneEnv : public ArmEnv {
   // their starts + U(-0.01, 0.01) within their ranges. Throws std::out_of_range for a bad id.
   Observation ResetToTask(int task, uint64_t seed);
 
+  // A data-collection episode from `seed`: a random arm (gripper open), the cube at rest at a
+  // random xy of the object box (z 0.02, yaw U(0, 2 pi)), each button state U{0, 1}, the
+  // drawer U(-0.16, 0), the window U(0, 0.2). No goal (the play oracle draws its targets).
+  Observation ResetForCollection(uint64_t seed);
+
   Observation GetObservation() const;
   const Observation& goal_observation() const { return goal_observation_; }
   const std::vector<uint8_t>& goal_image() const { return goal_image_; }
@@ -80,6 +85,11 @@ class SceneEnv : public ArmEnv {
   void SetGoalState(const SceneState& goal) { goal_ = goal; }
   const SceneState& goal_state() const { return goal_; }
   bool Success() const;
+  // Moves the cube's goal marker (the play oracle's target; no physics, as CubeEnv::SetGoal).
+  void SetCubeTarget(const Eigen::Vector3d& position, double yaw);
+  // Whether the cube is in the drawer's tray (x 0.21-0.45, y from the handle's - 0.27 to its
+  // - 0.07, z 0-0.15; OGBench's test).
+  bool CubeInDrawer() const;
 
   Eigen::Vector3d CubePosition() const;
   double CubeYaw() const;

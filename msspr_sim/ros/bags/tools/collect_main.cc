@@ -22,6 +22,7 @@
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/point_maze.h"
 #include "msspr_sim/puzzle_dataset.h"
+#include "msspr_sim/scene_oracle.h"
 #ifdef MSSPR_COLLECT_ANT
 #include "msspr_core/sac.h"
 #include "msspr_eval/ant_dataset.h"
@@ -32,10 +33,11 @@ namespace {
 
 constexpr char kUsage[] = R"(usage: msspr_collect --out FILE.bag [options]
 Writes an expert dataset of an msspr point maze, OGBench's cube-single-play,
-cube-double-play, puzzle-3x3-play or puzzle-4x4-play dataset of the URDF arm,
+cube-double-play, scene-play, puzzle-3x3-play or puzzle-4x4-play dataset of the
+URDF arm,
 or an ant maze's dataset, into a rosbag (LZ4).
-  --env ENV              pointmaze | cube-single | cube-double | puzzle-3x3 |
-                         puzzle-4x4 | antmaze-medium | antmaze-large
+  --env ENV              pointmaze | cube-single | cube-double | scene |
+                         puzzle-3x3 | puzzle-4x4 | antmaze-medium | antmaze-large
                                                                (default pointmaze)
   --maze NAME            arena | medium | large | giant        (default medium;
                          --env pointmaze-NAME says the same)
@@ -50,9 +52,10 @@ or an ant maze's dataset, into a rosbag (LZ4).
   --seed S               base seed; episode k uses EpisodeSeed(S, k) (default 0)
   --no-compress          write an uncompressed bag
   --quiet                no progress output
-cube-single, cube-double, puzzle-3x3, puzzle-4x4 (--maze, --kind and --noise do
-not apply): the play oracle (CubePlayOracle and CubeDoublePlayOracle: pick and
-place; PuzzlePlayOracle: presses of random buttons) from collection resets,
+cube-single, cube-double, scene, puzzle-3x3, puzzle-4x4 (--maze, --kind and
+--noise do not apply): the play oracle (CubePlayOracle and CubeDoublePlayOracle:
+pick and place; ScenePlayOracle: the cube, the buttons, the drawer and the
+window; PuzzlePlayOracle: presses of random buttons) from collection resets,
 1000 + 100 episodes of 1001 steps by default; --episodes, --val-episodes, --length, --images,
 --image-episodes, --seed as above, and
   --urdf FILE            the arm's URDF (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
@@ -188,6 +191,13 @@ int CollectManipulation(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvI
     obs_dim = env->observation_size();
     collect =
         Collector<sim::PuzzleCollectOptions>(env, episode_length, seed, sim::CollectPuzzleEpisode);
+  } else if (env_id == sim::EnvId::kScene) {
+    sim::SceneEnvOptions scene_opt;
+    scene_opt.urdf_path = urdf;
+    scene_opt.enable_rendering = image_episodes > 0;
+    obs_dim = sim::SceneEnv::kObservationSize;
+    collect = Collector<sim::SceneCollectOptions>(std::make_shared<sim::SceneEnv>(scene_opt),
+                                                  episode_length, seed, sim::CollectSceneEpisode);
   } else if (env_id == sim::EnvId::kCubeDouble) {
     obs_dim = sim::CubeDoubleEnv::kObservationSize;
     collect = Collector<sim::CubeDoubleCollectOptions>(
@@ -318,6 +328,7 @@ int main(int argc, char** argv) {
       case sim::EnvId::kPuzzle3x3:
       case sim::EnvId::kPuzzle4x4:
       case sim::EnvId::kCubeDouble:
+      case sim::EnvId::kScene:
         return CollectManipulation(args, env_id);
       case sim::EnvId::kAntMazeMedium:
       case sim::EnvId::kAntMazeLarge:
