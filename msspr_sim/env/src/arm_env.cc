@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "arm_rig.h"
+#include "msspr_sim/random_util.h"
 #include "mujoco_util.h"
 #include "offscreen_renderer.h"
 
@@ -46,6 +47,8 @@ ArmEnv::ArmEnv(const ArmEnvOptions& options, const std::string& model_name,
 }
 
 ArmEnv::~ArmEnv() = default;
+
+double ArmEnv::UniformAction(std::mt19937_64& rng) { return Uniform(rng, -1.0, 1.0); }
 
 const ArmModel& ArmEnv::arm() const { return impl_->rig.arm(); }
 mjModel_* ArmEnv::model() const { return impl_->model.get(); }

@@ -191,15 +191,7 @@ CubeDoubleEnv::Observation CubeDoubleEnv::ResetToTask(int task, uint64_t seed) {
   // The goal observation: a random arm, both cubes at rest at their goals, two random actions.
   RandomizeArm(rng);
   for (int r = 0; r < 2; ++r) SetCube(row_cube[r], t.goal[r], 0.0);
-  const SavedState saved = Save();
-  for (int k = 0; k < 2; ++k) {
-    Action a;
-    for (double& x : a) x = Uniform(rng, -1.0, 1.0);
-    Step(a);
-  }
-  goal_observation_ = GetObservation();
-  goal_image_ = options_.enable_rendering ? Render() : std::vector<uint8_t>();
-  Restore(saved);
+  RecordGoal(*this, rng, 2, std::nan(""), &goal_observation_, &goal_image_);
 
   RandomizeArm(rng);
   for (int r = 0; r < 2; ++r) {

@@ -297,6 +297,8 @@ class Generator {
   int pads_found_ = 0;
 };
 
+}  // namespace
+
 // The cube-single objects: the cube on its free joint and the goal marker (a mocap body).
 std::string CubeObjectsMjcf(const CubeSceneOptions& options) {
   std::ostringstream x;
@@ -313,8 +315,6 @@ std::string CubeObjectsMjcf(const CubeSceneOptions& options) {
     << "    </body>\n";
   return x.str();
 }
-
-}  // namespace
 
 std::string ArmSceneMjcf(const ArmModel& arm, const CubeSceneOptions& options,
                          const std::string& model_name, const std::string& objects_xml) {

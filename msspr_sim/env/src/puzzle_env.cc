@@ -149,16 +149,7 @@ PuzzleEnv::Observation PuzzleEnv::ResetToTask(int task, uint64_t seed) {
   // The goal observation: the goal board, a random arm, random actions closing the gripper.
   SetButtonStates(t.goal);
   RandomizeArm(rng);
-  const SavedState saved = Save();
-  for (int k = 0; k < options_.goal_random_steps; ++k) {
-    Action a;
-    for (double& x : a) x = Uniform(rng, -1.0, 1.0);
-    a[4] = 1.0;
-    Step(a);
-  }
-  goal_observation_ = GetObservation();
-  goal_image_ = options_.enable_rendering ? Render() : std::vector<uint8_t>();
-  Restore(saved);
+  RecordGoal(*this, rng, options_.goal_random_steps, 1.0, &goal_observation_, &goal_image_);
 
   RandomizeArm(rng);
   SetButtonStates(t.start);

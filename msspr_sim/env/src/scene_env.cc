@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "msspr_sim/cube_scene.h"
 #include "msspr_sim/puzzle_env.h"  // PushButtonMjcf
 #include "msspr_sim/random_util.h"
 
@@ -44,18 +45,9 @@ const std::array<SceneTask, 5>& SceneTasks() {
 std::string SceneObjectsMjcf(bool pixel_style) {
   std::ostringstream x;
   const char* solid = " contype=\"1\" conaffinity=\"1\" group=\"1\"";
-  // The cube and its goal marker, as cube-single's.
-  x << "    <body name=\"object_0\" pos=\"0.3 0 0.02\">\n"
-    << "      <freejoint name=\"object_joint_0\"/>\n"
-    << "      <geom name=\"cube\" type=\"box\" size=\"0.02 0.02 0.02\" density=\"1240\""
-       " solref=\"0.004 1\" contype=\"3\" conaffinity=\"1\" group=\"1\""
-       " rgba=\"0.96 0.26 0.33 1\"/>\n"
-    << "    </body>\n"
-    << "    <body name=\"object_target_0\" mocap=\"true\" pos=\"0.425 0 0.02\">\n"
-    << "      <geom name=\"goal\" type=\"box\" size=\"0.02 0.02 0.02\" contype=\"0\""
-       " conaffinity=\"0\" group=\""
-    << (pixel_style ? 5 : 1) << "\" rgba=\"0.96 0.26 0.33 0.2\"/>\n"
-    << "    </body>\n";
+  CubeSceneOptions cube;
+  cube.pixel_style = pixel_style;
+  x << CubeObjectsMjcf(cube);  // the cube and its goal marker, as cube-single's
   // The buttons (OGBench's sites: 0.1254 and 0.1212 m high).
   x << PushButtonMjcf(0, 0.58, -0.05, 0.0774) << PushButtonMjcf(1, 0.58, 0.05, 0.0732);
   // The drawer: a case (x 0.212-0.448, y -0.52 to -0.32, z 0-0.168) and a tray sliding toward
@@ -241,15 +233,7 @@ SceneEnv::Observation SceneEnv::ResetToTask(int task, uint64_t seed) {
   // The goal observation: everything at the goal, a random arm, two random actions.
   RandomizeArm(rng);
   SetSceneState(t.goal);
-  const SavedState saved = Save();
-  for (int k = 0; k < 2; ++k) {
-    Action a;
-    for (double& x : a) x = Uniform(rng, -1.0, 1.0);
-    Step(a);
-  }
-  goal_observation_ = GetObservation();
-  goal_image_ = options_.enable_rendering ? Render() : std::vector<uint8_t>();
-  Restore(saved);
+  RecordGoal(*this, rng, 2, std::nan(""), &goal_observation_, &goal_image_);
 
   RandomizeArm(rng);
   SceneState start = t.start;

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <random>
@@ -100,6 +101,25 @@ class ArmEnv {
   };
   SavedState Save() const;
   void Restore(const SavedState& s);
+  // A task reset's goal observation (and, with enable_rendering, image) from the state `env`
+  // is posed in: `steps` uniformly random actions (the gripper entry then set to `grip` unless
+  // NaN), the observation, then the state restored.
+  template <class Env>
+  static void RecordGoal(Env& env, std::mt19937_64& rng, int steps, double grip,
+                         std::vector<float>* observation, std::vector<uint8_t>* image) {
+    const SavedState saved = env.Save();
+    for (int k = 0; k < steps; ++k) {
+      Action a;
+      for (double& x : a) x = UniformAction(rng);
+      if (!std::isnan(grip)) a[4] = grip;
+      env.Step(a);
+    }
+    *observation = env.GetObservation();
+    *image = env.arm_options().enable_rendering ? env.Render() : std::vector<uint8_t>();
+    env.Restore(saved);
+  }
+  // U(-1, 1) (random_util.h's Uniform).
+  static double UniformAction(std::mt19937_64& rng);
 
   mjModel_* model() const;
   mjData_* data() const;

@@ -66,6 +66,10 @@ struct CubeSceneOptions {
 // a missing pad geom, fewer than 6 arm joints).
 std::string CubeSceneMjcf(const ArmModel& arm, const CubeSceneOptions& options = {});
 
+// cube-single's objects: the cube (object_0 on object_joint_0) and its goal marker
+// (object_target_0, hidden with pixel_style).
+std::string CubeObjectsMjcf(const CubeSceneOptions& options);
+
 // The same scene with other objects: the arm, floor, walls, lights and cameras of
 // CubeSceneMjcf, then `objects_xml` (bodies of the worldbody) in place of the cube and its
 // goal marker. The model is named `model_name`. Throws as CubeSceneMjcf.
