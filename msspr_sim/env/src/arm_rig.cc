@@ -16,6 +16,28 @@ double QuatYaw(double w, double x, double y, double z) {
   return std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
 }
 
+void PlaceFreeBody(mjData* d, int qpos_adr, int qvel_adr, const Eigen::Vector3d& position,
+                   double yaw) {
+  mjtNum* q = d->qpos + qpos_adr;
+  q[0] = position.x();
+  q[1] = position.y();
+  q[2] = position.z();
+  q[3] = std::cos(yaw / 2);
+  q[4] = 0;
+  q[5] = 0;
+  q[6] = std::sin(yaw / 2);
+  for (int k = 0; k < 6; ++k) d->qvel[qvel_adr + k] = 0;
+}
+
+void PlaceMocap(mjData* d, int mocap, const Eigen::Vector3d& position, double yaw) {
+  for (int k = 0; k < 3; ++k) d->mocap_pos[3 * mocap + k] = position[k];
+  mjtNum* q = d->mocap_quat + 4 * mocap;
+  q[0] = std::cos(yaw / 2);
+  q[1] = 0;
+  q[2] = 0;
+  q[3] = std::sin(yaw / 2);
+}
+
 int RequireId(const mjModel* m, mjtObj type, const std::string& name, const char* what,
               const char* who) {
   const int id = mj_name2id(m, type, name.c_str());

@@ -32,6 +32,13 @@ extern const Eigen::Vector3d kObservationCentre;
 // ZYX yaw of a quaternion (w, x, y, z); independent of its sign.
 double QuatYaw(double w, double x, double y, double z);
 
+// A free joint's body (qpos at qpos_adr, qvel at qvel_adr) at `position`, turned `yaw` about z,
+// at rest; no mj_forward.
+void PlaceFreeBody(mjData* d, int qpos_adr, int qvel_adr, const Eigen::Vector3d& position,
+                   double yaw);
+// Mocap body `mocap` at `position`, turned `yaw` about z; no mj_forward.
+void PlaceMocap(mjData* d, int mocap, const Eigen::Vector3d& position, double yaw);
+
 class ArmRig {
  public:
   static constexpr int kProprioSize = 19;

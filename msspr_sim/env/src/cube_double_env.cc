@@ -7,17 +7,16 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "arm_rig.h"
 #include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
 namespace {
 
-const Eigen::Vector3d kCentre(0.425, 0, 0);
 const char* const kColour[2] = {"0.96 0.26 0.33", "0.35 0.55 0.91"};  // red, blue
 
-double QuatYaw(const mjtNum* q) {
-  return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
-}
+// ZYX yaw of the quaternion (w, x, y, z) at q.
+double QuatYaw(const mjtNum* q) { return internal::QuatYaw(q[0], q[1], q[2], q[3]); }
 
 void CheckCube(int i) {
   if (i < 0 || i >= CubeDoubleEnv::kCubes)
@@ -94,28 +93,13 @@ bool CubeDoubleEnv::Step(const Action& action) {
 
 void CubeDoubleEnv::SetCube(int i, const Eigen::Vector3d& position, double yaw) {
   CheckCube(i);
-  mjData* d = data();
-  mjtNum* q = d->qpos + cube_qpos_[i];
-  q[0] = position.x();
-  q[1] = position.y();
-  q[2] = position.z();
-  q[3] = std::cos(yaw / 2);
-  q[4] = 0;
-  q[5] = 0;
-  q[6] = std::sin(yaw / 2);
-  for (int k = 0; k < 6; ++k) d->qvel[cube_qvel_[i] + k] = 0;
-  mj_forward(model(), d);
+  internal::PlaceFreeBody(data(), cube_qpos_[i], cube_qvel_[i], position, yaw);
+  mj_forward(model(), data());
 }
 
 void CubeDoubleEnv::SetGoal(int i, const Eigen::Vector3d& position, double yaw) {
   CheckCube(i);
-  mjData* d = data();
-  for (int k = 0; k < 3; ++k) d->mocap_pos[3 * goal_mocap_[i] + k] = position[k];
-  mjtNum* q = d->mocap_quat + 4 * goal_mocap_[i];
-  q[0] = std::cos(yaw / 2);
-  q[1] = 0;
-  q[2] = 0;
-  q[3] = std::sin(yaw / 2);
+  internal::PlaceMocap(data(), goal_mocap_[i], position, yaw);
   // No mj_forward, as CubeEnv::SetGoal: a replay of stored actions must see the same poses.
 }
 
@@ -225,7 +209,7 @@ CubeDoubleEnv::Observation CubeDoubleEnv::GetObservation() const {
   WriteProprio(o.data());
   for (int i = 0; i < kCubes; ++i) {
     float* c = o.data() + kProprioSize + 9 * i;
-    const Eigen::Vector3d p = 10 * (CubePosition(i) - kCentre);
+    const Eigen::Vector3d p = 10 * (CubePosition(i) - internal::kObservationCentre);
     for (int k = 0; k < 3; ++k) c[k] = static_cast<float>(p[k]);
     const mjtNum* q = data()->qpos + cube_qpos_[i] + 3;
     for (int k = 0; k < 4; ++k) c[3 + k] = static_cast<float>(q[k]);

@@ -107,26 +107,12 @@ void CubeEnv::SetOpening(double opening) { impl_->rig.SetOpening(impl_->data.get
 
 void CubeEnv::SetCube(const Eigen::Vector3d& position, double yaw) {
   mjData* d = impl_->data.get();
-  mjtNum* q = d->qpos + impl_->cube_qpos;
-  q[0] = position.x();
-  q[1] = position.y();
-  q[2] = position.z();
-  q[3] = std::cos(yaw / 2);
-  q[4] = 0;
-  q[5] = 0;
-  q[6] = std::sin(yaw / 2);
-  for (int i = 0; i < 6; ++i) d->qvel[impl_->cube_qvel + i] = 0;
+  internal::PlaceFreeBody(d, impl_->cube_qpos, impl_->cube_qvel, position, yaw);
   mj_forward(impl_->model.get(), d);
 }
 
 void CubeEnv::SetGoal(const Eigen::Vector3d& position, double yaw) {
-  mjData* d = impl_->data.get();
-  for (int i = 0; i < 3; ++i) d->mocap_pos[3 * impl_->goal_mocap + i] = position[i];
-  mjtNum* q = d->mocap_quat + 4 * impl_->goal_mocap;
-  q[0] = std::cos(yaw / 2);
-  q[1] = 0;
-  q[2] = 0;
-  q[3] = std::sin(yaw / 2);
+  internal::PlaceMocap(impl_->data.get(), impl_->goal_mocap, position, yaw);
   // No mj_forward: it would refresh the arm's poses that mj_step leaves one
   // substep old, so an oracle setting a new target mid-episode would change
   // the observations and a replay of the stored actions would not match.

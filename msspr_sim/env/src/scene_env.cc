@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "arm_rig.h"
 #include "msspr_sim/cube_scene.h"
 #include "msspr_sim/puzzle_env.h"  // PushButtonMjcf
 #include "msspr_sim/random_util.h"
@@ -14,14 +15,12 @@
 namespace msspr::sim {
 namespace {
 
-const Eigen::Vector3d kCentre(0.425, 0, 0);
 constexpr double kLocked = 1e6, kFree = 2.0;  // slide damping (N s / m)
 // Cap colours: red in state 0, white in state 1; handles red when locked, white when free.
 const float kRed[4] = {0.96f, 0.26f, 0.33f, 1.f}, kWhite[4] = {0.9f, 0.9f, 0.9f, 1.f};
 
-double QuatYaw(const mjtNum* q) {
-  return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
-}
+// ZYX yaw of the quaternion (w, x, y, z) at q.
+double QuatYaw(const mjtNum* q) { return internal::QuatYaw(q[0], q[1], q[2], q[3]); }
 
 }  // namespace
 
@@ -184,14 +183,7 @@ bool SceneEnv::Step(const Action& action) {
 
 void SceneEnv::SetSceneState(const SceneState& s, double cube_yaw) {
   mjData* d = data();
-  mjtNum* q = d->qpos + cube_qpos_;
-  q[0] = s.cube.x();
-  q[1] = s.cube.y();
-  q[2] = s.cube.z();
-  q[3] = std::cos(cube_yaw / 2);
-  q[4] = q[5] = 0;
-  q[6] = std::sin(cube_yaw / 2);
-  for (int k = 0; k < 6; ++k) d->qvel[cube_qvel_ + k] = 0;
+  internal::PlaceFreeBody(d, cube_qpos_, cube_qvel_, s.cube, cube_yaw);
   for (int k = 0; k < 2; ++k) {
     if (s.buttons[k] != 0 && s.buttons[k] != 1)
       throw std::invalid_argument("SceneEnv: button states are 0 or 1, got " +
@@ -227,8 +219,7 @@ SceneEnv::Observation SceneEnv::ResetToTask(int task, uint64_t seed) {
   std::mt19937_64 rng(Mix64(seed));
   mj_resetData(model(), data());
   goal_ = t.goal;
-  mjData* d = data();
-  for (int k = 0; k < 3; ++k) d->mocap_pos[3 * goal_mocap_ + k] = t.goal.cube[k];
+  SetCubeTarget(t.goal.cube, 0.0);
 
   // The goal observation: everything at the goal, a random arm, two random actions.
   RandomizeArm(rng);
@@ -266,12 +257,7 @@ SceneEnv::Observation SceneEnv::ResetForCollection(uint64_t seed) {
 }
 
 void SceneEnv::SetCubeTarget(const Eigen::Vector3d& position, double yaw) {
-  mjData* d = data();
-  for (int k = 0; k < 3; ++k) d->mocap_pos[3 * goal_mocap_ + k] = position[k];
-  mjtNum* q = d->mocap_quat + 4 * goal_mocap_;
-  q[0] = std::cos(yaw / 2);
-  q[1] = q[2] = 0;
-  q[3] = std::sin(yaw / 2);
+  internal::PlaceMocap(data(), goal_mocap_, position, yaw);  // no mj_forward, as CubeEnv's
 }
 
 bool SceneEnv::CubeInDrawer() const {
@@ -285,7 +271,7 @@ SceneEnv::Observation SceneEnv::GetObservation() const {
   const mjData* d = data();
   Observation o(kObservationSize);
   WriteProprio(o.data());
-  const Eigen::Vector3d c = 10 * (CubePosition() - kCentre);
+  const Eigen::Vector3d c = 10 * (CubePosition() - internal::kObservationCentre);
   for (int k = 0; k < 3; ++k) o[19 + k] = static_cast<float>(c[k]);
   const mjtNum* q = d->qpos + cube_qpos_ + 3;
   for (int k = 0; k < 4; ++k) o[22 + k] = static_cast<float>(q[k]);

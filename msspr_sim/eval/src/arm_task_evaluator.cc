@@ -71,16 +71,7 @@ TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, i
       slots.push_back(std::move(s));
     }
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
-                          torch::Tensor* goal) {
-    const int64_t B = static_cast<int64_t>(active.size());
-    *obs = torch::empty({B, obs_dim}, torch::kFloat32);
-    *goal = torch::empty({B, obs_dim}, torch::kFloat32);
-    for (int64_t b = 0; b < B; ++b) {
-      std::copy(active[b]->obs.begin(), active[b]->obs.end(), (*obs)[b].data_ptr<float>());
-      const auto& g = active[b]->env->goal_observation();
-      std::copy(g.begin(), g.end(), (*goal)[b].data_ptr<float>());
-    }
-  };
+                          torch::Tensor* goal) { StateInputs(active, obs_dim, obs, goal); };
   StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
     typename Env::Action u;
     for (int k = 0; k < sim::ArmEnv::kActionSize; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);

@@ -94,14 +94,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) {
     if (pixels) return StackedImageInputs(active, *stacker, size, obs, goal);
-    const int64_t B = static_cast<int64_t>(active.size());
-    *obs = torch::empty({B, kObs}, torch::kFloat32);
-    *goal = torch::empty({B, kObs}, torch::kFloat32);
-    for (int64_t b = 0; b < B; ++b) {
-      std::copy(active[b]->obs.begin(), active[b]->obs.end(), (*obs)[b].data_ptr<float>());
-      const auto& g = active[b]->env->goal_observation();
-      std::copy(g.begin(), g.end(), (*goal)[b].data_ptr<float>());
-    }
+    StateInputs(active, kObs, obs, goal);
   };
   StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
     sim::CubeEnv::Action u;

@@ -8,6 +8,8 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <vector>
 
@@ -35,6 +37,21 @@ void StepEpisodesBatched(core::Policy& policy, std::vector<Slot>& slots, int max
     const torch::Tensor act = policy.Act(obs, goal).to(torch::kCPU).contiguous();
     auto a = act.accessor<float, 2>();
     for (size_t b = 0; b < active.size(); ++b) apply(*active[b], a[static_cast<int64_t>(b)]);
+  }
+}
+
+// A state policy's inputs for `batch` (slots with `obs`, the current observation, and `env`,
+// whose goal_observation() is the episode's goal): obs and goal [B, dim] float32.
+template <class Slot>
+void StateInputs(const std::vector<Slot*>& batch, int64_t dim, torch::Tensor* obs,
+                 torch::Tensor* goal) {
+  const int64_t b = static_cast<int64_t>(batch.size());
+  *obs = torch::empty({b, dim}, torch::kFloat32);
+  *goal = torch::empty({b, dim}, torch::kFloat32);
+  for (int64_t k = 0; k < b; ++k) {
+    std::copy(batch[k]->obs.begin(), batch[k]->obs.end(), (*obs)[k].data_ptr<float>());
+    const auto& g = batch[k]->env->goal_observation();
+    std::copy(g.begin(), g.end(), (*goal)[k].data_ptr<float>());
   }
 }
 
