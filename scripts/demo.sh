@@ -8,8 +8,11 @@
 #   MSSPR_DEMO_ENV=cube-single make demo   the URDF arm's cube-single (states; writes
 #                                          results.json and success.png); with
 #                                          MSSPR_DEMO_OBSERVATION_MODE=pixels from the camera and a goal image
-#   MSSPR_DEMO_CHECKPOINT=FILE make demo   cube-single: serve FILE instead of the shipped one
+#   MSSPR_DEMO_CHECKPOINT=FILE make demo   cube-single and the envs below: serve FILE instead
+#                                          of the shipped one
 #   MSSPR_DEMO_ENV=antmaze-medium make demo  the ant on antmaze-medium (states; 1000 steps)
+#   MSSPR_DEMO_ENV=scene make demo         the arm's scene (or cube-double, puzzle-3x3,
+#                                          puzzle-4x4; states), from msspr_policy_node/checkpoints/ENV-state.pt
 #   MSSPR_DEMO_ROBOT=pointmaze_base make demo   (or ur5e_cube with MSSPR_DEMO_ENV=cube-single;
 #                                          a spec with a camera, pointmaze_camera or
 #                                          ur5e_cube_camera, serves the pixels checkpoint)
@@ -72,21 +75,21 @@ case "$ENV" in
       LAUNCH+=(cube_checkpoint:="$(readlink -f "$CKPT")")
     fi
     ;;
-  antmaze-medium|antmaze-large)
+  antmaze-medium|antmaze-large|cube-double|scene|puzzle-3x3|puzzle-4x4)
     if [ "$PIXELS" = true ] || [ -n "${DEMO_TASKS_FILE:-}" ] || [ -n "${MSSPR_DEMO_ROBOT:-}" ]; then
       echo "[demo] MSSPR_DEMO_ENV=$ENV serves the state checkpoint on msspr's own topics: no MSSPR_DEMO_OBSERVATION_MODE=pixels, DEMO_TASKS_FILE or MSSPR_DEMO_ROBOT" >&2
       exit 2
     fi
-    CKPT=msspr_policy_node/checkpoints/$ENV-state.pt
+    CKPT=${MSSPR_DEMO_CHECKPOINT:-msspr_policy_node/checkpoints/$ENV-state.pt}
     if [ ! -f "$CKPT" ]; then
-      echo "[demo] no $CKPT" >&2
+      echo "[demo] no $CKPT: give a state checkpoint of $ENV with MSSPR_DEMO_CHECKPOINT=FILE (docs/training.md)" >&2
       exit 1
     fi
-    echo "[demo] $ENV (the ant): msspr_policy_node serving $CKPT (states), lockstep over ROS"
-    LAUNCH=(demo.launch env:="$ENV" ant_checkpoint:="$(readlink -f "$CKPT")")
+    echo "[demo] $ENV: msspr_policy_node serving $CKPT (states), lockstep over ROS"
+    LAUNCH=(demo.launch env:="$ENV" task_checkpoint:="$(readlink -f "$CKPT")")
     ;;
   *)
-    echo "[demo] MSSPR_DEMO_ENV must be pointmaze, cube-single, antmaze-medium or antmaze-large, not '$ENV'" >&2
+    echo "[demo] MSSPR_DEMO_ENV must be pointmaze, cube-single, cube-double, scene, puzzle-3x3, puzzle-4x4, antmaze-medium or antmaze-large, not '$ENV'" >&2
     exit 2
     ;;
 esac
@@ -107,8 +110,8 @@ if [ ! -s "$OUT/results.json" ]; then
   exit 1
 fi
 python3 scripts/print_results.py "$OUT/results.json"
-if [ "$ENV" = cube-single ]; then
-  echo "[demo] wrote $OUT/results.json and $OUT/success.png"
-else
+if [ "$ENV" = pointmaze ] || [ "${ENV#antmaze}" != "$ENV" ]; then
   echo "[demo] wrote $OUT/results.json, $OUT/trajectories.png and $OUT/success.png"
+else
+  echo "[demo] wrote $OUT/results.json and $OUT/success.png"
 fi

@@ -161,7 +161,7 @@ const char kEvalUsage[] =
 struct EvalFlags {
   msspr::agent::MazeEvalOptions maze;  // episodes, seed, max_steps, tasks (and maze, if one)
   std::optional<msspr::sim::EnvLabelParts> env;  // --eval-env, else the bags' env
-  bool cube = false, ant = false, puzzle = false, cube_double = false;
+  bool cube = false, ant = false, puzzle = false, cube_double = false, scene = false;
   std::string tasks_file;
 };
 
@@ -187,14 +187,18 @@ EvalFlags ParseEvalFlags(const std::map<std::string, std::string>& extra) {
       throw msspr::cli::CliError("--eval-env: '" + get("eval-env", "") +
                                  "' is not an env (pointmaze-arena|medium|large|giant, "
                                  "cube-single, cube-double, antmaze-medium, antmaze-large, "
-                                 "puzzle-3x3, puzzle-4x4)");
+                                 "scene, puzzle-3x3, puzzle-4x4)");
   }
   const bool no_maze = get("eval-maze", "").empty();
   f.cube = no_maze && f.env && f.env->id == msspr::sim::EnvId::kCubeSingle;
   f.ant = no_maze && f.env && msspr::sim::IsAntMaze(f.env->id);
   f.puzzle = no_maze && f.env && msspr::sim::IsPuzzle(f.env->id);
   f.cube_double = no_maze && f.env && f.env->id == msspr::sim::EnvId::kCubeDouble;
-  const char* max_steps = f.cube ? "200" : (f.puzzle || f.cube_double) ? "500" : "1000";
+  f.scene = no_maze && f.env && f.env->id == msspr::sim::EnvId::kScene;
+  const char* max_steps = f.cube                        ? "200"
+                          : (f.puzzle || f.cube_double) ? "500"
+                          : f.scene                     ? "750"
+                                                        : "1000";
   eo.max_steps =
       static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", max_steps), 1, 100000000));
   eo.tasks.clear();
@@ -211,7 +215,7 @@ EvalFlags ParseEvalFlags(const std::map<std::string, std::string>& extra) {
     }
   }
   f.tasks_file = get("eval-tasks-file", "");
-  if ((f.cube || f.ant || f.puzzle || f.cube_double) && extra.count("eval-tasks-file"))
+  if ((f.cube || f.ant || f.puzzle || f.cube_double || f.scene) && extra.count("eval-tasks-file"))
     throw msspr::cli::CliError(
         "--eval-tasks-file: custom tasks are point-maze tasks (these bags are " +
         msspr::sim::EnvIdName(f.env->id) + ")");
@@ -295,9 +299,11 @@ msspr::core::Evaluator MakeSimEvaluator(msspr::core::Trainer& trainer,
     return TaskEvaluator(msspr::agent::CubeEvalOptions(), f, msspr::agent::EvaluateOnCube,
                          msspr::agent::WriteCubeResultsJson, out_dir, start);
   if (f.cube_double)
-    return TaskEvaluator(msspr::agent::CubeDoubleEvalOptions(), f,
-                         msspr::agent::EvaluateOnCubeDouble,
+    return TaskEvaluator(msspr::agent::ArmTaskEvalOptions(), f, msspr::agent::EvaluateOnCubeDouble,
                          msspr::agent::WriteCubeDoubleResultsJson, out_dir, start);
+  if (f.scene)
+    return TaskEvaluator(msspr::agent::ArmTaskEvalOptions(), f, msspr::agent::EvaluateOnScene,
+                         msspr::agent::WriteSceneResultsJson, out_dir, start);
   if (f.puzzle) {
     msspr::agent::PuzzleEvalOptions po;
     po.side = msspr::sim::PuzzleSide(f.env->id);
@@ -309,10 +315,6 @@ msspr::core::Evaluator MakeSimEvaluator(msspr::core::Trainer& trainer,
     ao.maze = msspr::sim::AntMazeName(f.env->id);
     return TaskEvaluator(ao, f, msspr::agent::EvaluateOnAntMaze, msspr::agent::WriteAntResultsJson,
                          out_dir, start);
-  }
-  if (f.env && f.env->id == msspr::sim::EnvId::kScene && f.maze.maze.empty()) {
-    std::cerr << "msspr_train: the scene has no evaluator yet: no success evaluation\n";
-    return nullptr;
   }
   if (f.maze.maze.empty()) {
     std::cerr << "msspr_train: no --eval-env or --eval-maze and no simulated env in the bags: no "

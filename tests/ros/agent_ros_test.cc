@@ -54,6 +54,21 @@ bool Exists(const std::string& p) {
   return stat(p.c_str(), &st) == 0;
 }
 
+// A state policy after one step of the tiny trainer on two constant episodes (torch seeded 0):
+// untrained, but of the given sizes.
+core::Policy UntrainedStatePolicy(int obs_dim, int action_dim) {
+  torch::manual_seed(0);
+  core::DatasetBuilder b(obs_dim, action_dim);
+  std::vector<float> obs(static_cast<size_t>(10 * obs_dim), 0.1f),
+      act(static_cast<size_t>(10 * action_dim), 0.2f);
+  b.AddEpisode(obs, act);
+  b.AddEpisode(obs, act);
+  core::Trainer trainer(core::testing_util::TinyOptions(),
+                        std::make_shared<const core::Dataset>(b.Build()));
+  trainer.Step();
+  return trainer.MakePolicy();
+}
+
 // Writes one episode with the given steps missing from the observations.
 void WriteEpisode(rosbag::Bag& bag, uint32_t id, const std::string& split, int n,
                   const std::vector<int>& missing, int obs_dim = 2) {
@@ -184,15 +199,7 @@ TEST(MazeEvaluator, SameOutcomesTwiceAndFailuresRunToTheStepLimit) {
 // An untrained cube-single policy (28-D states, 5-D actions): the evaluator's
 // bookkeeping, determinism and errors (the trained agent's numbers are in the README).
 TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
-  torch::manual_seed(0);
-  core::DatasetBuilder b(28, 5);
-  std::vector<float> obs(10 * 28, 0.1f), act(10 * 5, 0.2f);
-  b.AddEpisode(obs, act);
-  b.AddEpisode(obs, act);
-  core::Trainer trainer(core::testing_util::TinyOptions(),
-                        std::make_shared<const core::Dataset>(b.Build()));
-  trainer.Step();
-  core::Policy policy = trainer.MakePolicy();
+  core::Policy policy = UntrainedStatePolicy(28, 5);
   CubeEvalOptions opt;
   opt.tasks = {2, 5};
   opt.episodes = 2;
@@ -225,15 +232,7 @@ TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
 // An untrained puzzle-3x3 policy (55-D states, 5-D actions): the evaluator's bookkeeping,
 // determinism, report and errors.
 TEST(PuzzleEvaluator, DeterministicAndChecksThePolicy) {
-  torch::manual_seed(0);
-  core::DatasetBuilder b(55, 5);
-  std::vector<float> obs(10 * 55, 0.1f), act(10 * 5, 0.2f);
-  b.AddEpisode(obs, act);
-  b.AddEpisode(obs, act);
-  core::Trainer trainer(core::testing_util::TinyOptions(),
-                        std::make_shared<const core::Dataset>(b.Build()));
-  trainer.Step();
-  core::Policy policy = trainer.MakePolicy();
+  core::Policy policy = UntrainedStatePolicy(55, 5);
   PuzzleEvalOptions opt;
   opt.tasks = {1, 4};
   opt.episodes = 2;
@@ -263,16 +262,8 @@ TEST(PuzzleEvaluator, DeterministicAndChecksThePolicy) {
 
 // An untrained cube-double policy (37-D states): determinism, the report, the policy check.
 TEST(CubeDoubleEvaluator, DeterministicAndChecksThePolicy) {
-  torch::manual_seed(0);
-  core::DatasetBuilder b(37, 5);
-  std::vector<float> obs(10 * 37, 0.1f), act(10 * 5, 0.2f);
-  b.AddEpisode(obs, act);
-  b.AddEpisode(obs, act);
-  core::Trainer trainer(core::testing_util::TinyOptions(),
-                        std::make_shared<const core::Dataset>(b.Build()));
-  trainer.Step();
-  core::Policy policy = trainer.MakePolicy();
-  CubeDoubleEvalOptions opt;
+  core::Policy policy = UntrainedStatePolicy(37, 5);
+  ArmTaskEvalOptions opt;
   opt.tasks = {4};
   opt.episodes = 2;
   opt.max_steps = 10;
@@ -283,6 +274,33 @@ TEST(CubeDoubleEvaluator, DeterministicAndChecksThePolicy) {
   EXPECT_EQ(MakeCubeDoubleEvalReport(a, opt, "untrained").env, "cube-double");
   auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D
   EXPECT_THROW(EvaluateOnCubeDouble(maze_policy, opt), std::invalid_argument);
+}
+
+// An untrained scene policy (40-D states): determinism, the cap (the scene's 750 when
+// max_steps is 0), the report, the policy check.
+TEST(SceneEvaluator, DeterministicRunsToTheScenesCapAndChecksThePolicy) {
+  core::Policy policy = UntrainedStatePolicy(40, 5);
+  ArmTaskEvalOptions opt;
+  opt.tasks = {2};
+  opt.episodes = 1;
+  opt.max_steps = 10;
+  const auto a = EvaluateOnScene(policy, opt);
+  const auto c = EvaluateOnScene(policy, opt);
+  EXPECT_EQ(a.success, c.success);
+  EXPECT_EQ(a.success, (std::vector<double>{0.0}));  // nothing closes and locks in 10 steps
+  ASSERT_EQ(a.episodes.size(), 1u);
+  ASSERT_EQ(c.episodes.size(), 1u);
+  EXPECT_EQ(a.episodes[0].steps, 10);
+  EXPECT_EQ(a.episodes[0].final_obs.size(), 40u);
+  EXPECT_EQ(a.episodes[0].final_obs, c.episodes[0].final_obs);
+  opt.max_steps = 0;
+  const sim::EvalReport report = MakeSceneEvalReport(a, opt, "untrained");
+  EXPECT_EQ(report.env, "scene");
+  EXPECT_EQ(report.max_steps, 750);
+  core::Policy cube_double_policy = UntrainedStatePolicy(37, 5);
+  EXPECT_THROW(EvaluateOnScene(cube_double_policy, opt), std::invalid_argument);
+  opt.tasks = {6};
+  EXPECT_THROW(EvaluateOnScene(policy, opt), std::invalid_argument);
 }
 
 // An untrained pixels policy of cube-single (16x16 camera images, two frames
@@ -326,15 +344,7 @@ TEST(CubeEvaluator, PixelsPoliciesAreServedTheCameraDeterministically) {
 // An untrained ant policy (29-D states, 8-D actions) on antmaze-medium: the
 // evaluator's bookkeeping, determinism, report and errors.
 TEST(AntEvaluator, DeterministicAndChecksThePolicy) {
-  torch::manual_seed(0);
-  core::DatasetBuilder b(29, 8);
-  std::vector<float> obs(10 * 29, 0.1f), act(10 * 8, 0.2f);
-  b.AddEpisode(obs, act);
-  b.AddEpisode(obs, act);
-  core::Trainer trainer(core::testing_util::TinyOptions(),
-                        std::make_shared<const core::Dataset>(b.Build()));
-  trainer.Step();
-  core::Policy policy = trainer.MakePolicy();
+  core::Policy policy = UntrainedStatePolicy(29, 8);
   AntEvalOptions opt;
   opt.tasks = {1, 4};
   opt.episodes = 2;

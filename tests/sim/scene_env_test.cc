@@ -193,5 +193,54 @@ TEST(SceneDatasetTest, EpisodesAreSeededHealthyAndReplay) {
   }
 }
 
+// The task oracle's first plan follows the state: unlock before a slide, the cube before the
+// drawer closes, the buttons last; then it solves put_in_drawer (unlock, open, cube into
+// the tray, close) and the observation reads back as the goal's state.
+TEST(SceneTaskOracleTest, OrdersItsPlansAndSolvesPutInDrawer) {
+  using Subtask = SceneTaskOracle::Subtask;
+  SceneEnv env(Options());
+  SceneTaskOracle oracle(3);
+  env.ResetToTask(2, 3);  // drawer and window open and locked; goal: closed and locked
+  EXPECT_EQ(oracle.NextStep(env).subtask, Subtask::kButton);
+  EXPECT_EQ(oracle.NextStep(env).button, 0);
+  env.ResetToTask(3, 3);  // the cube moves first, then the (free) drawer opens
+  EXPECT_EQ(oracle.NextStep(env).subtask, Subtask::kCube);
+  SceneState s = env.GetSceneState();
+  s.cube = env.goal_state().cube;
+  env.SetSceneState(s);
+  EXPECT_EQ(oracle.NextStep(env).subtask, Subtask::kDrawer);
+  EXPECT_DOUBLE_EQ(oracle.NextStep(env).target, SceneEnv::kDrawerOpen);
+  s.drawer = SceneEnv::kDrawerOpen;
+  env.SetSceneState(s);  // the window is locked: press button 1 before closing it
+  EXPECT_EQ(oracle.NextStep(env).subtask, Subtask::kButton);
+  EXPECT_EQ(oracle.NextStep(env).button, 1);
+  s.buttons = {1, 1};
+  s.window = 0;
+  env.SetSceneState(s);
+  EXPECT_TRUE(env.Success());
+  EXPECT_EQ(oracle.NextStep(env).subtask, Subtask::kNone);
+
+  env.ResetToTask(4, 5);
+  SceneTaskOracle solver(5);
+  int cube_plans = 0;
+  Subtask last = Subtask::kNone;
+  while (!env.EpisodeOver()) {
+    env.Step(solver.Act(env));
+    if (solver.current().subtask == Subtask::kCube && last != Subtask::kCube) ++cube_plans;
+    last = solver.current().subtask;
+  }
+  ASSERT_TRUE(env.Success()) << "after " << env.episode_steps() << " steps";
+  EXPECT_GE(cube_plans, 1);
+  EXPECT_TRUE(env.CubeInDrawer());
+  double yaw = 0;
+  const SceneState read = SceneEnv::StateFromObservation(env.GetObservation(), &yaw);
+  EXPECT_NEAR((read.cube - env.CubePosition()).norm(), 0, 1e-5);
+  EXPECT_EQ(read.buttons, (std::array<int, 2>{1, 0}));
+  EXPECT_NEAR(read.drawer, env.Drawer(), 1e-5);
+  EXPECT_NEAR(yaw, env.CubeYaw(), 1e-4);
+  EXPECT_THROW(SceneEnv::StateFromObservation(std::vector<float>(39, 0.f), nullptr),
+               std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace msspr::sim

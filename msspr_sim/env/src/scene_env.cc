@@ -146,6 +146,8 @@ SceneEnv::SceneEnv(const SceneEnvOptions& options)
   }
   drawer_handle_site_ = RequireId(mjOBJ_SITE, "drawer_handle_center", "site");
   window_handle_site_ = RequireId(mjOBJ_SITE, "window_handle_center", "site");
+  drawer_body_ = RequireId(mjOBJ_BODY, "drawer_link", "body");
+  window_body_ = RequireId(mjOBJ_BODY, "windowb_a", "body");
   drawer_handle_geom_ = RequireId(mjOBJ_GEOM, "drawer_handle", "geom");
   window_handle_geom_ = RequireId(mjOBJ_GEOM, "window_handle", "geom");
   goal_observation_.assign(kObservationSize, 0.f);
@@ -296,6 +298,12 @@ Eigen::Vector3d SceneEnv::CubePosition() const {
   const mjtNum* q = data()->qpos + cube_qpos_;
   return Eigen::Vector3d(q[0], q[1], q[2]);
 }
+const double* SceneEnv::CubeQpos() const { return data()->qpos + cube_qpos_; }
+Eigen::Vector3d SceneEnv::CubeTargetPosition() const {
+  const mjtNum* p = data()->mocap_pos + 3 * goal_mocap_;
+  return Eigen::Vector3d(p[0], p[1], p[2]);
+}
+double SceneEnv::CubeTargetYaw() const { return QuatYaw(data()->mocap_quat + 4 * goal_mocap_); }
 double SceneEnv::CubeYaw() const { return QuatYaw(data()->qpos + cube_qpos_ + 3); }
 double SceneEnv::Drawer() const { return data()->qpos[drawer_qpos_]; }
 double SceneEnv::Window() const { return data()->qpos[window_qpos_]; }
@@ -311,6 +319,37 @@ Eigen::Vector3d SceneEnv::DrawerHandle() const {
 Eigen::Vector3d SceneEnv::WindowHandle() const {
   const mjtNum* p = data()->site_xpos + 3 * window_handle_site_;
   return Eigen::Vector3d(p[0], p[1], p[2]);
+}
+
+Eigen::Vector3d SceneEnv::DrawerPosition() const {
+  const mjtNum* p = data()->xpos + 3 * drawer_body_;
+  return Eigen::Vector3d(p[0], p[1], p[2]);
+}
+Eigen::Vector3d SceneEnv::WindowPosition() const {
+  const mjtNum* p = data()->xpos + 3 * window_body_;
+  return Eigen::Vector3d(p[0], p[1], p[2]);
+}
+double SceneEnv::ButtonJoint(int k) const {
+  return data()->qpos[button_qpos_.at(static_cast<size_t>(k))];
+}
+
+SceneState SceneEnv::StateFromObservation(const std::vector<float>& obs, double* cube_yaw) {
+  if (obs.size() != kObservationSize)
+    throw std::invalid_argument("a scene observation has 40 entries, got " +
+                                std::to_string(obs.size()));
+  SceneState s;
+  s.cube = internal::kObservationCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
+  if (cube_yaw) *cube_yaw = std::atan2(obs[27], obs[26]);
+  for (int k = 0; k < 2; ++k) {
+    const float a = obs[static_cast<size_t>(28 + 4 * k)], b = obs[static_cast<size_t>(29 + 4 * k)];
+    if (!((a == 1.f && b == 0.f) || (a == 0.f && b == 1.f)))
+      throw std::invalid_argument("button " + std::to_string(k) +
+                                  "'s state entries must be (1, 0) or (0, 1)");
+    s.buttons[static_cast<size_t>(k)] = b == 1.f ? 1 : 0;
+  }
+  s.drawer = obs[36] / 18.0;
+  s.window = obs[38] / 15.0;
+  return s;
 }
 
 }  // namespace msspr::sim

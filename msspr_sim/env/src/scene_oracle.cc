@@ -28,6 +28,43 @@ double NearestHalfTurnYaw(double handle_yaw, double effector_yaw) {
 constexpr double kDrawerYaw = 3.14, kWindowYaw = 1.57;  // the handle sites' yaws (OGBench's)
 const Eigen::Vector3d kDrawerAxis(-0.0016, -1, 0);      // the handle's motion per metre of slide
 
+// The cube's pick-and-place plan to `target` (yaw `target_yaw`) from env's state.
+std::vector<CubePlanSample> PlanCube(const SceneEnv& env, const Eigen::Vector3d& target,
+                                     double target_yaw, const CubePlayOracleOptions& options,
+                                     std::mt19937_64& rng) {
+  PickAndPlace s;
+  s.pinch = env.PinchPosition();
+  s.pinch_rotation = env.PinchRotation();
+  s.pinch_yaw = env.PinchYaw();
+  s.cube = env.CubePosition();
+  s.cube_yaw = env.CubeYaw();
+  s.target = target;
+  s.target_yaw = target_yaw;
+  s.final_low = env.options().init_low;
+  s.final_high = env.options().init_high;
+  return PlanPickAndPlace(s, options, rng);
+}
+
+// The handle plans that slide the drawer or the window to `goal` (m).
+std::vector<CubePlanSample> PlanDrawer(const SceneEnv& env, double goal,
+                                       const CubePlayOracleOptions& options, std::mt19937_64& rng) {
+  const Eigen::Vector3d handle = env.DrawerHandle();
+  return PlanHandleMove(env, handle, kDrawerYaw, handle + (goal - env.Drawer()) * kDrawerAxis, 0.12,
+                        options, rng);
+}
+std::vector<CubePlanSample> PlanWindow(const SceneEnv& env, double goal,
+                                       const CubePlayOracleOptions& options, std::mt19937_64& rng) {
+  const Eigen::Vector3d handle = env.WindowHandle();
+  return PlanHandleMove(env, handle, kWindowYaw,
+                        handle + Eigen::Vector3d(goal - env.Window(), 0, 0), 0.06, options, rng);
+}
+
+SceneEnv::Action Toward(const SceneEnv& env, const CubePlanSample& x,
+                        const CubePlayOracleOptions& options) {
+  return ActionTowardSample(x, env.PinchPosition(), env.PinchYaw(), env.Opening(),
+                            options.action_scale);
+}
+
 // Whether a row's cube (obs 19-21: 10 (centre - c)) leaves OGBench's health bounds.
 bool Unhealthy(const float* obs) {
   const double y = obs[20] / 10.0, z = obs[21] / 10.0;
@@ -81,45 +118,88 @@ SceneEnv::Action ScenePlayOracle::Act(SceneEnv& env) {
         }
         const double yaw = Uniform(rng_, 0.0, 2 * M_PI);
         env.SetCubeTarget(target, yaw);
-        PickAndPlace s;
-        s.pinch = env.PinchPosition();
-        s.pinch_rotation = env.PinchRotation();
-        s.pinch_yaw = env.PinchYaw();
-        s.cube = env.CubePosition();
-        s.cube_yaw = env.CubeYaw();
-        s.target = target;
-        s.target_yaw = yaw;
-        s.final_low = eo.init_low;
-        s.final_high = eo.init_high;
-        plan_ = PlanPickAndPlace(s, options_.cube, rng_);
+        plan_ = PlanCube(env, target, yaw, options_.cube, rng_);
         break;
       }
       case Subtask::kButton:
         plan_ = PlanButtonPress(env, env.ButtonTop(static_cast<int>(UniformIndex(rng_, 2))), 0.0,
                                 options_.button, rng_);
         break;
-      case Subtask::kDrawer: {
-        const double goal = env.Drawer() >= -0.08 ? SceneEnv::kDrawerOpen : 0.0;
-        const Eigen::Vector3d handle = env.DrawerHandle();
-        plan_ =
-            PlanHandleMove(env, handle, kDrawerYaw, handle + (goal - env.Drawer()) * kDrawerAxis,
-                           0.12, options_.handle, rng_);
+      case Subtask::kDrawer:
+        plan_ = PlanDrawer(env, env.Drawer() >= -0.08 ? SceneEnv::kDrawerOpen : 0.0,
+                           options_.handle, rng_);
         break;
-      }
-      case Subtask::kWindow: {
-        const double goal = env.Window() <= 0.1 ? SceneEnv::kWindowOpen : 0.0;
-        const Eigen::Vector3d handle = env.WindowHandle();
-        plan_ = PlanHandleMove(env, handle, kWindowYaw,
-                               handle + Eigen::Vector3d(goal - env.Window(), 0, 0), 0.06,
-                               options_.handle, rng_);
+      case Subtask::kWindow:
+        plan_ = PlanWindow(env, env.Window() <= 0.1 ? SceneEnv::kWindowOpen : 0.0, options_.handle,
+                           rng_);
         break;
-      }
     }
     step_ = 0;
     ++cycles_;
   }
-  return ActionTowardSample(plan_[step_++], env.PinchPosition(), env.PinchYaw(), env.Opening(),
-                            options_.cube.action_scale);
+  return Toward(env, plan_[step_++], options_.cube);
+}
+
+SceneTaskOracle::SceneTaskOracle(uint64_t seed, const SceneOracleOptions& options)
+    : options_(options), rng_(Mix64(seed)) {}
+
+SceneTaskOracle::Step SceneTaskOracle::NextStep(const SceneEnv& env) const {
+  const SceneState& goal = env.goal_state();
+  const bool cube_placed = (env.CubePosition() - goal.cube).norm() <= kPlaced;
+  const bool drawer_open = env.Drawer() < kDrawerOpenEnough;
+  const bool cube_goal_in_drawer = goal.cube.y() < kInDrawerY;
+  // The drawer to `target`, unlocking it first.
+  const auto drawer_to = [&](double target) {
+    return env.DrawerLocked() ? Step{Subtask::kButton, 0, 0.0} : Step{Subtask::kDrawer, -1, target};
+  };
+  if (!cube_placed) {
+    if (cube_goal_in_drawer && !env.CubeInDrawer())
+      return drawer_open ? Step{Subtask::kCube, -1, 0.0} : drawer_to(SceneEnv::kDrawerOpen);
+    if (!cube_goal_in_drawer)
+      return env.CubeInDrawer() && !drawer_open ? drawer_to(SceneEnv::kDrawerOpen)
+                                                : Step{Subtask::kCube, -1, 0.0};
+    // In the tray: closing the drawer brings it to the goal (below).
+  }
+  if (std::abs(env.Drawer() - goal.drawer) > kPlaced) return drawer_to(goal.drawer);
+  if (std::abs(env.Window() - goal.window) > kPlaced)
+    return env.WindowLocked() ? Step{Subtask::kButton, 1, 0.0}
+                              : Step{Subtask::kWindow, -1, goal.window};
+  for (int k = 0; k < 2; ++k)
+    if (env.button_states()[static_cast<size_t>(k)] != goal.buttons[static_cast<size_t>(k)])
+      return Step{Subtask::kButton, k, 0.0};
+  return Step{Subtask::kNone, -1, 0.0};
+}
+
+SceneEnv::Action SceneTaskOracle::Act(const SceneEnv& env) {
+  if (step_ >= plan_.size()) {
+    plan_.clear();
+    step_ = 0;
+    current_ = NextStep(env);
+    switch (current_.subtask) {
+      case Subtask::kNone:
+        break;
+      case Subtask::kCube: {
+        const SceneState& goal = env.goal_state();
+        const Eigen::Vector3d target =
+            goal.cube.y() < kInDrawerY
+                ? Eigen::Vector3d(kTrayX, env.DrawerHandle().y() + kTrayFromHandle, kTrayZ)
+                : goal.cube;
+        plan_ = PlanCube(env, target, 0.0, options_.cube, rng_);
+        break;
+      }
+      case Subtask::kButton:
+        plan_ = PlanButtonPress(env, env.ButtonTop(current_.button), 0.0, options_.button, rng_);
+        break;
+      case Subtask::kDrawer:
+        plan_ = PlanDrawer(env, current_.target, options_.handle, rng_);
+        break;
+      case Subtask::kWindow:
+        plan_ = PlanWindow(env, current_.target, options_.handle, rng_);
+        break;
+    }
+  }
+  if (plan_.empty()) return SceneEnv::Action{0, 0, 0, 0, -1};  // hold, gripper open
+  return Toward(env, plan_[step_++], options_.cube);
 }
 
 PlayEpisode CollectSceneEpisode(SceneEnv& env, const SceneCollectOptions& options, uint64_t index) {

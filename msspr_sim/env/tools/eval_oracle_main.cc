@@ -16,18 +16,20 @@
 #include "msspr_sim/puzzle_env.h"
 #include "msspr_sim/puzzle_oracle.h"
 #include "msspr_sim/random_util.h"
+#include "msspr_sim/scene_oracle.h"
 
 namespace {
 
 constexpr char kUsage[] = R"(usage: msspr_eval_oracle --env ENV [options]
 Runs the scripted task oracle on an env's evaluation tasks and prints its success per task:
 puzzle-3x3, puzzle-4x4 (PuzzleTaskOracle: presses the fewest-press solution, one button
-plan at a time) and cube-double (CubeDoubleTaskOracle: one pick and place per cube, parking
-one first where needed), with the play data's plan noise.
-  --env ENV          puzzle-3x3 | puzzle-4x4 | cube-double (required)
+plan at a time), cube-double (CubeDoubleTaskOracle: one pick and place per cube, parking
+one first where needed) and scene (SceneTaskOracle: the cube, then the drawer, the window and
+the buttons, unlocking before a slide), with the play data's plan noise.
+  --env ENV          puzzle-3x3 | puzzle-4x4 | cube-double | scene (required)
   --episodes N       episodes per task (default 50)
   --tasks LIST       task ids (default 1,2,3,4,5)
-  --max-steps N      steps per episode (default: the env's cap, 500)
+  --max-steps N      steps per episode (default: the env's cap, 500; the scene 750)
   --seed S           evaluation seed: the episodes of msspr_eval --seed S (default 0)
   --urdf FILE        the arm (default: the package's msspr_sim/urdf/ur5e_2f85.urdf)
   --out FILE.json    also write the results as JSON
@@ -83,8 +85,8 @@ int main(int argc, char** argv) {
     env_id = sim::ParseEnvId(
         args.GetChoice("env", "",
                        sim::EnvIdNames({sim::EnvId::kPuzzle3x3, sim::EnvId::kPuzzle4x4,
-                                        sim::EnvId::kCubeDouble})));
-    flags = sim::ReadEpisodeFlags(args, 500, 5);
+                                        sim::EnvId::kCubeDouble, sim::EnvId::kScene})));
+    flags = sim::ReadEpisodeFlags(args, env_id == sim::EnvId::kScene ? 750 : 500, 5);
     urdf = args.Get("urdf", sim::DefaultArmUrdf());
     out = args.Get("out", "");
   } catch (const std::exception& e) {
@@ -113,6 +115,12 @@ int main(int argc, char** argv) {
         r.start.assign(t.start.begin(), t.start.end());
         r.goal.assign(t.goal.begin(), t.goal.end());
       }
+    } else if (env_id == sim::EnvId::kScene) {
+      sim::SceneEnvOptions opt;
+      opt.urdf_path = urdf;
+      opt.max_episode_steps = flags.max_steps;
+      sim::SceneEnv env(opt);
+      report.tasks = RunOracle<sim::SceneTaskOracle>(env, flags, report.env);
     } else {
       sim::CubeDoubleEnvOptions opt;
       opt.urdf_path = urdf;

@@ -15,6 +15,7 @@
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/puzzle_env.h"
+#include "msspr_sim/scene_env.h"
 
 namespace msspr::agent {
 namespace {
@@ -45,14 +46,14 @@ void CheckStatePolicy(const core::Policy& policy, const Options& options,
     if (t < 1 || t > 5)
       throw std::invalid_argument(w + "task " + std::to_string(t) + " is not a task of " +
                                   env_name + " (1 to 5)");
-  if (options.episodes < 1 || options.max_steps < 1)
-    throw std::invalid_argument(w + "episodes and max_steps must be at least 1");
+  if (options.episodes < 1 || options.max_steps < 0)
+    throw std::invalid_argument(w + "episodes must be at least 1 and max_steps at least 0");
 }
 
 // Every (task, episode) of `options` in an env of its own (make_env()), side by side.
 template <class Env, class Options, class MakeEnv>
 TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, int obs_dim,
-                                 MakeEnv make_env) {
+                                 int max_steps, MakeEnv make_env) {
   const auto t0 = std::chrono::steady_clock::now();
   struct Slot {
     std::unique_ptr<Env> env;
@@ -72,13 +73,13 @@ TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, i
     }
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) { StateInputs(active, obs_dim, obs, goal); };
-  StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
+  StepEpisodesBatched(policy, slots, max_steps, inputs, [&](Slot& s, const auto& a) {
     typename Env::Action u;
     for (int k = 0; k < sim::ArmEnv::kActionSize; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
     s.success = s.env->Step(u);
     s.obs = s.env->GetObservation();
     ++s.steps;
-    s.done = s.success || s.steps >= options.max_steps;
+    s.done = s.success || s.steps >= max_steps;
   });
   std::vector<EpisodeResult> episodes;
   for (const Slot& s : slots)
@@ -86,6 +87,29 @@ TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, i
   TaskSuccessResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
+}
+
+// An arm env's evaluation (Env::Options: its arm and cap).
+template <class Env>
+ArmTaskEvalResult EvaluateArmTask(core::Policy& policy, const ArmTaskEvalOptions& options,
+                                  sim::EnvId id, const char* who) {
+  CheckStatePolicy(policy, options, sim::EnvLabel(id), Env::kObservationSize, who);
+  typename Env::Options eo;
+  eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
+  if (options.max_steps > 0) eo.max_episode_steps = options.max_steps;
+  return EvaluateStates<Env>(policy, options, Env::kObservationSize, eo.max_episode_steps,
+                             [&] { return std::make_unique<Env>(eo); });
+}
+
+// The report of an arm env's evaluation (its cap when max_steps is 0).
+template <class Env>
+sim::EvalReport MakeArmTaskReport(const ArmTaskEvalResult& result,
+                                  const ArmTaskEvalOptions& options, sim::EnvId id,
+                                  const std::string& agent) {
+  return MakeTaskReport(
+      result, sim::EnvLabel(id), agent, options.episodes,
+      options.max_steps > 0 ? options.max_steps : typename Env::Options().max_episode_steps,
+      options.seed);
 }
 
 }  // namespace
@@ -97,21 +121,18 @@ PuzzleEvalResult EvaluateOnPuzzle(core::Policy& policy, const PuzzleEvalOptions&
   sim::PuzzleEnvOptions eo;
   eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
   eo.side = options.side;
-  eo.max_episode_steps = options.max_steps;
-  return EvaluateStates<sim::PuzzleEnv>(policy, options, obs_dim,
+  if (options.max_steps > 0) eo.max_episode_steps = options.max_steps;
+  return EvaluateStates<sim::PuzzleEnv>(policy, options, obs_dim, eo.max_episode_steps,
                                         [&] { return std::make_unique<sim::PuzzleEnv>(eo); });
 }
 
-CubeDoubleEvalResult EvaluateOnCubeDouble(core::Policy& policy,
-                                          const CubeDoubleEvalOptions& options) {
-  CheckStatePolicy(policy, options, "cube-double", sim::CubeDoubleEnv::kObservationSize,
-                   "EvaluateOnCubeDouble");
-  sim::CubeDoubleEnvOptions eo;
-  eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
-  eo.max_episode_steps = options.max_steps;
-  return EvaluateStates<sim::CubeDoubleEnv>(
-      policy, options, sim::CubeDoubleEnv::kObservationSize,
-      [&] { return std::make_unique<sim::CubeDoubleEnv>(eo); });
+ArmTaskEvalResult EvaluateOnCubeDouble(core::Policy& policy, const ArmTaskEvalOptions& options) {
+  return EvaluateArmTask<sim::CubeDoubleEnv>(policy, options, sim::EnvId::kCubeDouble,
+                                             "EvaluateOnCubeDouble");
+}
+
+ArmTaskEvalResult EvaluateOnScene(core::Policy& policy, const ArmTaskEvalOptions& options) {
+  return EvaluateArmTask<sim::SceneEnv>(policy, options, sim::EnvId::kScene, "EvaluateOnScene");
 }
 
 sim::EvalReport MakePuzzleEvalReport(const PuzzleEvalResult& result,
@@ -132,17 +153,25 @@ void WritePuzzleResultsJson(const PuzzleEvalResult& result, const PuzzleEvalOpti
   sim::WriteTextFile(path, sim::EvalReportJson(MakePuzzleEvalReport(result, options, agent)));
 }
 
-sim::EvalReport MakeCubeDoubleEvalReport(const CubeDoubleEvalResult& result,
-                                         const CubeDoubleEvalOptions& options,
+sim::EvalReport MakeCubeDoubleEvalReport(const ArmTaskEvalResult& result,
+                                         const ArmTaskEvalOptions& options,
                                          const std::string& agent) {
-  return MakeTaskReport(result, sim::EnvLabel(sim::EnvId::kCubeDouble), agent, options.episodes,
-                        options.max_steps, options.seed);
+  return MakeArmTaskReport<sim::CubeDoubleEnv>(result, options, sim::EnvId::kCubeDouble, agent);
 }
 
-void WriteCubeDoubleResultsJson(const CubeDoubleEvalResult& result,
-                                const CubeDoubleEvalOptions& options, const std::string& agent,
-                                const std::string& path) {
+void WriteCubeDoubleResultsJson(const ArmTaskEvalResult& result, const ArmTaskEvalOptions& options,
+                                const std::string& agent, const std::string& path) {
   sim::WriteTextFile(path, sim::EvalReportJson(MakeCubeDoubleEvalReport(result, options, agent)));
+}
+
+sim::EvalReport MakeSceneEvalReport(const ArmTaskEvalResult& result,
+                                    const ArmTaskEvalOptions& options, const std::string& agent) {
+  return MakeArmTaskReport<sim::SceneEnv>(result, options, sim::EnvId::kScene, agent);
+}
+
+void WriteSceneResultsJson(const ArmTaskEvalResult& result, const ArmTaskEvalOptions& options,
+                           const std::string& agent, const std::string& path) {
+  sim::WriteTextFile(path, sim::EvalReportJson(MakeSceneEvalReport(result, options, agent)));
 }
 
 }  // namespace msspr::agent

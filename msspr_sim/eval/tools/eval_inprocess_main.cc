@@ -28,25 +28,26 @@ namespace {
 constexpr const char* kUsage = R"(usage: msspr_eval_inprocess --policy POLICY.pt [options]
 Evaluates a checkpoint by OGBench's protocol in process (the episodes of msspr_eval --seed S).
   --policy FILE       a policy export (policy.pt) or a training checkpoint (required)
-  --env ENV           pointmaze | cube-single | cube-double | antmaze-medium | antmaze-large |
-                      puzzle-3x3 | puzzle-4x4 (default pointmaze)
+  --env ENV           pointmaze | cube-single | cube-double | scene | antmaze-medium |
+                      antmaze-large | puzzle-3x3 | puzzle-4x4 (default pointmaze)
   --maze NAME         arena, medium, large or giant (default medium; pointmaze only;
                       --env pointmaze-NAME says the same)
   --tasks LIST        task ids (default 1,2,3,4,5)
   --tasks-file YAML   custom tasks instead (msspr_eval --tasks-file format; pointmaze only)
   --episodes N        episodes per task (default 50)
-  --max-steps N       step limit (default 1000; cube-single 200, cube-double and puzzles 500)
+  --max-steps N       step limit (default 1000; cube-single 200, cube-double and puzzles 500,
+                      the scene 750)
   --seed S            evaluation seed (default 0)
   --threads N         torch threads (default: torch's choice; the results do not depend on it)
   --device DEV        where the policy runs: cpu, cuda, cuda:1 (default cpu)
   --agent NAME        label in the results (default: the policy's file name)
   --out FILE.json     results JSON (default: none)
   --plot FILE.png     trajectories on the maze (default: none; pointmaze only)
-  --urdf FILE         cube-single, cube-double, puzzles: the arm (default: the package's
+  --urdf FILE         cube-single, cube-double, scene, puzzles: the arm (default: the package's
                       msspr_sim/urdf/ur5e_2f85.urdf)
 Prints the per-task table. The point mazes and cube-single take state or pixels
 policies (pixels: the sim's 64x64 camera images and the goal's image); the ant
-mazes, cube-double and the puzzles, state policies.
+mazes, cube-double, the scene and the puzzles, state policies.
 )";
 
 // The shared episode flags (sim::ReadEpisodeFlags) into an env's options; the tasks too
@@ -76,12 +77,13 @@ struct Request {
   msspr::agent::CubeEvalOptions cube;
   msspr::agent::AntEvalOptions ant;
   msspr::agent::PuzzleEvalOptions puzzle;
-  msspr::agent::CubeDoubleEvalOptions cube_double;
+  msspr::agent::ArmTaskEvalOptions arm_task;  // cube-double, scene
   std::string policy_path, out, plot, agent, device;
   bool is_cube() const { return env == msspr::sim::EnvId::kCubeSingle; }
   bool is_ant() const { return msspr::sim::IsAntMaze(env); }
   bool is_puzzle() const { return msspr::sim::IsPuzzle(env); }
   bool is_cube_double() const { return env == msspr::sim::EnvId::kCubeDouble; }
+  bool is_scene() const { return env == msspr::sim::EnvId::kScene; }
 };
 
 Request ParseRequest(const msspr::cli::CliArgs& args) {
@@ -94,8 +96,6 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
   std::string maze;  // --env pointmaze-NAME or --maze NAME
   q.env = sim::ParseEnvFlag(args.Get("env", sim::EnvIdName(sim::EnvId::kPointMaze)),
                             args.Get("maze", ""), sim::AllEnvIds(), &maze);
-  if (q.env == sim::EnvId::kScene)
-    throw msspr::cli::CliError("--env scene: the scene has datasets but no evaluator yet");
   if (q.is_ant()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot", "urdf"}, sim::EnvIdName(q.env));
     q.ant.maze = sim::AntMazeName(q.env);
@@ -105,10 +105,10 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
     q.puzzle.side = sim::PuzzleSide(q.env);
     q.puzzle.urdf_path = args.Get("urdf", "");
     ReadEpisodeFlags(args, 500, 5, &q.puzzle);
-  } else if (q.is_cube_double()) {
-    RefuseFlags(args, {"maze", "tasks-file", "plot"}, "cube-double");
-    q.cube_double.urdf_path = args.Get("urdf", "");
-    ReadEpisodeFlags(args, 500, 5, &q.cube_double);
+  } else if (q.is_cube_double() || q.is_scene()) {
+    RefuseFlags(args, {"maze", "tasks-file", "plot"}, sim::EnvIdName(q.env));
+    q.arm_task.urdf_path = args.Get("urdf", "");
+    ReadEpisodeFlags(args, q.is_scene() ? 750 : 500, 5, &q.arm_task);
   } else if (q.is_cube()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot"}, "cube-single");
     q.cube.urdf_path = args.Get("urdf", "");
@@ -116,7 +116,7 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
   } else {
     if (args.Has("urdf"))
       throw msspr::cli::CliError(
-          "--urdf applies to --env cube-single, puzzle-3x3, puzzle-4x4 only");
+          "--urdf applies to the arm's envs only (cube-single, cube-double, scene, puzzles)");
     q.maze.maze = sim::PointMazeOrDefault(maze);
     const auto map = sim::MazeMap::FromName(q.maze.maze);
     if (args.Has("tasks-file") && args.Has("tasks"))
@@ -247,8 +247,11 @@ int main(int argc, char** argv) {
       RunArmTask(policy, q, q.puzzle, msspr::agent::EvaluateOnPuzzle,
                  msspr::agent::MakePuzzleEvalReport, msspr::agent::WritePuzzleResultsJson);
     else if (q.is_cube_double())
-      RunArmTask(policy, q, q.cube_double, msspr::agent::EvaluateOnCubeDouble,
+      RunArmTask(policy, q, q.arm_task, msspr::agent::EvaluateOnCubeDouble,
                  msspr::agent::MakeCubeDoubleEvalReport, msspr::agent::WriteCubeDoubleResultsJson);
+    else if (q.is_scene())
+      RunArmTask(policy, q, q.arm_task, msspr::agent::EvaluateOnScene,
+                 msspr::agent::MakeSceneEvalReport, msspr::agent::WriteSceneResultsJson);
     else
       RunMaze(policy, q);
   } catch (const std::exception& e) {

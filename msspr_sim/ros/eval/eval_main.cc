@@ -40,14 +40,14 @@ namespace {
 
 constexpr char kUsage[] = R"(usage: rosrun msspr msspr_eval [options]
 Evaluates the agent that answers the sim's observations (lockstep), by OGBench's protocol.
-  --env ENV           pointmaze | cube-single | cube-double | puzzle-3x3 | puzzle-4x4 |
+  --env ENV           pointmaze | cube-single | cube-double | scene | puzzle-3x3 | puzzle-4x4 |
                       antmaze-medium | antmaze-large: the running sim's env (default pointmaze)
   --maze NAME         maze of the running point-maze sim (default medium; --env
                       pointmaze-NAME says the same)
   --tasks LIST        comma-separated task ids (default 1,2,3,4,5)
   --episodes N        episodes per task (default 50)
   --max-steps N       step limit per episode (default 1000; cube-single 200, cube-double and
-                      puzzles 500)
+                      puzzles 500, the scene 750)
   --seed S            evaluation seed (default 0)
   --agent NAME        label written into the results (default "agent")
   --robot NAME        the robot interface spec the agent is served through, written into the
@@ -66,8 +66,9 @@ antmaze-medium, antmaze-large: the maze's 5 tasks with the ant (29-D goal states
 reset; success: the torso within 0.5 m of the goal); --maze and --tasks-file do not apply.
 cube-single: the 5 tasks of OGBench's cube-single (success: the cube within 4 cm of the goal,
 at the step that ends the episode); --maze, --plot and --tasks-file do not apply.
-puzzle-3x3, puzzle-4x4, cube-double: OGBench's 5 tasks of each (success: every button's
-state as the goal's; both cubes within 4 cm of their own goals); --maze, --plot and
+puzzle-3x3, puzzle-4x4, cube-double, scene: OGBench's 5 tasks of each (success: every
+button's state as the goal's; both cubes within 4 cm of their own goals; the scene's cube,
+drawer and window within 4 cm of theirs and both buttons as the goal's); --maze, --plot and
 --tasks-file do not apply.
   --step-timeout S    seconds without a new observation before an episode counts as stalled (default 10)
   --sims N            drive N sim + agent pairs at once, in namespaces PREFIX0..PREFIX{N-1}, one
@@ -211,6 +212,11 @@ struct EvalRequest {
   uint64_t seed = 0;
   double step_timeout = 0, wait_s = 0;
   std::vector<std::string> namespaces;  // one per sim; {""}: msspr_eval's own namespace
+  // Whether the tasks are the maze's (the point maze's and the ant's: their cells go into the
+  // table and the JSON).
+  bool maze_tasks() const {
+    return env == msspr::sim::EnvId::kPointMaze || msspr::sim::IsAntMaze(env);
+  }
 };
 
 // Throws std::invalid_argument (and CliArgs' errors) for a bad flag.
@@ -225,11 +231,9 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
   std::string maze_arg;  // --env pointmaze-NAME or --maze NAME
   q.env = msspr::sim::ParseEnvFlag(args.Get("env", msspr::sim::EnvIdName(q.env)),
                                    args.Get("maze", ""), msspr::sim::AllEnvIds(), &maze_arg);
-  if (q.env == EnvId::kScene)
-    throw std::invalid_argument("--env scene: no sim node serves the scene yet");
   const bool ant = msspr::sim::IsAntMaze(q.env);
   for (const char* f : {"maze", "plot", "tasks-file"})
-    if ((q.env == EnvId::kCubeSingle || q.env == EnvId::kCubeDouble ||
+    if ((q.env == EnvId::kCubeSingle || q.env == EnvId::kCubeDouble || q.env == EnvId::kScene ||
          msspr::sim::IsPuzzle(q.env) || (ant && std::string(f) != "plot")) &&
         args.Has(f))
       throw std::invalid_argument(std::string("--") + f + " does not apply to --env " +
@@ -240,6 +244,7 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
       args,
       q.env == EnvId::kCubeSingle                                  ? 200
       : msspr::sim::IsPuzzle(q.env) || q.env == EnvId::kCubeDouble ? 500
+      : q.env == EnvId::kScene                                     ? 750
                                                                    : 1000,
       static_cast<long>(q.map->Tasks().size()), !args.Has("tasks-file"));
   q.tasks = f.tasks;
@@ -399,7 +404,9 @@ void WriteOutputs(const EvalRequest& q, const msspr::ros_bridge::CliArgs& args,
                   const msspr::sim::EvalReport& report,
                   const std::vector<std::vector<EpisodeResult>>& results) {
   if (args.Has("out")) {
-    msspr::sim::WriteTextFile(args.Get("out", ""), msspr::sim::EvalReportJson(*q.map, report));
+    msspr::sim::WriteTextFile(args.Get("out", ""), q.maze_tasks()
+                                                       ? msspr::sim::EvalReportJson(*q.map, report)
+                                                       : msspr::sim::EvalReportJson(report));
     std::cout << "  results: " << args.Get("out", "") << "\n";
   }
   if (args.Has("success-plot")) {
@@ -458,7 +465,8 @@ int main(int argc, char** argv) {
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   const msspr::sim::EvalReport report = MakeReport(q, *args, results, wall);
-  std::cout << msspr::sim::EvalReportTable(*q.map, report);
+  std::cout << (q.maze_tasks() ? msspr::sim::EvalReportTable(*q.map, report)
+                               : msspr::sim::EvalReportTable(report));
   if (parallel) {
     std::cout << "  episodes per sim:";
     for (auto& c : clients) std::cout << " " << c->Namespace() << " " << c->episodes_run();

@@ -87,12 +87,15 @@ class SceneEnv : public ArmEnv {
   bool Success() const;
   // Moves the cube's goal marker (the play oracle's target; no physics, as CubeEnv::SetGoal).
   void SetCubeTarget(const Eigen::Vector3d& position, double yaw);
+  Eigen::Vector3d CubeTargetPosition() const;  // the goal marker's
+  double CubeTargetYaw() const;
   // Whether the cube is in the drawer's tray (x 0.21-0.45, y from the handle's - 0.27 to its
   // - 0.07, z 0-0.15; OGBench's test).
   bool CubeInDrawer() const;
 
   Eigen::Vector3d CubePosition() const;
   double CubeYaw() const;
+  const double* CubeQpos() const;  // the cube's 7 qpos entries (x, y, z, quaternion w x y z)
   double Drawer() const;
   double Window() const;
   const std::array<int, 2>& button_states() const { return states_; }
@@ -101,6 +104,17 @@ class SceneEnv : public ArmEnv {
   Eigen::Vector3d ButtonTop(int k) const;
   Eigen::Vector3d DrawerHandle() const;  // the site drawer_handle_center (m)
   Eigen::Vector3d WindowHandle() const;  // the site window_handle_center (m)
+  // The origins of the sliding bodies: the drawer's tray (drawer_link, (0.33, -0.41, 0.09)
+  // when closed) and the window's pane (windowb_a, (0.206, 0.283, 0.202) when closed); both
+  // keep the world's orientation.
+  Eigen::Vector3d DrawerPosition() const;
+  Eigen::Vector3d WindowPosition() const;
+  double ButtonJoint(int k) const;  // button k's cap slide (m; 0 up, pressing is negative)
+
+  // The scene state an observation of this env shows (cube centre and yaw, button states,
+  // drawer and window slides); throws std::invalid_argument unless it has 40 entries and each
+  // button's state entries are (1, 0) or (0, 1).
+  static SceneState StateFromObservation(const std::vector<float>& obs, double* cube_yaw);
 
   int episode_steps() const { return episode_steps_; }
   bool EpisodeOver() const { return Success() || episode_steps_ >= options_.max_episode_steps; }
@@ -115,7 +129,7 @@ class SceneEnv : public ArmEnv {
   int drawer_dof_ = -1, window_dof_ = -1, goal_mocap_ = -1;
   std::array<int, 2> button_qpos_{}, button_qvel_{}, button_site_{}, button_geom_{};
   int drawer_handle_site_ = -1, window_handle_site_ = -1, drawer_handle_geom_ = -1,
-      window_handle_geom_ = -1;
+      window_handle_geom_ = -1, drawer_body_ = -1, window_body_ = -1;
   std::array<int, 2> states_{};
   SceneState goal_{};
   Observation goal_observation_;

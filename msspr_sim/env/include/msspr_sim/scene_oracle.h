@@ -55,6 +55,45 @@ class ScenePlayOracle {
   Subtask subtask_ = Subtask::kCube;
 };
 
+// Solves a scene evaluation task from the env's goal state, one plan at a time, each chosen
+// from the state when the last ends (NextStep), in this order:
+// 1. the cube, unless at its goal: for a goal in the drawer, the drawer opened (unlocked
+//    first) and the cube put in its tray; for a goal on the table, the cube taken there (out
+//    of the opened drawer if it is inside);
+// 2. the drawer to its goal slide, unlocked first (a cube in the tray rides to its goal);
+// 3. the window likewise;
+// 4. each button whose state differs pressed.
+// The plans are the play oracle's (its noise included); a plan that fails is chosen again.
+// Once everything is at its goal it holds the pinch still.
+class SceneTaskOracle {
+ public:
+  enum class Subtask { kNone, kCube, kButton, kDrawer, kWindow };
+  struct Step {
+    Subtask subtask;
+    int button;     // kButton: which
+    double target;  // kDrawer, kWindow: the slide's target (m)
+  };
+  static constexpr double kPlaced = 0.02;             // m: the cube, drawer or window "at goal"
+  static constexpr double kDrawerOpenEnough = -0.12;  // m: the tray reachable
+  static constexpr double kInDrawerY = -0.3;          // a cube goal below this y is in the drawer
+  // Where the cube goes in the open tray: (0.33, the handle's y - 0.16, 0.066), as the play
+  // oracle's tray target.
+  static constexpr double kTrayX = 0.33, kTrayFromHandle = -0.16, kTrayZ = 0.066;
+
+  explicit SceneTaskOracle(uint64_t seed, const SceneOracleOptions& options = {});
+  SceneEnv::Action Act(const SceneEnv& env);
+  // The plan to make next from env's state (what Act does once a plan ends).
+  Step NextStep(const SceneEnv& env) const;
+  const Step& current() const { return current_; }
+
+ private:
+  SceneOracleOptions options_;
+  std::mt19937_64 rng_;
+  std::vector<CubePlanSample> plan_;
+  size_t step_ = 0;
+  Step current_{Subtask::kNone, -1, 0.0};
+};
+
 using SceneCollectOptions = PlayCollectOptions<SceneOracleOptions>;
 
 // Episode `index` of scene-play: env.ResetForCollection(seed), the play oracle seeded from it,

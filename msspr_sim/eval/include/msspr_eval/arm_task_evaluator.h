@@ -1,8 +1,8 @@
 // In-process evaluation of a state Policy on the arm's tasks beyond cube-single (puzzle-3x3,
-// puzzle-4x4, cube-double) by OGBench's protocol (no ROS): the 5 tasks' resets with the
+// puzzle-4x4, cube-double, scene) by OGBench's protocol (no ROS): the 5 tasks' resets with the
 // evaluation seeds of every msspr evaluator (sim::EvalEpisodeSeed), up to max_steps steps
-// (OGBench's cap: 500), success as the env's (the episode ends there). Episodes run side by
-// side, each action computed on its own (Policy::Act), as the cube's evaluator
+// (OGBench's caps: 500; the scene 750), success as the env's (the episode ends there). Episodes run
+// side by side, each action computed on its own (Policy::Act), as the cube's evaluator
 // (cube_evaluator.h).
 #pragma once
 
@@ -41,24 +41,30 @@ sim::EvalReport MakePuzzleEvalReport(const PuzzleEvalResult& result,
 void WritePuzzleResultsJson(const PuzzleEvalResult& result, const PuzzleEvalOptions& options,
                             const std::string& agent, const std::string& path);
 
-struct CubeDoubleEvalOptions {
+// cube-double's and the scene's evaluation.
+struct ArmTaskEvalOptions {
   std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf()
   std::vector<int> tasks = {1, 2, 3, 4, 5};
   int episodes = 50;  // per task
-  int max_steps = 500;
+  int max_steps = 0;  // steps per episode; 0: the env's cap (cube-double 500, the scene 750)
   uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e)
 };
-using CubeDoubleEvalResult = TaskSuccessResult;
+using ArmTaskEvalResult = TaskSuccessResult;
 
 // cube-double (37-D states, 5-D actions); throws std::invalid_argument as EvaluateOnPuzzle.
-CubeDoubleEvalResult EvaluateOnCubeDouble(core::Policy& policy,
-                                          const CubeDoubleEvalOptions& options);
-// The report (env "cube-double").
-sim::EvalReport MakeCubeDoubleEvalReport(const CubeDoubleEvalResult& result,
-                                         const CubeDoubleEvalOptions& options,
+ArmTaskEvalResult EvaluateOnCubeDouble(core::Policy& policy, const ArmTaskEvalOptions& options);
+// The scene (40-D states, 5-D actions); throws std::invalid_argument as EvaluateOnPuzzle.
+ArmTaskEvalResult EvaluateOnScene(core::Policy& policy, const ArmTaskEvalOptions& options);
+
+// The reports (env "cube-double", "scene") and their JSON (std::runtime_error naming the path).
+sim::EvalReport MakeCubeDoubleEvalReport(const ArmTaskEvalResult& result,
+                                         const ArmTaskEvalOptions& options,
                                          const std::string& agent);
-void WriteCubeDoubleResultsJson(const CubeDoubleEvalResult& result,
-                                const CubeDoubleEvalOptions& options, const std::string& agent,
-                                const std::string& path);
+void WriteCubeDoubleResultsJson(const ArmTaskEvalResult& result, const ArmTaskEvalOptions& options,
+                                const std::string& agent, const std::string& path);
+sim::EvalReport MakeSceneEvalReport(const ArmTaskEvalResult& result,
+                                    const ArmTaskEvalOptions& options, const std::string& agent);
+void WriteSceneResultsJson(const ArmTaskEvalResult& result, const ArmTaskEvalOptions& options,
+                           const std::string& agent, const std::string& path);
 
 }  // namespace msspr::agent

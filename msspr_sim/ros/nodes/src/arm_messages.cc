@@ -88,6 +88,35 @@ void EeCommandPairs::Drain(const ros::Time& now,
   }
 }
 
+Eigen::Isometry3d FreeBodyPose(const double* q) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = Eigen::Vector3d(q[0], q[1], q[2]);
+  pose.linear() = Eigen::Quaterniond(q[3], q[4], q[5], q[6]).normalized().toRotationMatrix();
+  return pose;
+}
+
+geometry_msgs::PoseStamped FreeBodyPoseMsg(const double* q, const ros::Time& stamp,
+                                           const std::string& frame) {
+  geometry_msgs::PoseStamped p;
+  p.header.stamp = stamp;
+  p.header.frame_id = frame;
+  p.pose.position.x = q[0];
+  p.pose.position.y = q[1];
+  p.pose.position.z = q[2];
+  p.pose.orientation.w = q[3];
+  p.pose.orientation.x = q[4];
+  p.pose.orientation.y = q[5];
+  p.pose.orientation.z = q[6];
+  return p;
+}
+
+Eigen::Isometry3d YawPose(const Eigen::Vector3d& p, double yaw) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = p;
+  pose.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return pose;
+}
+
 std::vector<geometry_msgs::TransformStamped> MakeArmStaticTransforms(const sim::ArmModel& arm) {
   const auto& links = arm.links();
   const std::vector<Eigen::Isometry3d> poses = arm.LinkPoses(Eigen::VectorXd::Zero(arm.num_dofs()));

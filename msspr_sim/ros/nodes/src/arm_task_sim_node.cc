@@ -15,11 +15,14 @@ namespace msspr::ros_bridge {
 
 ArmTaskSimNodeOptions LoadArmTaskSimNodeOptions(const ros::NodeHandle& pnh, sim::EnvId id) {
   ArmTaskSimNodeOptions o;
-  if (!sim::IsPuzzle(id) && id != sim::EnvId::kCubeDouble && id != sim::EnvId::kCubeSingle)
+  if (!sim::IsPuzzle(id) && id != sim::EnvId::kCubeDouble && id != sim::EnvId::kCubeSingle &&
+      id != sim::EnvId::kScene)
     throw std::invalid_argument("LoadArmTaskSimNodeOptions: '" + sim::EnvIdName(id) +
-                                "' is not cube-single, puzzle-3x3, puzzle-4x4 or cube-double");
+                                "' is not cube-single, puzzle-3x3, puzzle-4x4, cube-double or "
+                                "scene");
   o.env = id;
   if (id == sim::EnvId::kCubeSingle) o.max_episode_steps = 200;
+  if (id == sim::EnvId::kScene) o.max_episode_steps = 750;
   ROS_INFO_STREAM_NAMED("msspr_sim",
                         "msspr_sim_node (env " << sim::EnvIdName(id) << ") parameters:");
   LoadSimNodeCommonOptions(pnh, &o);
@@ -234,6 +237,7 @@ bool ArmTaskSimNode<Env>::SetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::
 template class ArmTaskSimNode<sim::CubeEnv>;
 template class ArmTaskSimNode<sim::PuzzleEnv>;
 template class ArmTaskSimNode<sim::CubeDoubleEnv>;
+template class ArmTaskSimNode<sim::SceneEnv>;
 
 // --- the puzzles ------------------------------------------------------------------------
 
@@ -283,20 +287,16 @@ PuzzleSimNode::PuzzleSimNode(ros::NodeHandle nh, ros::NodeHandle pnh,
   StartRos();
 }
 
-// The button states; a box and a cap per button, the caps red (state 0) or blue (state 1),
-// latched and sent again whenever a state changes.
-void PuzzleSimNode::PublishObjects(const ros::Time& stamp) {
-  if (options().standard_topics) buttons_pub_.publish(MakePuzzleButtonStates(*env_, stamp));
-  if (drawn_states_ == env_->button_states()) return;
-  drawn_states_ = env_->button_states();
-  visualization_msgs::MarkerArray arr;
-  for (int k = 0; k < env_->num_buttons(); ++k) {
-    const Eigen::Vector3d top = env_->ButtonTop(k);
+void AppendButtonMarkers(const std::vector<Eigen::Vector3d>& tops, const std::vector<int>& states,
+                         const std::array<float, 3>& off, const std::array<float, 3>& on,
+                         const std::string& frame, visualization_msgs::MarkerArray* markers) {
+  for (size_t k = 0; k < tops.size(); ++k) {
+    const Eigen::Vector3d& top = tops[k];
     for (int part = 0; part < 2; ++part) {
       visualization_msgs::Marker m;
-      m.header.frame_id = options().world_frame;
+      m.header.frame_id = frame;
       m.ns = part == 0 ? "button_boxes" : "button_caps";
-      m.id = k;
+      m.id = static_cast<int>(k);
       m.type = part == 0 ? visualization_msgs::Marker::CUBE : visualization_msgs::Marker::CYLINDER;
       m.action = visualization_msgs::Marker::ADD;
       m.pose.orientation.w = 1.0;
@@ -311,15 +311,28 @@ void PuzzleSimNode::PublishObjects(const ros::Time& stamp) {
         m.pose.position.z = top.z() - 0.0076;
         m.scale.x = m.scale.y = 0.0344;
         m.scale.z = 0.0152;
-        const bool on = drawn_states_[static_cast<size_t>(k)] != 0;
-        m.color.r = on ? 0.35f : 0.96f;
-        m.color.g = on ? 0.55f : 0.26f;
-        m.color.b = on ? 0.91f : 0.33f;
+        const std::array<float, 3>& c = states.at(k) != 0 ? on : off;
+        m.color.r = c[0];
+        m.color.g = c[1];
+        m.color.b = c[2];
       }
       m.color.a = 1.0f;
-      arr.markers.push_back(m);
+      markers->markers.push_back(m);
     }
   }
+}
+
+// The button states; a box and a cap per button, the caps red (state 0) or blue (state 1),
+// latched and sent again whenever a state changes.
+void PuzzleSimNode::PublishObjects(const ros::Time& stamp) {
+  if (options().standard_topics) buttons_pub_.publish(MakePuzzleButtonStates(*env_, stamp));
+  if (drawn_states_ == env_->button_states()) return;
+  drawn_states_ = env_->button_states();
+  std::vector<Eigen::Vector3d> tops;
+  for (int k = 0; k < env_->num_buttons(); ++k) tops.push_back(env_->ButtonTop(k));
+  visualization_msgs::MarkerArray arr;
+  AppendButtonMarkers(tops, std::vector<int>(drawn_states_.begin(), drawn_states_.end()),
+                      {0.96f, 0.26f, 0.33f}, {0.35f, 0.55f, 0.91f}, options().world_frame, &arr);
   marker_pub_.publish(arr);
 }
 
@@ -383,32 +396,14 @@ void CubeDoubleSimNode::PublishObjects(const ros::Time& stamp) {
   std::vector<geometry_msgs::TransformStamped> tfs;
   const std::vector<double> qpos = env_->Qpos();
   for (int i = 0; i < sim::CubeDoubleEnv::kCubes; ++i) {
-    const size_t k = static_cast<size_t>(8 + 7 * i);  // after the arm's 6 and the fingers' 2
-    Eigen::Isometry3d cube = Eigen::Isometry3d::Identity();
-    cube.translation() = Eigen::Vector3d(qpos[k], qpos[k + 1], qpos[k + 2]);
-    cube.linear() = Eigen::Quaterniond(qpos[k + 3], qpos[k + 4], qpos[k + 5], qpos[k + 6])
-                        .normalized()
-                        .toRotationMatrix();
+    const double* q = qpos.data() + 8 + 7 * i;  // after the arm's 6 and the fingers' 2
     const std::string frame = "cube_" + std::to_string(i);
-    tfs.push_back(ToTf(cube, stamp, options().world_frame, frame));
-    Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
-    goal.translation() = env_->GoalPosition(i);
-    goal.linear() =
-        Eigen::AngleAxisd(env_->GoalYaw(i), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    tfs.push_back(ToTf(goal, stamp, options().world_frame, frame + "_goal"));
-    if (options().standard_topics) {
-      geometry_msgs::PoseStamped p;
-      p.header.stamp = stamp;
-      p.header.frame_id = options().world_frame;
-      p.pose.position.x = qpos[k];
-      p.pose.position.y = qpos[k + 1];
-      p.pose.position.z = qpos[k + 2];
-      p.pose.orientation.w = qpos[k + 3];
-      p.pose.orientation.x = qpos[k + 4];
-      p.pose.orientation.y = qpos[k + 5];
-      p.pose.orientation.z = qpos[k + 6];
-      cube_pose_pubs_[static_cast<size_t>(i)].publish(p);
-    }
+    tfs.push_back(ToTf(FreeBodyPose(q), stamp, options().world_frame, frame));
+    tfs.push_back(ToTf(YawPose(env_->GoalPosition(i), env_->GoalYaw(i)), stamp,
+                       options().world_frame, frame + "_goal"));
+    if (options().standard_topics)
+      cube_pose_pubs_[static_cast<size_t>(i)].publish(
+          FreeBodyPoseMsg(q, stamp, options().world_frame));
   }
   object_tf_.sendTransform(tfs);
 }

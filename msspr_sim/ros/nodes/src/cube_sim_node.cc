@@ -17,24 +17,10 @@ CubeObjectMessages MakeCubeObjectMessages(const sim::CubeEnv& env, const ros::Ti
                                           const std::string& goal_frame) {
   const std::vector<double> qpos = env.Qpos();
   CubeObjectMessages out;
-  out.cube_pose.header.stamp = stamp;
-  out.cube_pose.header.frame_id = world_frame;
-  out.cube_pose.pose.position.x = qpos[8];
-  out.cube_pose.pose.position.y = qpos[9];
-  out.cube_pose.pose.position.z = qpos[10];
-  out.cube_pose.pose.orientation.w = qpos[11];
-  out.cube_pose.pose.orientation.x = qpos[12];
-  out.cube_pose.pose.orientation.y = qpos[13];
-  out.cube_pose.pose.orientation.z = qpos[14];
-  Eigen::Isometry3d cube = Eigen::Isometry3d::Identity();
-  cube.translation() = Eigen::Vector3d(qpos[8], qpos[9], qpos[10]);
-  cube.linear() =
-      Eigen::Quaterniond(qpos[11], qpos[12], qpos[13], qpos[14]).normalized().toRotationMatrix();
-  out.transforms.push_back(ToTf(cube, stamp, world_frame, cube_frame));
-  Eigen::Isometry3d goal = Eigen::Isometry3d::Identity();
-  goal.translation() = env.GoalPosition();
-  goal.linear() = Eigen::AngleAxisd(env.GoalYaw(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  out.transforms.push_back(ToTf(goal, stamp, world_frame, goal_frame));
+  out.cube_pose = FreeBodyPoseMsg(qpos.data() + 8, stamp, world_frame);
+  out.transforms.push_back(ToTf(FreeBodyPose(qpos.data() + 8), stamp, world_frame, cube_frame));
+  out.transforms.push_back(
+      ToTf(YawPose(env.GoalPosition(), env.GoalYaw()), stamp, world_frame, goal_frame));
   return out;
 }
 

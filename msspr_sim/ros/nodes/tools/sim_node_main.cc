@@ -9,8 +9,9 @@
 #include "msspr_sim_nodes/point_maze_sim_node.h"
 
 // ~env picks the environment: pointmaze (default; ~maze picks the maze),
-// cube-single (the URDF arm, cube_sim_node.h), puzzle-3x3 / puzzle-4x4 and cube-double (the
-// arm and a button grid or two cubes, arm_task_sim_node.h) or antmaze-medium / antmaze-large
+// cube-single (the URDF arm, cube_sim_node.h), puzzle-3x3 / puzzle-4x4, cube-double and scene
+// (the arm and a button grid, two cubes, or a cube, buttons, drawer and window;
+// arm_task_sim_node.h) or antmaze-medium / antmaze-large
 // (the ant, ant_sim_node.h). All serve the same topics, messages and services.
 int main(int argc, char** argv) {
   ros::init(argc, argv, "msspr_sim_node");
@@ -36,14 +37,18 @@ int main(int argc, char** argv) {
       const auto options = msspr::ros_bridge::LoadArmTaskSimNodeOptions(pnh, *id);
       msspr::ros_bridge::CubeDoubleSimNode node(nh, pnh, options);
       ros::spin();
+    } else if (id == EnvId::kScene) {
+      const auto options = msspr::ros_bridge::LoadArmTaskSimNodeOptions(pnh, *id);
+      msspr::ros_bridge::SceneSimNode node(nh, pnh, options);
+      ros::spin();
     } else if (id && msspr::sim::IsAntMaze(*id)) {
       const auto options = msspr::ros_bridge::LoadAntSimNodeOptions(pnh, *id);
       msspr::ros_bridge::AntSimNode node(nh, pnh, options);
       ros::spin();
     } else {
       throw std::invalid_argument(
-          "~env must be pointmaze, cube-single, puzzle-3x3, puzzle-4x4, antmaze-medium or "
-          "antmaze-large, got '" +
+          "~env must be pointmaze, cube-single, cube-double, scene, puzzle-3x3, puzzle-4x4, "
+          "antmaze-medium or antmaze-large, got '" +
           env + "'");
     }
   } catch (const std::exception& e) {

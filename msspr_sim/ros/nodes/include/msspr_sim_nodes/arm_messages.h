@@ -2,6 +2,7 @@
 // from the simulated state, and the env built from robot_description or ~urdf.
 #pragma once
 
+#include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <ros/ros.h>
@@ -9,6 +10,7 @@
 #include <unistd.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <array>
 #include <cstdio>
 #include <deque>
@@ -46,6 +48,14 @@ ArmStandardMessages MakeArmStandardMessages(const sim::ArmModel& arm,
                                             const Eigen::Vector3d& pinch,
                                             const Eigen::Matrix3d& pinch_rotation,
                                             const ros::Time& stamp, const std::string& world_frame);
+// A free body's pose from its 7 qpos entries from `q` (x, y, z, then the quaternion w, x, y,
+// z): as a transform and as a PoseStamped in `frame`.
+Eigen::Isometry3d FreeBodyPose(const double* q);
+geometry_msgs::PoseStamped FreeBodyPoseMsg(const double* q, const ros::Time& stamp,
+                                           const std::string& frame);
+// A pose of position `p` turned `yaw` about z (a goal marker's).
+Eigen::Isometry3d YawPose(const Eigen::Vector3d& p, double yaw);
+
 // The fixed URDF joints, for /tf_static.
 std::vector<geometry_msgs::TransformStamped> MakeArmStaticTransforms(const sim::ArmModel& arm);
 

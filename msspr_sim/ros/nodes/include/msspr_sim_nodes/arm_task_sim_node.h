@@ -1,6 +1,7 @@
 // msspr_sim_node's side for the arm's tasks: ~env cube-single (CubeSimNode, cube_sim_node.h),
-// puzzle-3x3 | puzzle-4x4 (PuzzleSimNode: the arm and a grid of push buttons, "Lights Out")
-// and cube-double (CubeDoubleSimNode: two cubes). All share ArmTaskSimNode: the same topics,
+// puzzle-3x3 | puzzle-4x4 (PuzzleSimNode: the arm and a grid of push buttons, "Lights Out"),
+// cube-double (CubeDoubleSimNode: two cubes) and scene (SceneSimNode: a cube, two lock
+// buttons, a drawer and a window). All share ArmTaskSimNode: the same topics,
 // messages and services (observation, action, episode, camera/image, goal_image, reset, set_goal,
 // pause, /clock, /diagnostics), lockstep or real-time stepping, the arm's robot_description,
 // joint_states and tf2, gripper/joint_states, goal_observation and the end-effector commands
@@ -9,7 +10,12 @@
 //   m, velocity, and as effort the button's state 0 or 1) and markers (a box and a cap per
 //   button, the cap red in state 0 and blue in state 1, sent again when a state changes);
 // - cube-double: cube_<i>_pose (geometry_msgs/PoseStamped) and tf2 world -> cube_<i> and
-//   cube_<i>_goal, and markers for the cubes and their goals.
+//   cube_<i>_goal, and markers for the cubes and their goals;
+// - the scene: buttons/joint_states (as the puzzles'), slides/joint_states (drawer_slide and
+//   window_slide: position in m, velocity, and as effort 1 while locked, 0 when free),
+//   cube_pose and tf2 world -> cube, cube_goal, drawer (the tray) and window (the sliding
+//   pane); markers for all of them, the buttons' caps red in state 0 and white in state 1, the
+//   drawer's and the window's handles red while locked and white when free (OGBench's colours).
 #pragma once
 
 #include <geometry_msgs/PoseStamped.h>
@@ -19,7 +25,9 @@
 #include <std_msgs/Float64MultiArray.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -32,6 +40,7 @@
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/puzzle_env.h"
+#include "msspr_sim/scene_env.h"
 #include "msspr_sim_nodes/arm_messages.h"
 #include "msspr_sim_nodes/sim_node_base.h"
 
@@ -39,10 +48,10 @@ namespace msspr::ros_bridge {
 
 struct ArmTaskSimNodeOptions : SimNodeCommonOptions {
   ArmTaskSimNodeOptions() { control_rate = 20.0; }  // Hz, real-time stepping (1 / 0.05 s)
-  sim::EnvId env = sim::EnvId::kPuzzle3x3;  // cube-single, puzzle-3x3, puzzle-4x4, cube-double
-  int max_episode_steps = 500;              // OGBench's episodes of these tasks (cube-single: 200)
-  int initial_task = -1;                    // -1: wait for reset; 1..5: task
-  std::string world_frame = "world";        // the URDF's root link
+  sim::EnvId env = sim::EnvId::kPuzzle3x3;          // cube-single, puzzle-*, cube-double, scene
+  int max_episode_steps = 500;  // OGBench's episodes of these tasks (cube-single 200, scene 750)
+  int initial_task = -1;        // -1: wait for reset; 1..5: task
+  std::string world_frame = "world";  // the URDF's root link
   std::string robot_description = "robot_description";
   std::string urdf;  // default: the package's ur5e_2f85.urdf
   bool standard_topics = true;
@@ -57,6 +66,16 @@ sensor_msgs::JointState MakePuzzleButtonStates(const sim::PuzzleEnv& env, const 
 // A goal observation's button states, read from its one-hot entries; throws
 // std::invalid_argument unless each button's pair is (1, 0) or (0, 1).
 sim::LightsOutState PuzzleGoalStates(const std::vector<float>& goal, int buttons);
+
+// A box and a cap per button (tops `tops`, states `states`) in namespaces button_boxes and
+// button_caps, ids 0.., the caps coloured `off` (state 0) or `on` (state 1).
+void AppendButtonMarkers(const std::vector<Eigen::Vector3d>& tops, const std::vector<int>& states,
+                         const std::array<float, 3>& off, const std::array<float, 3>& on,
+                         const std::string& frame, visualization_msgs::MarkerArray* markers);
+
+// The scene's buttons and slides (see above), stamped `stamp`.
+sensor_msgs::JointState MakeSceneButtonStates(const sim::SceneEnv& env, const ros::Time& stamp);
+sensor_msgs::JointState MakeSceneSlideStates(const sim::SceneEnv& env, const ros::Time& stamp);
 
 template <class Env>
 class ArmTaskSimNode : public SimNodeBase {
@@ -133,6 +152,21 @@ class CubeDoubleSimNode : public ArmTaskSimNode<sim::CubeDoubleEnv> {
   std::vector<ros::Publisher> cube_pose_pubs_;
   ros::Publisher marker_pub_;
   tf2_ros::TransformBroadcaster object_tf_;
+};
+
+class SceneSimNode : public ArmTaskSimNode<sim::SceneEnv> {
+ public:
+  SceneSimNode(ros::NodeHandle nh, ros::NodeHandle pnh, const ArmTaskSimNodeOptions& options);
+
+ private:
+  void PublishObjects(const ros::Time& stamp) override;
+  // The goal observation's scene state becomes the goal (its cube centre moves the marker).
+  std::string ApplyGoal(const std::vector<float>& goal) override;
+  void PublishMarkers();
+
+  ros::Publisher buttons_pub_, slides_pub_, cube_pose_pub_, marker_pub_;
+  tf2_ros::TransformBroadcaster object_tf_;
+  std::array<int, 2> drawn_states_{-1, -1};  // the button states the markers show
 };
 
 }  // namespace msspr::ros_bridge
