@@ -9,6 +9,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <algorithm>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,22 @@
 #include "msspr_sim_nodes/cube_sim_node.h"
 
 namespace msspr::ros_bridge::test {
+
+// An arm action's commands, as msspr_policy_node publishes them through the arm's specs:
+// ee_twist and gripper_command under `ns`, 1 ms after `stamp`.
+inline void WriteArmCommands(rosbag::Bag& bag, const std::string& ns, const ros::Time& stamp,
+                             const std::array<double, 5>& a) {
+  geometry_msgs::TwistStamped twist;
+  twist.header.stamp = stamp;
+  twist.twist.linear.x = a[0] * kEeSpeed;
+  twist.twist.linear.y = a[1] * kEeSpeed;
+  twist.twist.linear.z = a[2] * kEeSpeed;
+  twist.twist.angular.z = a[3] * kEeYawRate;
+  std_msgs::Float64MultiArray grip;
+  grip.data = {a[4]};
+  bag.write(ns + "/ee_twist", stamp + ros::Duration(0.001), twist);
+  bag.write(ns + "/gripper_command", stamp + ros::Duration(0.001), grip);
+}
 
 struct CubeSpecBag {
   std::vector<sim::CubeEnv::Observation> observations;  // the env's own, per step
@@ -52,17 +69,7 @@ inline CubeSpecBag WriteCubeSpecBag(const std::string& path, int steps, uint64_t
     sim::CubeEnv::Action a = oracle.Act(env);
     for (auto& v : a) v = std::clamp(v, -1.0, 1.0);
     out.actions.push_back(a);
-    // The commands, as msspr_policy_node publishes them through the spec.
-    geometry_msgs::TwistStamped twist;
-    twist.header.stamp = stamp;
-    twist.twist.linear.x = a[0] * kCubeEeSpeed;
-    twist.twist.linear.y = a[1] * kCubeEeSpeed;
-    twist.twist.linear.z = a[2] * kCubeEeSpeed;
-    twist.twist.angular.z = a[3] * kCubeEeYawRate;
-    std_msgs::Float64MultiArray grip;
-    grip.data = {a[4]};
-    bag.write(ns + "/ee_twist", stamp + ros::Duration(0.001), twist);
-    bag.write(ns + "/gripper_command", stamp + ros::Duration(0.001), grip);
+    WriteArmCommands(bag, ns, stamp, a);
     env.Step(a);
   }
   return out;

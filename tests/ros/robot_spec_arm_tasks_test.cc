@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "cube_spec_bag.h"
 #include "msspr_robot_interface/robot_spec.h"
 #include "msspr_robot_interface/spec_bag.h"
 #include "msspr_sim/cube_double_oracle.h"
@@ -66,16 +67,7 @@ void ExpectSpecReadsTheSim(
       typename Env::Action a = act(env);
       for (auto& v : a) v = std::clamp(v, -1.0, 1.0);
       actions.push_back(a);
-      geometry_msgs::TwistStamped twist;
-      twist.header.stamp = stamp;
-      twist.twist.linear.x = a[0] * kEeSpeed;
-      twist.twist.linear.y = a[1] * kEeSpeed;
-      twist.twist.linear.z = a[2] * kEeSpeed;
-      twist.twist.angular.z = a[3] * kEeYawRate;
-      std_msgs::Float64MultiArray grip;
-      grip.data = {a[4]};
-      bag.write("/ee_twist", stamp + ros::Duration(0.001), twist);
-      bag.write("/gripper_command", stamp + ros::Duration(0.001), grip);
+      test::WriteArmCommands(bag, "", stamp, a);
       env.Step(a);
     }
   }

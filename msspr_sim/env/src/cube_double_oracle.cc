@@ -14,17 +14,8 @@ namespace {
 std::vector<CubePlanSample> PlanCube(const CubeDoubleEnv& env, int i, const Eigen::Vector3d& target,
                                      double target_yaw, const CubePlayOracleOptions& options,
                                      std::mt19937_64& rng) {
-  PickAndPlace s;
-  s.pinch = env.PinchPosition();
-  s.pinch_rotation = env.PinchRotation();
-  s.pinch_yaw = env.PinchYaw();
-  s.cube = env.CubePosition(i);
-  s.cube_yaw = env.CubeYaw(i);
-  s.target = target;
-  s.target_yaw = target_yaw;
-  s.final_low = env.options().init_low;
-  s.final_high = env.options().init_high;
-  return PlanPickAndPlace(s, options, rng);
+  return PlanPickAndPlace(
+      PickAndPlaceFrom(env, env.CubePosition(i), env.CubeYaw(i), target, target_yaw), options, rng);
 }
 
 CubeDoubleEnv::Action Toward(const CubeDoubleEnv& env, const CubePlanSample& x,

@@ -143,17 +143,9 @@ std::vector<CubePlanSample> PlanPickAndPlace(const PickAndPlace& s,
 }
 
 void CubePlayOracle::Plan(const CubeEnv& env) {
-  PickAndPlace s;
-  s.pinch = env.PinchPosition();
-  s.pinch_rotation = env.PinchRotation();
-  s.pinch_yaw = env.PinchYaw();
-  s.cube = env.CubePosition();
-  s.cube_yaw = env.CubeYaw();
-  s.target = env.GoalPosition();
-  s.target_yaw = env.GoalYaw();
-  s.final_low = env.options().init_low;
-  s.final_high = env.options().init_high;
-  plan_ = PlanPickAndPlace(s, options_, rng_);
+  plan_ = PlanPickAndPlace(
+      PickAndPlaceFrom(env, env.CubePosition(), env.CubeYaw(), env.GoalPosition(), env.GoalYaw()),
+      options_, rng_);
   step_ = 0;
   ++cycles_;
 }

@@ -32,17 +32,8 @@ const Eigen::Vector3d kDrawerAxis(-0.0016, -1, 0);      // the handle's motion p
 std::vector<CubePlanSample> PlanCube(const SceneEnv& env, const Eigen::Vector3d& target,
                                      double target_yaw, const CubePlayOracleOptions& options,
                                      std::mt19937_64& rng) {
-  PickAndPlace s;
-  s.pinch = env.PinchPosition();
-  s.pinch_rotation = env.PinchRotation();
-  s.pinch_yaw = env.PinchYaw();
-  s.cube = env.CubePosition();
-  s.cube_yaw = env.CubeYaw();
-  s.target = target;
-  s.target_yaw = target_yaw;
-  s.final_low = env.options().init_low;
-  s.final_high = env.options().init_high;
-  return PlanPickAndPlace(s, options, rng);
+  return PlanPickAndPlace(
+      PickAndPlaceFrom(env, env.CubePosition(), env.CubeYaw(), target, target_yaw), options, rng);
 }
 
 // The handle plans that slide the drawer or the window to `goal` (m).

@@ -68,6 +68,24 @@ struct PickAndPlace {
   Eigen::Vector3d final_low, final_high;
 };
 
+// What a pick-and-place plan of `env` (an arm env: its measured pinch, its start box for the
+// final pose) starts from, the cube at `cube` (yaw `cube_yaw`), going to `target`.
+template <class Env>
+PickAndPlace PickAndPlaceFrom(const Env& env, const Eigen::Vector3d& cube, double cube_yaw,
+                              const Eigen::Vector3d& target, double target_yaw) {
+  PickAndPlace s;
+  s.pinch = env.PinchPosition();
+  s.pinch_rotation = env.PinchRotation();
+  s.pinch_yaw = env.PinchYaw();
+  s.cube = cube;
+  s.cube_yaw = cube_yaw;
+  s.target = target;
+  s.target_yaw = target_yaw;
+  s.final_low = env.options().init_low;
+  s.final_high = env.options().init_high;
+  return s;
+}
+
 // OGBench's cube plan (cube_plan.py): above the cube (0.1 + U(0, 0.1) m), down, close, up,
 // a jittered clearance point, above the target, down, open, up, a random final pose; the
 // pick and place yaws the cube's and the target's symmetric yaws nearest the effector's.

@@ -252,16 +252,7 @@ sim::PuzzleEnvOptions PuzzleOptions(sim::EnvId id) {
 }  // namespace
 
 sensor_msgs::JointState MakePuzzleButtonStates(const sim::PuzzleEnv& env, const ros::Time& stamp) {
-  sensor_msgs::JointState js;
-  js.header.stamp = stamp;
-  const sim::PuzzleEnv::Observation o = env.GetObservation();
-  for (int k = 0; k < env.num_buttons(); ++k) {
-    js.name.push_back("buttonbox_joint_" + std::to_string(k));
-    js.position.push_back(env.ButtonJoint(k));
-    js.velocity.push_back(o[static_cast<size_t>(sim::PuzzleEnv::kProprioSize + 4 * k + 3)]);
-    js.effort.push_back(env.button_states()[static_cast<size_t>(k)]);
-  }
-  return js;
+  return MakeButtonStates(env, env.num_buttons(), sim::PuzzleEnv::kProprioSize, stamp);
 }
 
 sim::LightsOutState PuzzleGoalStates(const std::vector<float>& goal, int buttons) {

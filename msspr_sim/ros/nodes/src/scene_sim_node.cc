@@ -58,16 +58,7 @@ visualization_msgs::Marker Handle(const std::string& frame, const std::string& n
 }  // namespace
 
 sensor_msgs::JointState MakeSceneButtonStates(const sim::SceneEnv& env, const ros::Time& stamp) {
-  sensor_msgs::JointState js;
-  js.header.stamp = stamp;
-  const sim::SceneEnv::Observation o = env.GetObservation();
-  for (int k = 0; k < 2; ++k) {
-    js.name.push_back("buttonbox_joint_" + std::to_string(k));
-    js.position.push_back(env.ButtonJoint(k));
-    js.velocity.push_back(o[static_cast<size_t>(sim::ArmEnv::kProprioSize + 9 + 4 * k + 3)]);
-    js.effort.push_back(env.button_states()[static_cast<size_t>(k)]);
-  }
-  return js;
+  return MakeButtonStates(env, 2, sim::ArmEnv::kProprioSize + 9, stamp);  // after the cube's 9
 }
 
 sensor_msgs::JointState MakeSceneSlideStates(const sim::SceneEnv& env, const ros::Time& stamp) {

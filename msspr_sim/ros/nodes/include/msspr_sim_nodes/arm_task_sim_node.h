@@ -73,6 +73,23 @@ void AppendButtonMarkers(const std::vector<Eigen::Vector3d>& tops, const std::ve
                          const std::array<float, 3>& off, const std::array<float, 3>& on,
                          const std::string& frame, visualization_msgs::MarkerArray* markers);
 
+// The joint states of `buttons` buttons of a puzzle or scene env (see above), stamped `stamp`;
+// button k's velocity is observation entry first + 4 k + 3.
+template <class Env>
+sensor_msgs::JointState MakeButtonStates(const Env& env, int buttons, int first,
+                                         const ros::Time& stamp) {
+  sensor_msgs::JointState js;
+  js.header.stamp = stamp;
+  const typename Env::Observation o = env.GetObservation();
+  for (int k = 0; k < buttons; ++k) {
+    js.name.push_back("buttonbox_joint_" + std::to_string(k));
+    js.position.push_back(env.ButtonJoint(k));
+    js.velocity.push_back(o[static_cast<size_t>(first + 4 * k + 3)]);
+    js.effort.push_back(env.button_states()[static_cast<size_t>(k)]);
+  }
+  return js;
+}
+
 // The scene's buttons and slides (see above), stamped `stamp`.
 sensor_msgs::JointState MakeSceneButtonStates(const sim::SceneEnv& env, const ros::Time& stamp);
 sensor_msgs::JointState MakeSceneSlideStates(const sim::SceneEnv& env, const ros::Time& stamp);
