@@ -154,6 +154,7 @@ TEST_F(AntCollect, StitchGoalsAreFourBfsMovesFromTheStart) {
 
 TEST_F(AntCollect, UsageErrors) {
   std::string out;
+  const std::string bag = dir_ + "/usage.bag";  // never written
   // Without --expert, the shipped expert (msspr_sim/experts/ant_xy_expert.pt) drives.
   const std::string shipped = "/tmp/msspr_ant_default_expert_" + std::to_string(getpid()) + ".bag";
   EXPECT_EQ(
@@ -165,21 +166,18 @@ TEST_F(AntCollect, UsageErrors) {
   EXPECT_TRUE(std::filesystem::exists(shipped));
   std::filesystem::remove(shipped);
   EXPECT_EQ(
-      RunCollect("--env antmaze-medium --expert " + expert_ + " --maze large --out /tmp/x.bag",
-                 &out),
+      RunCollect("--env antmaze-medium --expert " + expert_ + " --maze large --out " + bag, &out),
       2);
   EXPECT_NE(out.find("--maze does not apply"), std::string::npos) << out;
+  EXPECT_EQ(RunCollect("--env antmaze-medium --expert " + expert_ + " --images --out " + bag, &out),
+            2);
+  EXPECT_EQ(RunCollect("--expert " + expert_ + " --out " + bag, &out), 2);
   EXPECT_EQ(
-      RunCollect("--env antmaze-medium --expert " + expert_ + " --images --out /tmp/x.bag", &out),
-      2);
-  EXPECT_EQ(RunCollect("--expert " + expert_ + " --out /tmp/x.bag", &out), 2);
-  EXPECT_EQ(
-      RunCollect(
-          "--env antmaze-medium --expert /nonexistent.pt --episodes 1 --quiet --out /tmp/x.bag",
-          &out),
+      RunCollect("--env antmaze-medium --expert /nonexistent.pt --episodes 1 --quiet --out " + bag,
+                 &out),
       1);
   EXPECT_NE(out.find("/nonexistent.pt"), std::string::npos) << out;
-  EXPECT_FALSE(std::filesystem::exists("/tmp/x.bag"));
+  EXPECT_FALSE(std::filesystem::exists(bag));
 }
 
 }  // namespace

@@ -178,17 +178,18 @@ TEST(SceneCollect, WritesFortyFloatRowsThatReplay) {
 
 TEST(CubeCollect, UsageErrors) {
   std::string out;
-  EXPECT_EQ(RunCollect("--env cube-single --maze large --out /tmp/x.bag", &out), 2);
+  const std::string bag = TempPath("usage.bag");  // never written
+  EXPECT_EQ(RunCollect("--env cube-single --maze large --out " + bag, &out), 2);
   EXPECT_NE(out.find("--maze does not apply"), std::string::npos) << out;
-  EXPECT_EQ(RunCollect("--env cube-triple --out /tmp/x.bag", &out), 2);
-  EXPECT_EQ(RunCollect("--urdf a.urdf --out /tmp/x.bag", &out), 2);
-  EXPECT_EQ(RunCollect("--env puzzle-3x3 --kind stitch --out /tmp/x.bag", &out), 2);
+  EXPECT_EQ(RunCollect("--env cube-triple --out " + bag, &out), 2);
+  EXPECT_EQ(RunCollect("--urdf a.urdf --out " + bag, &out), 2);
+  EXPECT_EQ(RunCollect("--env puzzle-3x3 --kind stitch --out " + bag, &out), 2);
   EXPECT_NE(out.find("--kind does not apply to --env puzzle-3x3"), std::string::npos) << out;
   EXPECT_EQ(
-      RunCollect("--env cube-single --urdf /nonexistent.urdf --episodes 1 --quiet --out /tmp/x.bag",
+      RunCollect("--env cube-single --urdf /nonexistent.urdf --episodes 1 --quiet --out " + bag,
                  &out),
       1);
-  EXPECT_FALSE(std::filesystem::exists("/tmp/x.bag"));
+  EXPECT_FALSE(std::filesystem::exists(bag));
 }
 
 }  // namespace
