@@ -138,6 +138,12 @@ class MssprCompareTest(unittest.TestCase):
                 # From its last checkpoint (a run killed before its first starts at 0).
                 if seg1["step_start"] > 0:
                     resumed += 1
+                    # The lost segment's time reaches at least its training's time at the step
+                    # the next one resumed from (metrics.csv keeps the rows up to it).
+                    with open(os.path.join(d, "metrics.csv")) as f:
+                        walls = {int(r["step"]): float(r["wall_s"]) for r in csv.DictReader(f)}
+                    if seg1["step_start"] in walls:
+                        self.assertGreaterEqual(seg0["wall_s"] + 1e-6, walls[seg1["step_start"]], d)
             # Every command ran at one thread with the grid's evaluation.
             for seg in rec["segments"]:
                 cmd = seg["command"]
