@@ -173,7 +173,7 @@ TEST(Cli, TheOtherToolsAnswerHelpAndRejectBadFlags) {
   ExpectUsageError(MSSPR_EVAL_ANT_EXPERT_EXE, "--episodes 0", "--episodes 0 is out of range");
   ExpectUsageError(MSSPR_EVAL_ORACLE_EXE, "", "--env is required");
   ExpectUsageError(MSSPR_EVAL_ORACLE_EXE, "--env cube-single",
-                   "--env 'cube-single' is not one of: cube-double, puzzle-3x3, puzzle-4x4");
+                   "--env 'cube-single' is not one of: cube-double, puzzle-3x3, puzzle-4x4, scene");
   ExpectUsageError(MSSPR_PROBE_LATENTS_EXE, "", "--policy and --data are required");
   ExpectUsageError(MSSPR_PROFILE_STEP_EXE, "--steps 0", "--steps 0 is out of range");
   const std::string out = "/tmp/msspr_cli_train_expert_refused";
