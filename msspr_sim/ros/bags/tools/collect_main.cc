@@ -209,9 +209,11 @@ int CollectManipulation(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvI
   }
   const double control_dt = cube_opt.scene.timestep * cube_opt.substeps;
   ros_bridge::DatasetBagWriter writer(args.Get("out", ""), control_dt, !args.Has("no-compress"));
+  long redrawn = 0;  // the scene's episodes drawn again by its health check
   WriteAllEpisodes(args, writer, episodes, val, image_episodes, episode_length, env_name,
                    env_name + "-play", [&](long k, ros_bridge::EpisodeMeta& meta, bool images) {
                      const sim::PlayEpisode ep = collect(k, images);
+                     redrawn += ep.seed != sim::EpisodeSeed(seed, static_cast<uint64_t>(k));
                      meta.seed = ep.seed;
                      meta.start.assign(ep.observations.begin(), ep.observations.begin() + obs_dim);
                      // play data has no goal: meta.goal stays empty, so no step is marked success
@@ -221,6 +223,11 @@ int CollectManipulation(const msspr::ros_bridge::CliArgs& args, msspr::sim::EnvI
                                          cube_opt.success_distance);
                      return ep.length;
                    });
+  if (env_id == sim::EnvId::kScene && !args.Has("quiet"))
+    std::fprintf(stderr,
+                 "[msspr_collect] %ld of %ld episodes drawn again (the cube left the table's "
+                 "sight; EpisodeInfo.seed is the seed used)\n",
+                 redrawn, episodes + val);
   return 0;
 }
 
