@@ -195,12 +195,10 @@ EvalFlags ParseEvalFlags(const std::map<std::string, std::string>& extra) {
   f.puzzle = no_maze && f.env && msspr::sim::IsPuzzle(f.env->id);
   f.cube_double = no_maze && f.env && f.env->id == msspr::sim::EnvId::kCubeDouble;
   f.scene = no_maze && f.env && f.env->id == msspr::sim::EnvId::kScene;
-  const char* max_steps = f.cube                        ? "200"
-                          : (f.puzzle || f.cube_double) ? "500"
-                          : f.scene                     ? "750"
-                                                        : "1000";
-  eo.max_steps =
-      static_cast<int>(ParseInt("eval-max-steps", get("eval-max-steps", max_steps), 1, 100000000));
+  // The env's cap, or a point maze's (--eval-maze).
+  const int cap = no_maze && f.env ? msspr::sim::EvalEpisodeCap(f.env->id) : 1000;
+  eo.max_steps = static_cast<int>(
+      ParseInt("eval-max-steps", get("eval-max-steps", std::to_string(cap)), 1, 100000000));
   eo.tasks.clear();
   for (const auto& t : SplitList(get("eval-tasks", "1,2,3,4,5")))
     eo.tasks.push_back(static_cast<int>(ParseInt("eval-tasks", t, 1, 5)));

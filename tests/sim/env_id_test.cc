@@ -7,6 +7,12 @@
 #include <string>
 #include <vector>
 
+#include "msspr_sim/ant_maze.h"
+#include "msspr_sim/cube_double_env.h"
+#include "msspr_sim/cube_env.h"
+#include "msspr_sim/puzzle_env.h"
+#include "msspr_sim/scene_env.h"
+
 namespace msspr::sim {
 namespace {
 
@@ -96,6 +102,20 @@ TEST(EnvIdTest, EnvLabelsRoundTrip) {
   // Labels of no msspr env (e.g. a robot's own bags).
   for (const std::string other : {"", "pointmaze", "pointmaze-", "ur5e", "antmaze-giant"})
     EXPECT_EQ(ParseEnvLabel(other).has_value(), false) << other;
+}
+
+// The evaluation caps are OGBench's and each env's own default.
+TEST(EnvIdTest, EvalEpisodeCapsAreOGBenchsAndTheEnvsDefaults) {
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kPointMaze), 1000);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kAntMazeMedium), 1000);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kAntMazeLarge), AntMazeOptions().max_episode_steps);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kCubeSingle), 200);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kCubeSingle), CubeEnvOptions().max_episode_steps);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kPuzzle3x3), 500);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kPuzzle4x4), PuzzleEnvOptions().max_episode_steps);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kCubeDouble), CubeDoubleEnvOptions().max_episode_steps);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kScene), 750);
+  EXPECT_EQ(EvalEpisodeCap(EnvId::kScene), SceneEnvOptions().max_episode_steps);
 }
 
 }  // namespace

@@ -93,6 +93,24 @@ std::string AntMazeName(EnvId id) {
                               "' is no ant maze; ant mazes: " + JoinNames(AntMazeEnvIds()));
 }
 
+int EvalEpisodeCap(EnvId id) {
+  switch (id) {
+    case EnvId::kCubeSingle:
+      return 200;
+    case EnvId::kPuzzle3x3:
+    case EnvId::kPuzzle4x4:
+    case EnvId::kCubeDouble:
+      return 500;
+    case EnvId::kScene:
+      return 750;
+    case EnvId::kPointMaze:
+    case EnvId::kAntMazeMedium:
+    case EnvId::kAntMazeLarge:
+      break;
+  }
+  return 1000;
+}
+
 EnvId AntMazeEnvId(const std::string& maze) {
   for (EnvId id : AntMazeEnvIds()) {
     if (AntMazeName(id) == maze) return id;

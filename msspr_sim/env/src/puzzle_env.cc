@@ -24,6 +24,13 @@ int CheckedSide(int side) {
 
 }  // namespace
 
+int ButtonStateFromOneHot(float a, float b, int k) {
+  if (a == 1.f && b == 0.f) return 0;
+  if (a == 0.f && b == 1.f) return 1;
+  throw std::invalid_argument("button " + std::to_string(k) +
+                              "'s state entries must be (1, 0) or (0, 1)");
+}
+
 std::string PushButtonMjcf(int k, double x, double y, double top_site) {
   // The box is turned -1.57 rad about x, as OGBench's (its local -y is world +z, up to a
   // 0.0008 tilt), so local (x, -h, w) is world (x, w, h) from the box origin at z 0.048.

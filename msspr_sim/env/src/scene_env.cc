@@ -9,7 +9,7 @@
 
 #include "arm_rig.h"
 #include "msspr_sim/cube_scene.h"
-#include "msspr_sim/puzzle_env.h"  // PushButtonMjcf
+#include "msspr_sim/puzzle_env.h"  // PushButtonMjcf, ButtonStateFromOneHot
 #include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
@@ -340,13 +340,9 @@ SceneState SceneEnv::StateFromObservation(const std::vector<float>& obs, double*
   SceneState s;
   s.cube = internal::kObservationCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
   if (cube_yaw) *cube_yaw = std::atan2(obs[27], obs[26]);
-  for (int k = 0; k < 2; ++k) {
-    const float a = obs[static_cast<size_t>(28 + 4 * k)], b = obs[static_cast<size_t>(29 + 4 * k)];
-    if (!((a == 1.f && b == 0.f) || (a == 0.f && b == 1.f)))
-      throw std::invalid_argument("button " + std::to_string(k) +
-                                  "'s state entries must be (1, 0) or (0, 1)");
-    s.buttons[static_cast<size_t>(k)] = b == 1.f ? 1 : 0;
-  }
+  for (int k = 0; k < 2; ++k)
+    s.buttons[static_cast<size_t>(k)] = ButtonStateFromOneHot(
+        obs[static_cast<size_t>(28 + 4 * k)], obs[static_cast<size_t>(29 + 4 * k)], k);
   s.drawer = obs[36] / 18.0;
   s.window = obs[38] / 15.0;
   return s;

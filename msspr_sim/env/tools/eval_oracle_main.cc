@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
         args.GetChoice("env", "",
                        sim::EnvIdNames({sim::EnvId::kPuzzle3x3, sim::EnvId::kPuzzle4x4,
                                         sim::EnvId::kCubeDouble, sim::EnvId::kScene})));
-    flags = sim::ReadEpisodeFlags(args, env_id == sim::EnvId::kScene ? 750 : 500, 5);
+    flags = sim::ReadEpisodeFlags(args, sim::EvalEpisodeCap(env_id), 5);
     urdf = args.Get("urdf", sim::DefaultArmUrdf());
     out = args.Get("out", "");
   } catch (const std::exception& e) {

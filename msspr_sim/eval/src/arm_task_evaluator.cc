@@ -137,8 +137,8 @@ ArmTaskEvalResult EvaluateOnScene(core::Policy& policy, const ArmTaskEvalOptions
 
 sim::EvalReport MakePuzzleEvalReport(const PuzzleEvalResult& result,
                                      const PuzzleEvalOptions& options, const std::string& agent) {
-  sim::EvalReport report = MakeTaskReport(result, sim::EnvLabel(PuzzleId(options.side)), agent,
-                                          options.episodes, options.max_steps, options.seed);
+  sim::EvalReport report =
+      MakeArmTaskReport<sim::PuzzleEnv>(result, options, PuzzleId(options.side), agent);
   const auto& tasks = sim::PuzzleTasks(options.side);
   for (auto& t : report.tasks) {
     const auto& pt = tasks[static_cast<size_t>(t.task_id - 1)];

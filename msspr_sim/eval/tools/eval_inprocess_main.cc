@@ -99,20 +99,20 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
   if (q.is_ant()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot", "urdf"}, sim::EnvIdName(q.env));
     q.ant.maze = sim::AntMazeName(q.env);
-    ReadEpisodeFlags(args, 1000, 5, &q.ant);
+    ReadEpisodeFlags(args, sim::EvalEpisodeCap(q.env), 5, &q.ant);
   } else if (q.is_puzzle()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot"}, sim::EnvIdName(q.env));
     q.puzzle.side = sim::PuzzleSide(q.env);
     q.puzzle.urdf_path = args.Get("urdf", "");
-    ReadEpisodeFlags(args, 500, 5, &q.puzzle);
+    ReadEpisodeFlags(args, sim::EvalEpisodeCap(q.env), 5, &q.puzzle);
   } else if (q.is_cube_double() || q.is_scene()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot"}, sim::EnvIdName(q.env));
     q.arm_task.urdf_path = args.Get("urdf", "");
-    ReadEpisodeFlags(args, q.is_scene() ? 750 : 500, 5, &q.arm_task);
+    ReadEpisodeFlags(args, sim::EvalEpisodeCap(q.env), 5, &q.arm_task);
   } else if (q.is_cube()) {
     RefuseFlags(args, {"maze", "tasks-file", "plot"}, "cube-single");
     q.cube.urdf_path = args.Get("urdf", "");
-    ReadEpisodeFlags(args, 200, 5, &q.cube);
+    ReadEpisodeFlags(args, sim::EvalEpisodeCap(q.env), 5, &q.cube);
   } else {
     if (args.Has("urdf"))
       throw msspr::cli::CliError(
@@ -128,8 +128,8 @@ Request ParseRequest(const msspr::cli::CliArgs& args) {
         throw msspr::cli::CliError("--tasks-file: " + std::string(e.what()));
       }
     }
-    ReadEpisodeFlags(args, 1000, static_cast<long>(map.Tasks().size()), &q.maze,
-                     !args.Has("tasks-file"));
+    ReadEpisodeFlags(args, sim::EvalEpisodeCap(q.env), static_cast<long>(map.Tasks().size()),
+                     &q.maze, !args.Has("tasks-file"));
   }
   const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
   if (threads > 0) torch::set_num_threads(threads);

@@ -241,12 +241,8 @@ EvalRequest ParseRequest(const msspr::ros_bridge::CliArgs& args) {
   q.maze = ant ? msspr::sim::AntMazeName(q.env) : msspr::sim::PointMazeOrDefault(maze_arg);
   q.map = std::make_unique<msspr::sim::MazeMap>(msspr::sim::MazeMap::FromName(q.maze));
   const msspr::sim::EpisodeFlags f = msspr::sim::ReadEpisodeFlags(
-      args,
-      q.env == EnvId::kCubeSingle                                  ? 200
-      : msspr::sim::IsPuzzle(q.env) || q.env == EnvId::kCubeDouble ? 500
-      : q.env == EnvId::kScene                                     ? 750
-                                                                   : 1000,
-      static_cast<long>(q.map->Tasks().size()), !args.Has("tasks-file"));
+      args, msspr::sim::EvalEpisodeCap(q.env), static_cast<long>(q.map->Tasks().size()),
+      !args.Has("tasks-file"));
   q.tasks = f.tasks;
   if (args.Has("tasks-file")) {
     for (const auto& t : msspr::sim::LoadCustomTasks(args.Get("tasks-file", ""), q.map.get())) {

@@ -61,6 +61,10 @@ std::string AntMazeName(EnvId id);
 // listing the ant mazes.
 EnvId AntMazeEnvId(const std::string& maze);
 
+// OGBench's step limit of an evaluation episode of `id`: 1000 (the mazes), 200 (cube-single),
+// 500 (cube-double, the puzzles), 750 (the scene); each env's own max_episode_steps default.
+int EvalEpisodeCap(EnvId id);
+
 // The puzzles: puzzle-3x3 and puzzle-4x4.
 bool IsPuzzle(EnvId id);
 // puzzle-3x3 -> 3, puzzle-4x4 -> 4; throws std::invalid_argument for another id.

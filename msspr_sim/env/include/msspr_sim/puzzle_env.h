@@ -103,6 +103,11 @@ class PuzzleEnv : public ArmEnv {
 // the box origin.
 std::string PushButtonMjcf(int k, double x, double y, double top_site);
 
+// The state an observation's one-hot pair (a, b) of button k shows, as the puzzles and the
+// scene write it: (1, 0) is 0, (0, 1) is 1; throws std::invalid_argument naming button k
+// otherwise.
+int ButtonStateFromOneHot(float a, float b, int k);
+
 // The button MJCF of an R x R puzzle (bodies buttonbox_k with the slide joint
 // buttonbox_joint_k, the cap geom btngeom_k and the site btntop_k), for ArmSceneMjcf.
 std::string PuzzleButtonsMjcf(int side);

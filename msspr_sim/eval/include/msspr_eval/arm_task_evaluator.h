@@ -18,13 +18,17 @@ class Policy;
 
 namespace msspr::agent {
 
-struct PuzzleEvalOptions {
+// The evaluation of an arm task (cube-double, the scene; the puzzles' with their side).
+struct ArmTaskEvalOptions {
   std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf() (package_files.h)
-  int side = 3;           // 3: puzzle-3x3, 4: puzzle-4x4
   std::vector<int> tasks = {1, 2, 3, 4, 5};
   int episodes = 50;  // per task
-  int max_steps = 500;
+  int max_steps = 0;  // steps per episode; 0: the env's cap (500; the scene 750)
   uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e)
+};
+
+struct PuzzleEvalOptions : ArmTaskEvalOptions {
+  int side = 3;  // 3: puzzle-3x3, 4: puzzle-4x4
 };
 
 using PuzzleEvalResult = TaskSuccessResult;
@@ -41,14 +45,6 @@ sim::EvalReport MakePuzzleEvalReport(const PuzzleEvalResult& result,
 void WritePuzzleResultsJson(const PuzzleEvalResult& result, const PuzzleEvalOptions& options,
                             const std::string& agent, const std::string& path);
 
-// cube-double's and the scene's evaluation.
-struct ArmTaskEvalOptions {
-  std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf()
-  std::vector<int> tasks = {1, 2, 3, 4, 5};
-  int episodes = 50;  // per task
-  int max_steps = 0;  // steps per episode; 0: the env's cap (cube-double 500, the scene 750)
-  uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e)
-};
 using ArmTaskEvalResult = TaskSuccessResult;
 
 // cube-double (37-D states, 5-D actions); throws std::invalid_argument as EvaluateOnPuzzle.

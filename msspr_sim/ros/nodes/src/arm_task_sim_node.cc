@@ -21,8 +21,7 @@ ArmTaskSimNodeOptions LoadArmTaskSimNodeOptions(const ros::NodeHandle& pnh, sim:
                                 "' is not cube-single, puzzle-3x3, puzzle-4x4, cube-double or "
                                 "scene");
   o.env = id;
-  if (id == sim::EnvId::kCubeSingle) o.max_episode_steps = 200;
-  if (id == sim::EnvId::kScene) o.max_episode_steps = 750;
+  o.max_episode_steps = sim::EvalEpisodeCap(id);
   ROS_INFO_STREAM_NAMED("msspr_sim",
                         "msspr_sim_node (env " << sim::EnvIdName(id) << ") parameters:");
   LoadSimNodeCommonOptions(pnh, &o);
@@ -258,12 +257,9 @@ sensor_msgs::JointState MakePuzzleButtonStates(const sim::PuzzleEnv& env, const 
 sim::LightsOutState PuzzleGoalStates(const std::vector<float>& goal, int buttons) {
   sim::LightsOutState s(static_cast<size_t>(buttons));
   for (int k = 0; k < buttons; ++k) {
-    const float a = goal.at(static_cast<size_t>(sim::PuzzleEnv::kProprioSize + 4 * k));
-    const float b = goal.at(static_cast<size_t>(sim::PuzzleEnv::kProprioSize + 4 * k + 1));
-    if (!((a == 1.f && b == 0.f) || (a == 0.f && b == 1.f)))
-      throw std::invalid_argument("button " + std::to_string(k) +
-                                  "'s state entries must be (1, 0) or (0, 1)");
-    s[static_cast<size_t>(k)] = b == 1.f ? 1 : 0;
+    const size_t at = static_cast<size_t>(sim::PuzzleEnv::kProprioSize + 4 * k);
+    s[static_cast<size_t>(k)] =
+        static_cast<uint8_t>(sim::ButtonStateFromOneHot(goal.at(at), goal.at(at + 1), k));
   }
   return s;
 }

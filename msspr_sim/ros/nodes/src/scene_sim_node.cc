@@ -36,7 +36,7 @@ visualization_msgs::Marker Box(const std::string& frame, const std::string& ns, 
   m.color.g = rgb[1];
   m.color.b = rgb[2];
   m.color.a = alpha;
-  m.frame_locked = frame != "world";
+  m.frame_locked = true;  // the moving parts' frames; a no-op for the world frame's
   return m;
 }
 

@@ -49,8 +49,8 @@ namespace msspr::ros_bridge {
 struct ArmTaskSimNodeOptions : SimNodeCommonOptions {
   ArmTaskSimNodeOptions() { control_rate = 20.0; }  // Hz, real-time stepping (1 / 0.05 s)
   sim::EnvId env = sim::EnvId::kPuzzle3x3;          // cube-single, puzzle-*, cube-double, scene
-  int max_episode_steps = 500;  // OGBench's episodes of these tasks (cube-single 200, scene 750)
-  int initial_task = -1;        // -1: wait for reset; 1..5: task
+  int max_episode_steps = 500;        // Load...: OGBench's cap of the env (sim::EvalEpisodeCap)
+  int initial_task = -1;              // -1: wait for reset; 1..5: task
   std::string world_frame = "world";  // the URDF's root link
   std::string robot_description = "robot_description";
   std::string urdf;  // default: the package's ur5e_2f85.urdf
