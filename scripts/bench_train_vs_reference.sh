@@ -4,6 +4,9 @@
 # representation update per step), same machine, same run, 1 and 2 threads.
 # Writes $1/train_vs_reference.json. Usage: bench_train_vs_reference.sh OUT_DIR BENCH_CORE_BIN
 #
+# OpenBLAS's kernels, measured fairly: where OpenBLAS falls back to its generic
+# kernels on this CPU, msspr's tools run the CPU's own (msspr_core/process_env.h),
+# so the reference is timed under both, and its faster one counts.
 # OpenMP wait policy, measured fairly: at each thread count both sides are
 # timed under every policy in MSSPR_BENCH_OMP_POLICIES (default "default PASSIVE";
 # add ACTIVE for a third) and the faster is reported, with every timing and the
@@ -107,14 +110,21 @@ for pol in $POLICIES; do
 done
 spins+=("{\"side\": \"msspr\", \"policy\": \"unset (as shipped)\", \"gomp_spincount\": $(spin_count msspr unset "$BENCH" --help)}")
 
+# The reference's OpenBLAS kernels: its own pick, and the CPU's own where they differ.
+REF_CORES=$(ref_blas_cores "$BENCH" | tr '\n' ' ')
+echo "[bench] reference timed under OpenBLAS kernels: $REF_CORES(own = OpenBLAS's pick)"
 rows=()
 for threads in 1 2; do
   ref_times="{"
   for pol in $POLICIES; do
-    echo "[bench] reference (eager PyTorch), $threads thread(s), OpenMP wait policy $pol"
-    ms=$(with_policy ref "$pol" /usr/bin/python3 "$REF" --time_only --steps $((STEPS + 20)) --episodes 100 \
-           --threads "$threads" 2>/dev/null | ms_of)
-    ref_times+="\"$pol\": $ms, "
+    for core in $REF_CORES; do
+      label=$(ref_label "$pol" "$core")
+      echo "[bench] reference (eager PyTorch), $threads thread(s), OpenMP wait policy $label"
+      # shellcheck disable=SC2046  # blas_env prints env(1)'s arguments
+      ms=$(with_policy ref "$pol" env $(blas_env "$core") /usr/bin/python3 "$REF" --time_only \
+             --steps $((STEPS + 20)) --episodes 100 --threads "$threads" 2>/dev/null | ms_of)
+      ref_times+="\"$label\": $ms, "
+    done
   done
   ref_times="${ref_times%, }}"
   for precision in fp32 bf16; do
@@ -131,7 +141,7 @@ for threads in 1 2; do
     rows+=("{\"threads\": $threads, \"precision\": \"$precision\", \"msspr_ms_by_policy\": $ours_times, \"reference_ms_by_policy\": $ref_times}")
   done
 done
-MSSPR_CPU_JSON=$(/usr/bin/python3 scripts/cpu_json.py) \
+MSSPR_CPU_JSON=$(/usr/bin/python3 scripts/cpu_json.py) MSSPR_REF_CORES=$REF_CORES \
 /usr/bin/python3 - "$JSON" "$STEPS" "${#spins[@]}" "${spins[@]}" "${rows[@]}" <<'PY'
 import json, os, sys
 path, steps, nspin = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
@@ -163,6 +173,10 @@ out = {'cpu': json.loads(os.environ.get('MSSPR_CPU_JSON') or '{}'),
                            '(reference: OMP_WAIT_POLICY unset; msspr: OMP_WAIT_POLICY="", since its '
                            'tools re-execute with PASSIVE when it is unset). ratio_as_shipped: msspr '
                            'with the variable unset (= PASSIVE) against the reference\'s best.'),
+       'reference_openblas_cores': ('the reference timed under each: "own" is OpenBLAS\'s pick '
+                                    '(OPENBLAS_CORETYPE unset); another is the CPU\'s own kernels, '
+                                    'which msspr\'s tools run where OpenBLAS falls back to generic ones: '
+                                    + ' '.join(os.environ.get('MSSPR_REF_CORES', '').split())),
        'policies': list(rows[0]['reference_ms_by_policy']) if rows else [],
        'gomp_spincount_seen': spins,
        'rows': rows}

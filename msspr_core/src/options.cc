@@ -376,12 +376,16 @@ std::string EffectivePrecision(const TrainerOptions& t, std::string* why) {
   }
   const bool cpu = t.device.rfind("cpu", 0) == 0;
   const CpuInfo& host = HostCpu();
-  const bool bf16 = cpu && host.NativeBf16();
+  const bool bf16 = cpu && host.Bf16FasterThanFp32();
   if (why) {
     if (!cpu)
       *why = "auto: fp32 on " + t.device;
     else if (bf16)
-      *why = "auto: bf16, this CPU multiplies bfloat16 in hardware";
+      *why = "auto: bf16, this CPU multiplies bfloat16 faster than fp32";
+    else if (host.NativeBf16())
+      *why =
+          "auto: fp32, this CPU has AVX512-BF16 but no AMX: its bfloat16 products are slower "
+          "than fp32 ones";
     else
       *why = "auto: fp32, this CPU has no bfloat16 arithmetic";
   }

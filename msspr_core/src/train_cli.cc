@@ -26,6 +26,7 @@
 #include "msspr_core/cli_args.h"
 #include "msspr_core/cpu_info.h"
 #include "msspr_core/npz.h"
+#include "msspr_core/process_env.h"
 #include "msspr_core/stop_signals.h"
 
 namespace msspr {
@@ -173,13 +174,20 @@ void WriteTextAtomically(const std::string& path, const std::string& text) {
 }
 
 // Where the latest segment ran: the figures in metrics.csv depend on it.
+// ", OpenBLAS kernels SkylakeX" (fp32 products run in them), or "".
+std::string BlasNote() {
+  const std::string core = LoadedOpenBlasCore();
+  return core.empty() ? "" : ", OpenBLAS kernels " + core;
+}
+
 std::string HostRecord(const std::string& precision_why) {
   std::ostringstream s;
   s << "# msspr_train: the machine, threads and precision of the run's latest segment\n"
     << "cpu:\n"
     << HostCpu().ToYaml("  ") << "torch_threads: " << torch::get_num_threads() << "\n"
     << "precision: \"" << precision_why << "\"\n"
-    << "libtorch: \"" << TORCH_VERSION << "\"\n";
+    << "libtorch: \"" << TORCH_VERSION << "\"\n"
+    << "openblas_core: \"" << LoadedOpenBlasCore() << "\"\n";
   return s.str();
 }
 
@@ -507,7 +515,7 @@ int TrainRun(const CliRequest& req, const RunDir& dir, const DistributedOptions&
   }
   std::cerr << ext.program << ": precision " << trainer.options().trainer.precision << " ("
             << precision_why << "), " << torch::get_num_threads() << " torch thread(s) on "
-            << HostCpu().Summary() << "\n";
+            << HostCpu().Summary() << BlasNote() << "\n";
 
   // Rank 0 alone validates and evaluates.
   std::shared_ptr<const Dataset> val;

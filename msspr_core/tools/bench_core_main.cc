@@ -176,7 +176,8 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
     << ", \"updates_per_step\": " << o.representation.updates_per_step
     << ", \"timed_steps\": " << r.steps << ", \"warmup_steps\": " << warmup
     << ", \"ms_per_step\": " << r.ms_per_step << ", \"peak_rss_mb\": " << PeakRssMb()
-    << ", \"cpu\": " << HostCpu().ToJson() << "}\n";
+    << ", \"cpu\": " << HostCpu().ToJson() << ", \"openblas_core\": \"" << LoadedOpenBlasCore()
+    << "\"}\n";
   return WriteJson(out, j.str());
 }
 
@@ -261,6 +262,7 @@ std::string SuiteJson(const BenchRequest& r, const std::string& precision,
   j.precision(6);
   j << "{\n  \"device\": \"" << r.device << "\",\n  \"precision\": \"" << precision
     << "\",\n  \"threads\": " << torch::get_num_threads() << ",\n  \"cpu\": " << HostCpu().ToJson()
+    << ",\n  \"openblas_core\": \"" << LoadedOpenBlasCore() << "\""
     << ",\n  \"state_dataset\": {\"obs_dim\": 29, \"action_dim\": 8},\n"
     << "  \"pixel_dataset\": {\"image\": [64, 64, 3], \"action_dim\": 8},\n  \"train\": [\n";
   for (size_t i = 0; i < train.size(); ++i) {
@@ -333,7 +335,7 @@ int RunSuite(const BenchRequest& r) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  ReexecWithPassiveOpenMpWait(argv);
+  ReexecWithToolEnvironment(argv);
   BenchRequest r;
   try {
     const cli::CliArgs args(argc, argv, {"help", "quick"},

@@ -5,6 +5,6 @@
 #include "msspr_core/train_cli.h"
 
 int main(int argc, char** argv) {
-  msspr::core::ReexecWithPassiveOpenMpWait(argv);
+  msspr::core::ReexecWithToolEnvironment(argv);
   return msspr::core::RunTrainCli(argc, argv);
 }

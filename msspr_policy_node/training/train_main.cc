@@ -325,8 +325,8 @@ msspr::core::Evaluator MakeSimEvaluator(msspr::core::Trainer& trainer,
 }  // namespace
 
 int main(int argc, char** argv) {
-  msspr::core::ReexecWithPassiveOpenMpWait(
-      argv);  // see process_env.h: spinning threads on shared cores
+  msspr::core::ReexecWithToolEnvironment(
+      argv);  // see process_env.h: OpenMP waits, OpenBLAS kernels
   msspr::core::TrainCliExtensions ext;
   ext.program = "msspr_train";
   std::vector<std::string> args;

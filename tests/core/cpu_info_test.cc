@@ -5,6 +5,7 @@
 #include <string>
 
 #include "msspr_core/options.h"
+#include "msspr_core/process_env.h"
 
 namespace msspr {
 namespace core {
@@ -62,6 +63,24 @@ TEST(CpuInfoTest, ParsesModelFamilyAndTheFlagsThatMatter) {
   EXPECT_FALSE(z.NativeBf16());
 }
 
+TEST(CpuInfoTest, Bf16IsFasterThanFp32OnlyWithAmxOrOnAmdWithAvx512Bf16) {
+  // Intel with AMX: bf16 products several times faster than fp32.
+  EXPECT_TRUE(ParseCpuInfo(kXeonAmx).Bf16FasterThanFp32());
+  // Intel with AVX512-BF16 but no AMX: OpenBLAS's AVX-512 fp32 wins.
+  const CpuInfo xeon_no_amx = ParseCpuInfo(
+      "vendor_id\t: GenuineIntel\ncpu family\t: 6\nmodel\t\t: 207\n"
+      "flags\t\t: avx2 fma avx512f avx512bw avx512_bf16 avx512_fp16\n");
+  EXPECT_TRUE(xeon_no_amx.NativeBf16());
+  EXPECT_FALSE(xeon_no_amx.Bf16FasterThanFp32());
+  // AMD from Zen 4: AVX512-BF16 against OpenBLAS's AVX2 fp32 kernels.
+  const CpuInfo zen4 = ParseCpuInfo(
+      "vendor_id\t: AuthenticAMD\ncpu family\t: 25\nmodel\t\t: 17\n"
+      "flags\t\t: avx2 fma avx512f avx512_bf16\n");
+  EXPECT_TRUE(zen4.Bf16FasterThanFp32());
+  // No bfloat16 arithmetic at all.
+  EXPECT_FALSE(ParseCpuInfo(kZen2).Bf16FasterThanFp32());
+}
+
 TEST(CpuInfoTest, UnknownFieldsStayUnknown) {
   const CpuInfo c = ParseCpuInfo("");
   EXPECT_EQ(c.family, -1);
@@ -71,7 +90,22 @@ TEST(CpuInfoTest, UnknownFieldsStayUnknown) {
   EXPECT_EQ(c.Summary(), "unknown CPU (family -1 model -1; no AVX2)");
 }
 
-TEST(CpuInfoTest, AutoPrecisionIsBf16OnlyOnACpuWithBf16Arithmetic) {
+TEST(CpuInfoTest, OpenBlasGenericKernelsAreReplacedByTheCpusOwnOnly) {
+  const CpuInfo xeon = ParseCpuInfo(kXeonAmx), zen2 = ParseCpuInfo(kZen2);
+  const CpuInfo skx = ParseCpuInfo("flags\t: sse2 avx fma avx2 avx512f avx512bw\n");
+  const CpuInfo old = ParseCpuInfo("flags\t: sse2 sse3 avx\n");
+  // OpenBLAS's fallback for a model it does not know: the CPU's own kernels.
+  EXPECT_EQ(OpenBlasCoreFor("Prescott", xeon), "SkylakeX");
+  EXPECT_EQ(OpenBlasCoreFor("Prescott", skx), "SkylakeX");
+  EXPECT_EQ(OpenBlasCoreFor("Prescott", zen2), "Haswell");
+  // A CPU without AVX2 has nothing better; a pick OpenBLAS made itself stays.
+  EXPECT_EQ(OpenBlasCoreFor("Prescott", old), "");
+  EXPECT_EQ(OpenBlasCoreFor("SkylakeX", xeon), "");
+  EXPECT_EQ(OpenBlasCoreFor("Zen", zen2), "");
+  EXPECT_EQ(OpenBlasCoreFor("", xeon), "");
+}
+
+TEST(CpuInfoTest, AutoPrecisionIsBf16OnlyWhereBf16ProductsBeatFp32) {
   TrainerOptions t;
   std::string why;
   t.precision = "fp32";
@@ -83,13 +117,13 @@ TEST(CpuInfoTest, AutoPrecisionIsBf16OnlyOnACpuWithBf16Arithmetic) {
   EXPECT_EQ(EffectivePrecision(t, &why), "fp32");
   EXPECT_EQ(why, "auto: fp32 on cuda:0");
   t.device = "cpu";
-  const std::string expected = HostCpu().NativeBf16() ? "bf16" : "fp32";
+  const std::string expected = HostCpu().Bf16FasterThanFp32() ? "bf16" : "fp32";
   EXPECT_EQ(EffectivePrecision(t, &why), expected);
   // The reason, not the CPU again (msspr_train prints the CPU beside it).
-  EXPECT_NE(why.find(HostCpu().NativeBf16() ? "multiplies bfloat16 in hardware"
-                                            : "has no bfloat16 arithmetic"),
-            std::string::npos)
-      << why;
+  const char* reason = HostCpu().Bf16FasterThanFp32() ? "multiplies bfloat16 faster than fp32"
+                       : HostCpu().NativeBf16()       ? "has AVX512-BF16 but no AMX"
+                                                      : "has no bfloat16 arithmetic";
+  EXPECT_NE(why.find(reason), std::string::npos) << why;
   EXPECT_EQ(why.find(HostCpu().Summary()), std::string::npos) << why;
   EXPECT_EQ(why.rfind("auto: " + expected, 0), 0u) << why;
 }

@@ -6,6 +6,8 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -146,6 +148,44 @@ TEST(Cli, BenchToolsRejectBadFlags) {
   ExpectUsageErrors(MSSPR_BENCH_POLICY_EXE,
                     {{"--samples 0", "--samples 0 is out of range"},
                      {"--rates 50,fast", "--rates expects a finite number"}});
+}
+
+// The "Core: NAME" lines OpenBLAS prints at each load with OPENBLAS_VERBOSE=2:
+// one per process, so a re-executed tool prints two.
+std::vector<std::string> OpenBlasCores(const std::string& text) {
+  std::vector<std::string> cores;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("Core: ", 0) == 0) cores.push_back(line.substr(6));
+  return cores;
+}
+
+// OpenBLAS 0.3.21 falls back to its generic Prescott kernels on Intel models it
+// does not know (4-5x slower fp32 products); the tools then re-execute with the
+// CPU's own kernels, and leave a choice the user made alone.
+TEST(Cli, ToolsRunTheCpusOpenBlasKernelsNotTheGenericFallback) {
+  std::ifstream f("/proc/cpuinfo");
+  std::stringstream cpuinfo;
+  cpuinfo << f.rdbuf();
+  const bool avx2 = cpuinfo.str().find(" avx2") != std::string::npos;
+  const std::string tool = std::string(MSSPR_BENCH_CORE_EXE) + " --help";
+  const Result r =
+      ::Run("env -u OPENBLAS_CORETYPE OMP_WAIT_POLICY=PASSIVE OPENBLAS_VERBOSE=2", tool);
+  ASSERT_EQ(r.status, 0) << r.text;
+  const std::vector<std::string> cores = OpenBlasCores(r.text);
+  ASSERT_FALSE(cores.empty()) << "no OpenBLAS loaded?\n" << r.text;
+  if (cores.front() == "Prescott" && avx2) {
+    ASSERT_EQ(cores.size(), 2u) << r.text;
+    EXPECT_NE(cores.back(), "Prescott") << r.text;
+    EXPECT_NE(r.text.find("[msspr] OpenBLAS picked its generic Prescott kernels"),
+              std::string::npos)
+        << r.text;
+  } else {
+    EXPECT_EQ(cores.size(), 1u) << "re-executed with nothing to change\n" << r.text;
+  }
+  const Result chosen =
+      ::Run("env OPENBLAS_CORETYPE=Haswell OMP_WAIT_POLICY=PASSIVE OPENBLAS_VERBOSE=2", tool);
+  EXPECT_EQ(OpenBlasCores(chosen.text), std::vector<std::string>{"Haswell"}) << chosen.text;
 }
 
 // The remaining tools: --help prints the usage and exits 0; an unknown flag and a bad or

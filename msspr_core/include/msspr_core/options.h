@@ -228,8 +228,9 @@ struct TrainerOptions {
   double time_limit_s = 0;     // stop Train() after this wall time (s) of the run; 0 = none
   // "fp32", "bf16" (matrix products and convolutions in bfloat16 through
   // autocast; LayerNorm, losses and the optimiser in fp32) or "auto": bf16 on
-  // a CPU that multiplies bfloat16 in hardware (AVX512-BF16 or AMX), fp32
-  // elsewhere (other CPUs, where bf16 is emulated, and GPUs).
+  // a CPU whose bfloat16 products beat its fp32 ones (CpuInfo::
+  // Bf16FasterThanFp32: Intel with AMX, AMD with AVX512-BF16), fp32 elsewhere
+  // (other CPUs, where bf16 is emulated or slower, and GPUs).
   // EffectivePrecision() resolves it; msspr_train records the result.
   std::string precision = "fp32";
   // "auto", "on" or "off". On the CPU, a step's actor-critic update runs on a

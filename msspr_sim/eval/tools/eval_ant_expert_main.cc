@@ -43,7 +43,7 @@ ant maze's evaluation tasks: success per task, mean success, the torso's mean sp
 }  // namespace
 
 int main(int argc, char** argv) {
-  msspr::core::ReexecWithPassiveOpenMpWait(argv);
+  msspr::core::ReexecWithToolEnvironment(argv);
   namespace sim = msspr::sim;
   msspr::agent::AntExpertEvalOptions o;
   sim::EnvId env_id = sim::EnvId::kAntMazeMedium;

@@ -221,7 +221,7 @@ void RunMaze(msspr::core::Policy& policy, const Request& q) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  msspr::core::ReexecWithPassiveOpenMpWait(argv);
+  msspr::core::ReexecWithToolEnvironment(argv);
   Request q;
   try {
     msspr::cli::CliArgs args(

@@ -47,7 +47,7 @@ Example: msspr_train_expert --out runs/ant-expert --seed 0 --time-limit 3600
 }  // namespace
 
 int main(int argc, char** argv) {
-  msspr::core::ReexecWithPassiveOpenMpWait(argv);
+  msspr::core::ReexecWithToolEnvironment(argv);
   using msspr::cli::CliError;
   msspr::core::SacOptions o;
   std::string out;

@@ -43,7 +43,7 @@ Example: rosrun msspr msspr_value_map --policy $(rospack find msspr)/msspr_polic
 }  // namespace
 
 int main(int argc, char** argv) {
-  msspr::core::ReexecWithPassiveOpenMpWait(argv);
+  msspr::core::ReexecWithToolEnvironment(argv);
   using msspr::cli::CliError;
   msspr::agent::ValueMapOptions vo;
   std::string policy_path, out, agent;
