@@ -10,7 +10,7 @@
 #include "autocast_compat.h"
 #include "baselines_internal.h"
 #include "bf16_weights.h"
-#include "layer_norm_bf16.h"
+#include "gelu_layer_norm.h"
 #include "module_io.h"
 #include "msspr_core/networks.h"
 #include "trainer_internal.h"
@@ -163,7 +163,7 @@ torch::Tensor OgMlpImpl::forward(const torch::Tensor& x) {
     if (internal::UseLayerNormBf16(h)) {
       // A bfloat16 activation (bf16 autocast on the CPU): GELU computed in
       // fp32 and rounded once; LayerNorm in one op with fp32 statistics,
-      // bfloat16 in and out for the next Linear (src/layer_norm_bf16.h).
+      // bfloat16 in and out for the next Linear (src/gelu_layer_norm.h).
       if (layer->as<torch::nn::GELU>()) {
         h = GeluTanhBf16Fn::apply(h);
         continue;

@@ -8,7 +8,7 @@
 
 #include "autocast_compat.h"
 #include "bf16_weights.h"
-#include "layer_norm_bf16.h"
+#include "gelu_layer_norm.h"
 
 namespace msspr {
 namespace core {
@@ -29,9 +29,11 @@ MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer
 }
 
 namespace {
-// GELU (exact, erf): one bfloat16 op on a bfloat16 CPU tensor, LibTorch's otherwise.
+// GELU (exact, erf): one op on a bfloat16 or float32 CPU tensor, LibTorch's otherwise.
 torch::Tensor Gelu(const torch::Tensor& h) {
-  return internal::UseLayerNormBf16(h) ? internal::GeluBf16(h) : torch::gelu(h);
+  if (internal::UseLayerNormBf16(h)) return internal::GeluBf16(h);
+  if (internal::UseFusedFp32(h)) return internal::GeluFp32(h);
+  return torch::gelu(h);
 }
 
 // The last Linear of a value head (the critics' Q, the value network's V) in
@@ -50,7 +52,8 @@ torch::Tensor MlpForward(MlpImpl& mlp, const torch::Tensor& x, bool fp32_output)
   // LayerNorm (fp32 weights) is computed in fp32. On the CPU one op does it
   // and returns bfloat16 for the next Linear (internal::LayerNormBf16), with
   // the GELU before it (internal::GeluLayerNormBf16); elsewhere its input is
-  // cast up here. In fp32 the casts are no-ops.
+  // cast up here. In fp32 on the CPU the GELU and the LayerNorm after it are one
+  // op too (internal::GeluLayerNormFp32), and the casts are no-ops.
   torch::Tensor h = x;
   nn::Sequential& net = mlp.net;
   for (auto it = net->begin(); it != net->end(); ++it) {
@@ -65,6 +68,9 @@ torch::Tensor MlpForward(MlpImpl& mlp, const torch::Tensor& x, bool fp32_output)
       nn::LayerNormImpl* norm = next != net->end() ? next->ptr()->as<nn::LayerNorm>() : nullptr;
       if (norm && internal::UseLayerNormBf16(h)) {
         h = internal::GeluLayerNormBf16(h, norm->weight, norm->bias, norm->options.eps());
+        it = next;
+      } else if (norm && internal::UseFusedFp32(h)) {
+        h = internal::GeluLayerNormFp32(h, norm->weight, norm->bias, norm->options.eps());
         it = next;
       } else {
         h = Gelu(h);

@@ -7,7 +7,7 @@
 
 #include "autocast_compat.h"
 #include "bf16_weights.h"
-#include "layer_norm_bf16.h"
+#include "gelu_layer_norm.h"
 #include "torch_test_util.h"
 
 namespace msspr {
@@ -158,6 +158,61 @@ TEST(NetworksTest, Bf16GeluLayerNormEqualsGeluThenLayerNormBitForBit) {
     EXPECT_TRUE(torch::equal(fused[i], chain[i])) << names[i];
   EXPECT_EQ(fused[0].scalar_type(), torch::kBFloat16);
   EXPECT_EQ(fused[1].scalar_type(), torch::kBFloat16);
+}
+
+// In fp32 on the CPU, GELU and the LayerNorm after it run as one op each way:
+// LibTorch's torch::gelu then torch::layer_norm to within fp32 rounding, in the
+// output and in every gradient, over more rows than one parallel chunk; and an
+// Mlp built on them gives LibTorch's own layers' outputs and gradients.
+TEST(NetworksTest, Fp32GeluLayerNormEqualsLibTorchsGeluThenLayerNormToFp32Rounding) {
+  torch::manual_seed(0);
+  const torch::Tensor x0 = torch::randn({300, 256}) * 2.0;
+  const torch::Tensor w0 = torch::rand({256}) + 0.5, b0 = torch::rand({256}) * 0.4 - 0.2;
+  const torch::Tensor dy = torch::randn({300, 256});
+  auto run = [&](bool fused) {
+    const torch::Tensor x = x0.clone().requires_grad_(true);
+    const torch::Tensor w = w0.clone().requires_grad_(true), b = b0.clone().requires_grad_(true);
+    const torch::Tensor y = fused ? internal::GeluLayerNormFp32(x, w, b, 1e-6)
+                                  : torch::layer_norm(torch::gelu(x), {256}, w, b, 1e-6);
+    y.backward(dy);
+    return std::vector<torch::Tensor>{y.detach(), x.grad(), w.grad(), b.grad()};
+  };
+  const auto fused = run(true), torch_ops = run(false);
+  const char* names[] = {"output", "input gradient", "weight gradient", "bias gradient"};
+  for (size_t i = 0; i < fused.size(); ++i) {
+    EXPECT_EQ(fused[i].scalar_type(), torch::kFloat32) << names[i];
+    EXPECT_LT(RelativeError(fused[i], torch_ops[i]), 2e-6) << names[i];
+  }
+  // The GELU alone, and its gradient.
+  const torch::Tensor x = x0.clone().requires_grad_(true), xt = x0.clone().requires_grad_(true);
+  const torch::Tensor y = internal::GeluFp32(x), yt = torch::gelu(xt);
+  y.backward(dy);
+  yt.backward(dy);
+  EXPECT_LT(RelativeError(y.detach(), yt.detach()), 2e-6);
+  EXPECT_LT(RelativeError(x.grad(), xt.grad()), 2e-6);
+
+  // A whole Mlp (Linear, GELU, LayerNorm, ..., GELU output) against its layers run
+  // one by one as LibTorch's modules.
+  Mlp mlp(std::vector<int64_t>{16, 256, 256, 8}, /*output_gelu=*/true);
+  const torch::Tensor in = torch::randn({300, 16}) * 3.0, w_out = torch::randn({300, 8});
+  auto grads_of = [&](bool ours) {
+    mlp->zero_grad();
+    torch::Tensor h = in;
+    if (ours) {
+      h = mlp->forward(in);
+    } else {
+      for (auto& layer : *mlp->net) h = layer.forward(h);
+    }
+    (h * w_out).sum().backward();
+    std::vector<torch::Tensor> out{h.detach()};
+    for (const auto& p : mlp->parameters()) out.push_back(p.grad().clone());
+    return out;
+  };
+  const auto ours = grads_of(true), modules = grads_of(false);
+  ASSERT_EQ(ours.size(), modules.size());
+  for (size_t i = 0; i < ours.size(); ++i)
+    EXPECT_LT(RelativeError(ours[i], modules[i]), 1e-5) << (i ? "a gradient" : "the output");
+  EXPECT_THROW(internal::GeluLayerNormFp32(x0.to(torch::kBFloat16), w0, b0, 1e-6), c10::Error);
 }
 
 // The bf16 weight cache: an Mlp under bf16 autocast gives autocast's own

@@ -1,4 +1,4 @@
-#include "layer_norm_bf16.h"
+#include "gelu_layer_norm.h"
 
 #include <ATen/Parallel.h>
 
@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <type_traits>
 #include <vector>
 
 // The row kernels are plain loops that the compiler vectorises; on x86-64 with
@@ -75,49 +76,69 @@ inline float Gelu(float x, float* dgelu) {
   return x * phi_cdf;
 }
 
-MSSPR_ROW_KERNEL
-void GeluForward(const uint16_t* x, uint16_t* y, int64_t begin, int64_t end) {
-#pragma omp simd
-  for (int64_t i = begin; i < end; ++i) y[i] = ToBf16(Gelu(ToFloat(x[i]), nullptr));
+// An activation's storage: bfloat16 bits (uint16_t) or fp32. Load reads one
+// element as fp32, Stored<T> rounds an fp32 value to T's storage, and Kept<T>
+// is the value T keeps (bfloat16's rounding, or fp32 as it is).
+inline float Load(uint16_t v) { return ToFloat(v); }
+inline float Load(float v) { return v; }
+template <typename T>
+inline T Stored(float f);
+template <>
+inline uint16_t Stored<uint16_t>(float f) {
+  return ToBf16(f);
+}
+template <>
+inline float Stored<float>(float f) {
+  return f;
+}
+template <typename T>
+inline float Kept(float f) {
+  return Load(Stored<T>(f));
 }
 
-// dx = dy * GELU'(x); dy bfloat16 (dy16) or fp32 (dy32).
-MSSPR_ROW_KERNEL
-void GeluBackward(const uint16_t* x, const uint16_t* dy16, const float* dy32, uint16_t* dx,
-                  int64_t begin, int64_t end) {
-  if (dy16) {
+template <typename T>
+__attribute__((always_inline)) inline void GeluRows(const T* x, T* y, int64_t begin, int64_t end) {
+#pragma omp simd
+  for (int64_t i = begin; i < end; ++i) y[i] = Stored<T>(Gelu(Load(x[i]), nullptr));
+}
+
+// dx = dy * GELU'(x); dy of the activation's type (dyt) or fp32 (dy32).
+template <typename T>
+__attribute__((always_inline)) inline void GeluBackwardRows(const T* x, const T* dyt,
+                                                            const float* dy32, T* dx, int64_t begin,
+                                                            int64_t end) {
+  if (dyt) {
 #pragma omp simd
     for (int64_t i = begin; i < end; ++i) {
       float d;
-      Gelu(ToFloat(x[i]), &d);
-      dx[i] = ToBf16(ToFloat(dy16[i]) * d);
+      Gelu(Load(x[i]), &d);
+      dx[i] = Stored<T>(Load(dyt[i]) * d);
     }
   } else {
 #pragma omp simd
     for (int64_t i = begin; i < end; ++i) {
       float d;
-      Gelu(ToFloat(x[i]), &d);
-      dx[i] = ToBf16(dy32[i] * d);
+      Gelu(Load(x[i]), &d);
+      dx[i] = Stored<T>(dy32[i] * d);
     }
   }
 }
 
-// LayerNorm over rows of x (kGelu false), or of u = bf16(GELU(x)): the GELU's
-// output rounded to bfloat16, as a bfloat16 GELU op would hand it on. Inlined
-// into each compiled copy of the kernels below.
-template <bool kGelu>
-__attribute__((always_inline)) inline void NormRows(const uint16_t* x, const float* w,
-                                                    const float* b, uint16_t* y, float* mean,
-                                                    float* rstd, int64_t begin, int64_t end,
-                                                    int64_t d, float eps, float* buf) {
+// LayerNorm over rows of x (kGelu false), or of u = GELU(x) as T keeps it (for
+// bfloat16: rounded, as a bfloat16 GELU op would hand it on). Inlined into each
+// compiled copy of the kernels below.
+template <typename T, bool kGelu>
+__attribute__((always_inline)) inline void NormRows(const T* x, const float* w, const float* b,
+                                                    T* y, float* mean, float* rstd, int64_t begin,
+                                                    int64_t end, int64_t d, float eps, float* buf) {
   const float inv_d = 1.0f / static_cast<float>(d);
   for (int64_t r = begin; r < end; ++r) {
-    const uint16_t* xr = x + r * d;
-    uint16_t* yr = y + r * d;
+    const T* xr = x + r * d;
+    T* yr = y + r * d;
     float s = 0.0f;
 #pragma omp simd reduction(+ : s)
     for (int64_t i = 0; i < d; ++i) {
-      const float v = kGelu ? ToFloat(ToBf16(Gelu(ToFloat(xr[i]), nullptr))) : ToFloat(xr[i]);
+      const float v = kGelu ? Kept<T>(Gelu(Load(xr[i]), nullptr)) : Load(xr[i]);
       buf[i] = v;
       s += v;
     }
@@ -130,31 +151,31 @@ __attribute__((always_inline)) inline void NormRows(const uint16_t* x, const flo
     }
     const float rs = 1.0f / std::sqrt(q * inv_d + eps);
 #pragma omp simd
-    for (int64_t i = 0; i < d; ++i) yr[i] = ToBf16((buf[i] - m) * rs * w[i] + b[i]);
+    for (int64_t i = 0; i < d; ++i) yr[i] = Stored<T>((buf[i] - m) * rs * w[i] + b[i]);
     mean[r] = m;
     rstd[r] = rs;
   }
 }
 
 // The LayerNorm's backward: dx = rstd * (g - mean(g) - xhat * mean(g * xhat)) with
-// g = dy * weight; dweight += dy * xhat and dbias += dy over the rows. dy is
-// bfloat16 (dy16) or fp32 (dy32). With kGelu, the GELU's backward follows:
-// dx = bf16(du) * GELU'(x), du the LayerNorm's dx rounded to bfloat16.
-template <bool kGelu>
-__attribute__((always_inline)) inline void NormBackwardRows(const uint16_t* x, const uint16_t* dy16,
+// g = dy * weight; dweight += dy * xhat and dbias += dy over the rows. dy is of
+// the activation's type (dyt) or fp32 (dy32). With kGelu, the GELU's backward
+// follows: dx = du * GELU'(x), du the LayerNorm's dx as T keeps it.
+template <typename T, bool kGelu>
+__attribute__((always_inline)) inline void NormBackwardRows(const T* x, const T* dyt,
                                                             const float* dy32, const float* w,
                                                             const float* mean, const float* rstd,
-                                                            uint16_t* dx, float* dw, float* db,
+                                                            T* dx, float* dw, float* db,
                                                             int64_t begin, int64_t end, int64_t d,
                                                             float* xh, float* gw, float* dg) {
   const float inv_d = 1.0f / static_cast<float>(d);
   for (int64_t r = begin; r < end; ++r) {
-    const uint16_t* xr = x + r * d;
+    const T* xr = x + r * d;
     const float m = mean[r], rs = rstd[r];
-    if (dy16) {
-      const uint16_t* gr = dy16 + r * d;
+    if (dyt) {
+      const T* gr = dyt + r * d;
 #pragma omp simd
-      for (int64_t i = 0; i < d; ++i) gw[i] = ToFloat(gr[i]);
+      for (int64_t i = 0; i < d; ++i) gw[i] = Load(gr[i]);
     } else {
       std::memcpy(gw, dy32 + r * d, sizeof(float) * static_cast<size_t>(d));
     }
@@ -162,7 +183,7 @@ __attribute__((always_inline)) inline void NormBackwardRows(const uint16_t* x, c
 #pragma omp simd reduction(+ : s1, s2)
     for (int64_t i = 0; i < d; ++i) {
       float dgelu = 1.0f;
-      const float u = kGelu ? ToFloat(ToBf16(Gelu(ToFloat(xr[i]), &dgelu))) : ToFloat(xr[i]);
+      const float u = kGelu ? Kept<T>(Gelu(Load(xr[i]), &dgelu)) : Load(xr[i]);
       const float xhat = (u - m) * rs;
       const float g = gw[i];
       db[i] += g;
@@ -175,67 +196,89 @@ __attribute__((always_inline)) inline void NormBackwardRows(const uint16_t* x, c
       s2 += gwi * xhat;
     }
     const float c1 = s1 * inv_d, c2 = s2 * inv_d;
-    uint16_t* dxr = dx + r * d;
+    T* dxr = dx + r * d;
 #pragma omp simd
     for (int64_t i = 0; i < d; ++i) {
       const float du = rs * (gw[i] - c1 - xh[i] * c2);
-      dxr[i] = kGelu ? ToBf16(ToFloat(ToBf16(du)) * dg[i]) : ToBf16(du);
+      dxr[i] = kGelu ? Stored<T>(Kept<T>(du) * dg[i]) : Stored<T>(du);
     }
   }
 }
 
-MSSPR_ROW_KERNEL
-void ForwardRows(const uint16_t* x, const float* w, const float* b, uint16_t* y, float* mean,
-                 float* rstd, int64_t begin, int64_t end, int64_t d, float eps, float* buf) {
-  NormRows<false>(x, w, b, y, mean, rstd, begin, end, d, eps, buf);
-}
-
-MSSPR_ROW_KERNEL
-void GeluForwardRows(const uint16_t* x, const float* w, const float* b, uint16_t* y, float* mean,
-                     float* rstd, int64_t begin, int64_t end, int64_t d, float eps, float* buf) {
-  NormRows<true>(x, w, b, y, mean, rstd, begin, end, d, eps, buf);
-}
-
-MSSPR_ROW_KERNEL
-void BackwardRows(const uint16_t* x, const uint16_t* dy16, const float* dy32, const float* w,
-                  const float* mean, const float* rstd, uint16_t* dx, float* dw, float* db,
-                  int64_t begin, int64_t end, int64_t d, float* xh, float* gw) {
-  NormBackwardRows<false>(x, dy16, dy32, w, mean, rstd, dx, dw, db, begin, end, d, xh, gw, nullptr);
-}
-
-MSSPR_ROW_KERNEL
-void GeluBackwardRows(const uint16_t* x, const uint16_t* dy16, const float* dy32, const float* w,
-                      const float* mean, const float* rstd, uint16_t* dx, float* dw, float* db,
-                      int64_t begin, int64_t end, int64_t d, float* xh, float* gw, float* dg) {
-  NormBackwardRows<true>(x, dy16, dy32, w, mean, rstd, dx, dw, db, begin, end, d, xh, gw, dg);
-}
+// The compiled kernels, one overload per storage type (target_clones takes
+// plain functions, not templates).
+#define MSSPR_DEFINE_ROW_KERNELS(T)                                                               \
+  MSSPR_ROW_KERNEL void GeluForward(const T* x, T* y, int64_t begin, int64_t end) {               \
+    GeluRows<T>(x, y, begin, end);                                                                \
+  }                                                                                               \
+  MSSPR_ROW_KERNEL void GeluBackward(const T* x, const T* dyt, const float* dy32, T* dx,          \
+                                     int64_t begin, int64_t end) {                                \
+    GeluBackwardRows<T>(x, dyt, dy32, dx, begin, end);                                            \
+  }                                                                                               \
+  MSSPR_ROW_KERNEL void ForwardRows(bool gelu, const T* x, const float* w, const float* b, T* y,  \
+                                    float* mean, float* rstd, int64_t begin, int64_t end,         \
+                                    int64_t d, float eps, float* buf) {                           \
+    if (gelu)                                                                                     \
+      NormRows<T, true>(x, w, b, y, mean, rstd, begin, end, d, eps, buf);                         \
+    else                                                                                          \
+      NormRows<T, false>(x, w, b, y, mean, rstd, begin, end, d, eps, buf);                        \
+  }                                                                                               \
+  MSSPR_ROW_KERNEL void BackwardRows(bool gelu, const T* x, const T* dyt, const float* dy32,      \
+                                     const float* w, const float* mean, const float* rstd, T* dx, \
+                                     float* dw, float* db, int64_t begin, int64_t end, int64_t d, \
+                                     float* xh, float* gw, float* dg) {                           \
+    if (gelu)                                                                                     \
+      NormBackwardRows<T, true>(x, dyt, dy32, w, mean, rstd, dx, dw, db, begin, end, d, xh, gw,   \
+                                dg);                                                              \
+    else                                                                                          \
+      NormBackwardRows<T, false>(x, dyt, dy32, w, mean, rstd, dx, dw, db, begin, end, d, xh, gw,  \
+                                 dg);                                                             \
+  }
+MSSPR_DEFINE_ROW_KERNELS(uint16_t)
+MSSPR_DEFINE_ROW_KERNELS(float)
+#undef MSSPR_DEFINE_ROW_KERNELS
 
 // Rows per parallel chunk: small enough to spread a batch over threads, large
 // enough that a thread's hand-off costs less than its rows.
 constexpr int64_t kGrain = 64;
 
-const uint16_t* Bits(const torch::Tensor& t) {
+// The elements of a CPU tensor as the kernels read them.
+template <typename T>
+const T* Data(const torch::Tensor& t);
+template <>
+const uint16_t* Data<uint16_t>(const torch::Tensor& t) {
   return reinterpret_cast<const uint16_t*>(t.data_ptr<at::BFloat16>());
 }
-uint16_t* MutableBits(torch::Tensor& t) {
-  return reinterpret_cast<uint16_t*>(t.data_ptr<at::BFloat16>());
+template <>
+const float* Data<float>(const torch::Tensor& t) {
+  return t.data_ptr<float>();
+}
+template <typename T>
+T* MutableData(torch::Tensor& t) {
+  return const_cast<T*>(Data<T>(t));
 }
 
-// An incoming gradient as the backward kernels read it: bfloat16 as it comes,
-// anything else as fp32; contiguous. Exactly one of bf16 and fp32 is set.
+// An incoming gradient as the backward kernels read it: of the activation's type
+// (T) as it comes, anything else as fp32; contiguous. Exactly one of same and
+// fp32 is set.
+template <typename T>
 struct GradIn {
   explicit GradIn(const torch::Tensor& dy)
-      : t((dy.scalar_type() == torch::kBFloat16 ? dy : dy.to(torch::kFloat32)).contiguous()),
-        bf16(t.scalar_type() == torch::kBFloat16 ? Bits(t) : nullptr),
-        fp32(bf16 ? nullptr : t.data_ptr<float>()) {}
+      : t((dy.scalar_type() == kType ? dy : dy.to(torch::kFloat32)).contiguous()),
+        same(t.scalar_type() == kType ? Data<T>(t) : nullptr),
+        fp32(same ? nullptr : t.data_ptr<float>()) {}
+  static constexpr torch::ScalarType kType =
+      std::is_same<T, float>::value ? torch::kFloat32 : torch::kBFloat16;
   torch::Tensor t;
-  const uint16_t* bf16;
+  const T* same;
   const float* fp32;
 };
 
-class LayerNormBf16Fn : public torch::autograd::Function<LayerNormBf16Fn> {
+// LayerNorm (optionally of GELU(x)) over the last dimension of a CPU activation
+// stored as T; statistics and arithmetic in fp32.
+template <typename T>
+class RowNormFn : public torch::autograd::Function<RowNormFn<T>> {
  public:
-  // gelu: the LayerNorm of bf16(GELU(x)) (GeluLayerNormBf16).
   static torch::Tensor forward(torch::autograd::AutogradContext* ctx, const torch::Tensor& x_in,
                                const torch::Tensor& weight, const torch::Tensor& bias, double eps,
                                bool gelu) {
@@ -245,17 +288,14 @@ class LayerNormBf16Fn : public torch::autograd::Function<LayerNormBf16Fn> {
     torch::Tensor y = torch::empty_like(x);
     torch::Tensor mean = torch::empty({rows}, x.options().dtype(torch::kFloat32));
     torch::Tensor rstd = torch::empty({rows}, x.options().dtype(torch::kFloat32));
-    const uint16_t* xp = Bits(x);
-    uint16_t* yp = MutableBits(y);
+    const T* xp = Data<T>(x);
+    T* yp = MutableData<T>(y);
     const float *wp = w.data_ptr<float>(), *bp = b.data_ptr<float>();
     float *mp = mean.data_ptr<float>(), *rp = rstd.data_ptr<float>();
     const float e = static_cast<float>(eps);
     at::parallel_for(0, rows, kGrain, [&](int64_t begin, int64_t end) {
       std::unique_ptr<float[]> buf(new float[static_cast<size_t>(d)]);
-      if (gelu)
-        GeluForwardRows(xp, wp, bp, yp, mp, rp, begin, end, d, e, buf.get());
-      else
-        ForwardRows(xp, wp, bp, yp, mp, rp, begin, end, d, e, buf.get());
+      ForwardRows(gelu, xp, wp, bp, yp, mp, rp, begin, end, d, e, buf.get());
     });
     ctx->save_for_backward({x, w, mean, rstd});
     ctx->saved_data["gelu"] = gelu;
@@ -268,28 +308,22 @@ class LayerNormBf16Fn : public torch::autograd::Function<LayerNormBf16Fn> {
     const torch::Tensor &x = saved[0], &w = saved[1], &mean = saved[2], &rstd = saved[3];
     const bool gelu = ctx->saved_data["gelu"].toBool();
     const int64_t d = x.size(-1), rows = d > 0 ? x.numel() / d : 0;
-    const GradIn dy(grads[0]);
+    const GradIn<T> dy(grads[0]);
     torch::Tensor dx = torch::empty_like(x);
     // Per-thread partial sums of dweight and dbias, added up after.
     const int64_t threads = std::max<int64_t>(1, at::get_num_threads());
     torch::Tensor partial = torch::zeros({threads, 2, d}, x.options().dtype(torch::kFloat32));
-    const uint16_t* xp = Bits(x);
-    const uint16_t* dy16 = dy.bf16;
-    const float* dy32 = dy.fp32;
+    const T* xp = Data<T>(x);
     const float *wp = w.data_ptr<float>(), *mp = mean.data_ptr<float>(),
                 *rp = rstd.data_ptr<float>();
-    uint16_t* dxp = MutableBits(dx);
+    T* dxp = MutableData<T>(dx);
     float* pp = partial.data_ptr<float>();
     at::parallel_for(0, rows, kGrain, [&](int64_t begin, int64_t end) {
       const int64_t t = std::min<int64_t>(at::get_thread_num(), threads - 1);
       std::unique_ptr<float[]> buf(new float[3 * static_cast<size_t>(d)]);
       float *dw = pp + (t * 2) * d, *db = pp + (t * 2 + 1) * d;
-      if (gelu)
-        GeluBackwardRows(xp, dy16, dy32, wp, mp, rp, dxp, dw, db, begin, end, d, buf.get(),
-                         buf.get() + d, buf.get() + 2 * d);
-      else
-        BackwardRows(xp, dy16, dy32, wp, mp, rp, dxp, dw, db, begin, end, d, buf.get(),
-                     buf.get() + d);
+      BackwardRows(gelu, xp, dy.same, dy.fp32, wp, mp, rp, dxp, dw, db, begin, end, d, buf.get(),
+                   buf.get() + d, buf.get() + 2 * d);
     });
     const torch::Tensor sums = threads == 1 ? partial[0] : partial.sum(0);
     return {dx, sums[0], sums[1], torch::Tensor(), torch::Tensor()};
@@ -299,13 +333,14 @@ class LayerNormBf16Fn : public torch::autograd::Function<LayerNormBf16Fn> {
 // Elements per parallel chunk of the elementwise GELU.
 constexpr int64_t kGeluGrain = 16384;
 
-class GeluBf16Fn : public torch::autograd::Function<GeluBf16Fn> {
+template <typename T>
+class GeluFn : public torch::autograd::Function<GeluFn<T>> {
  public:
   static torch::Tensor forward(torch::autograd::AutogradContext* ctx, const torch::Tensor& x_in) {
     const torch::Tensor x = x_in.contiguous();
     torch::Tensor y = torch::empty_like(x);
-    const uint16_t* xp = Bits(x);
-    uint16_t* yp = MutableBits(y);
+    const T* xp = Data<T>(x);
+    T* yp = MutableData<T>(y);
     at::parallel_for(0, x.numel(), kGeluGrain,
                      [&](int64_t begin, int64_t end) { GeluForward(xp, yp, begin, end); });
     ctx->save_for_backward({x});
@@ -315,21 +350,21 @@ class GeluBf16Fn : public torch::autograd::Function<GeluBf16Fn> {
   static torch::autograd::tensor_list backward(torch::autograd::AutogradContext* ctx,
                                                torch::autograd::tensor_list grads) {
     const torch::Tensor x = ctx->get_saved_variables()[0];
-    const GradIn dy(grads[0]);
+    const GradIn<T> dy(grads[0]);
     torch::Tensor dx = torch::empty_like(x);
-    const uint16_t* xp = Bits(x);
-    uint16_t* dxp = MutableBits(dx);
+    const T* xp = Data<T>(x);
+    T* dxp = MutableData<T>(dx);
     at::parallel_for(0, x.numel(), kGeluGrain, [&](int64_t begin, int64_t end) {
-      GeluBackward(xp, dy.bf16, dy.fp32, dxp, begin, end);
+      GeluBackward(xp, dy.same, dy.fp32, dxp, begin, end);
     });
     return {dx};
   }
 };
 
-void CheckNormArgs(const char* op, const torch::Tensor& x, const torch::Tensor& weight,
-                   const torch::Tensor& bias) {
-  TORCH_CHECK(UseLayerNormBf16(x), op, " takes a bfloat16 CPU tensor, got ", x.scalar_type(),
-              " on ", x.device());
+void CheckNormArgs(const char* op, bool takes_x, const char* x_kind, const torch::Tensor& x,
+                   const torch::Tensor& weight, const torch::Tensor& bias) {
+  TORCH_CHECK(takes_x, op, " takes a ", x_kind, " CPU tensor, got ", x.scalar_type(), " on ",
+              x.device());
   TORCH_CHECK(weight.scalar_type() == torch::kFloat32 && bias.scalar_type() == torch::kFloat32, op,
               " takes fp32 weight and bias");
   TORCH_CHECK(x.dim() >= 1 && weight.numel() == x.size(-1) && bias.numel() == x.size(-1), op,
@@ -341,20 +376,32 @@ void CheckNormArgs(const char* op, const torch::Tensor& x, const torch::Tensor& 
 
 torch::Tensor LayerNormBf16(const torch::Tensor& x, const torch::Tensor& weight,
                             const torch::Tensor& bias, double eps) {
-  CheckNormArgs("LayerNormBf16", x, weight, bias);
-  return LayerNormBf16Fn::apply(x, weight, bias, eps, false);
+  CheckNormArgs("LayerNormBf16", UseLayerNormBf16(x), "bfloat16", x, weight, bias);
+  return RowNormFn<uint16_t>::apply(x, weight, bias, eps, false);
 }
 
 torch::Tensor GeluLayerNormBf16(const torch::Tensor& x, const torch::Tensor& weight,
                                 const torch::Tensor& bias, double eps) {
-  CheckNormArgs("GeluLayerNormBf16", x, weight, bias);
-  return LayerNormBf16Fn::apply(x, weight, bias, eps, true);
+  CheckNormArgs("GeluLayerNormBf16", UseLayerNormBf16(x), "bfloat16", x, weight, bias);
+  return RowNormFn<uint16_t>::apply(x, weight, bias, eps, true);
 }
 
 torch::Tensor GeluBf16(const torch::Tensor& x) {
   TORCH_CHECK(UseLayerNormBf16(x), "GeluBf16 takes a bfloat16 CPU tensor, got ", x.scalar_type(),
               " on ", x.device());
-  return GeluBf16Fn::apply(x);
+  return GeluFn<uint16_t>::apply(x);
+}
+
+torch::Tensor GeluLayerNormFp32(const torch::Tensor& x, const torch::Tensor& weight,
+                                const torch::Tensor& bias, double eps) {
+  CheckNormArgs("GeluLayerNormFp32", UseFusedFp32(x), "float32", x, weight, bias);
+  return RowNormFn<float>::apply(x, weight, bias, eps, true);
+}
+
+torch::Tensor GeluFp32(const torch::Tensor& x) {
+  TORCH_CHECK(UseFusedFp32(x), "GeluFp32 takes a float32 CPU tensor, got ", x.scalar_type(), " on ",
+              x.device());
+  return GeluFn<float>::apply(x);
 }
 
 }  // namespace internal
