@@ -2,10 +2,15 @@
 
 #include <exception>
 
+#include "msspr_core/process_env.h"
 #include "policy_node.h"
 #include "robot_server.h"
 
 int main(int argc, char** argv) {
+  // As the tools: OpenMP threads that sleep while they wait, and OpenBLAS's
+  // kernels for this CPU, so that a policy acts here exactly as it does in
+  // msspr_eval_inprocess (process_env.h).
+  msspr::core::ReexecWithToolEnvironment(argv);
   ros::init(argc, argv, "msspr_policy_node");
   ros::NodeHandle nh, pnh("~");
   try {

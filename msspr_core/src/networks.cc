@@ -29,10 +29,19 @@ MlpImpl::MlpImpl(const std::vector<int64_t>& sizes, bool output_gelu, bool layer
 }
 
 namespace {
-// GELU (exact, erf): one op on a bfloat16 or float32 CPU tensor, LibTorch's otherwise.
+// The fp32 fused ops serve training (an activation that autograd tracks). Without
+// a graph (Act, evaluation, target networks) LibTorch's ops run, so that a
+// trained policy acts as it did before they existed, bit for bit, and every
+// figure measured from a shipped checkpoint reproduces.
+bool UseFusedFp32ForTraining(const torch::Tensor& h) {
+  return h.requires_grad() && internal::UseFusedFp32(h);
+}
+
+// GELU (exact, erf): one op on a bfloat16 CPU tensor or a tracked float32 one,
+// LibTorch's otherwise.
 torch::Tensor Gelu(const torch::Tensor& h) {
   if (internal::UseLayerNormBf16(h)) return internal::GeluBf16(h);
-  if (internal::UseFusedFp32(h)) return internal::GeluFp32(h);
+  if (UseFusedFp32ForTraining(h)) return internal::GeluFp32(h);
   return torch::gelu(h);
 }
 
@@ -52,8 +61,9 @@ torch::Tensor MlpForward(MlpImpl& mlp, const torch::Tensor& x, bool fp32_output)
   // LayerNorm (fp32 weights) is computed in fp32. On the CPU one op does it
   // and returns bfloat16 for the next Linear (internal::LayerNormBf16), with
   // the GELU before it (internal::GeluLayerNormBf16); elsewhere its input is
-  // cast up here. In fp32 on the CPU the GELU and the LayerNorm after it are one
-  // op too (internal::GeluLayerNormFp32), and the casts are no-ops.
+  // cast up here. In fp32 on the CPU, in training, the GELU and the LayerNorm
+  // after it are one op too (internal::GeluLayerNormFp32), and the casts are
+  // no-ops.
   torch::Tensor h = x;
   nn::Sequential& net = mlp.net;
   for (auto it = net->begin(); it != net->end(); ++it) {
@@ -69,7 +79,7 @@ torch::Tensor MlpForward(MlpImpl& mlp, const torch::Tensor& x, bool fp32_output)
       if (norm && internal::UseLayerNormBf16(h)) {
         h = internal::GeluLayerNormBf16(h, norm->weight, norm->bias, norm->options.eps());
         it = next;
-      } else if (norm && internal::UseFusedFp32(h)) {
+      } else if (norm && UseFusedFp32ForTraining(h)) {
         h = internal::GeluLayerNormFp32(h, norm->weight, norm->bias, norm->options.eps());
         it = next;
       } else {

@@ -160,10 +160,11 @@ TEST(NetworksTest, Bf16GeluLayerNormEqualsGeluThenLayerNormBitForBit) {
   EXPECT_EQ(fused[1].scalar_type(), torch::kBFloat16);
 }
 
-// In fp32 on the CPU, GELU and the LayerNorm after it run as one op each way:
-// LibTorch's torch::gelu then torch::layer_norm to within fp32 rounding, in the
-// output and in every gradient, over more rows than one parallel chunk; and an
-// Mlp built on them gives LibTorch's own layers' outputs and gradients.
+// In fp32 on the CPU, in training, GELU and the LayerNorm after it run as one op
+// each way: LibTorch's torch::gelu then torch::layer_norm to within fp32
+// rounding, in the output and in every gradient, over more rows than one
+// parallel chunk; an Mlp built on them gives LibTorch's own layers' outputs and
+// gradients; without a graph the Mlp is LibTorch's layers bit for bit.
 TEST(NetworksTest, Fp32GeluLayerNormEqualsLibTorchsGeluThenLayerNormToFp32Rounding) {
   torch::manual_seed(0);
   const torch::Tensor x0 = torch::randn({300, 256}) * 2.0;
@@ -213,6 +214,11 @@ TEST(NetworksTest, Fp32GeluLayerNormEqualsLibTorchsGeluThenLayerNormToFp32Roundi
   for (size_t i = 0; i < ours.size(); ++i)
     EXPECT_LT(RelativeError(ours[i], modules[i]), 1e-5) << (i ? "a gradient" : "the output");
   EXPECT_THROW(internal::GeluLayerNormFp32(x0.to(torch::kBFloat16), w0, b0, 1e-6), c10::Error);
+  // Without a graph (acting, evaluating) the Mlp runs LibTorch's own ops: bit for bit.
+  torch::NoGradGuard no_grad;
+  torch::Tensor h = in;
+  for (auto& layer : *mlp->net) h = layer.forward(h);
+  EXPECT_TRUE(torch::equal(mlp->forward(in), h));
 }
 
 // The bf16 weight cache: an Mlp under bf16 autocast gives autocast's own
