@@ -463,6 +463,9 @@ int TrainRun(const CliRequest& req, const RunDir& dir, const DistributedOptions&
   const std::string data_path = flag("data"), val_path = flag("val");
   if (req.print_options && data_path.empty()) {
     std::cout << OptionsToYaml(options);
+    // Where trainer.precision came from ("auto: ..." when resolved on this CPU).
+    std::cerr << ext.program << ": precision " << options.trainer.precision << " (" << precision_why
+              << ")\n";
     return 0;
   }
   if (data_path.empty())

@@ -274,6 +274,34 @@ class MssprCompareTest(unittest.TestCase):
             self.assertIn("--eval-every 5000 --eval-episodes 50 --eval-seed 0", out, g)
             self.assertFalse(os.path.exists(self.out), "--dry-run wrote nothing")
 
+    def test_auto_precision_is_fingerprinted_alike_on_every_cpu(self):
+        # trainer.precision auto resolves by CPU kind (bf16 or fp32); the fingerprint of a run's
+        # options takes it as on a CPU with fast bfloat16, so it equals an explicit bf16's on
+        # every machine, and an explicit fp32 stays apart.
+        import importlib.util
+        from importlib.machinery import SourceFileLoader
+        loader = SourceFileLoader("msspr_compare_module", TOOL)
+        compare = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
+        loader.exec_module(compare)
+        sha = {}
+        for precision in ("auto", "bf16", "fp32"):
+            layer = os.path.join(self.tmp, f"precision_{precision}.yaml")
+            with open(layer, "w") as f:
+                f.write(f"trainer: {{precision: {precision}}}\n")
+            sha[precision] = compare.resolved_options_sha256(None, [os.path.join(self.tmp, "tiny_mspr.yaml"), layer])
+        self.assertEqual(sha["auto"], sha["bf16"])
+        self.assertNotEqual(sha["auto"], sha["fp32"])
+
+    def test_finished_records_of_the_shipped_grids_are_finished_on_this_cpu(self):
+        # A record made on one machine is a finished run on another, whatever its CPU resolves
+        # precision auto to: not refused as changed.
+        for name in ("hard_tasks", "precision"):
+            rc, out = self.compare("run", os.path.join(ROOT, "config", "grids", name + ".yaml"),
+                                   "--out", os.path.join(self.tmp, "dry_" + name),
+                                   "--records", os.path.join(ROOT, "docs", "grids", name), "--dry-run")
+            self.assertEqual(rc, 0, name + ": " + out)
+            self.assertNotIn("refused", out.replace("0 refused", ""), name + ": " + out)
+
     def test_bad_grid_is_an_error_naming_the_problem(self):
         with open(self.grid, "a") as f:
             f.write("bogus: 1\n")
