@@ -38,3 +38,29 @@ blas_env() {
 ref_label() {
   if [ "$2" = own ]; then echo "$1"; else echo "$1, OPENBLAS_CORETYPE=$2"; fi
 }
+
+ms_of() {  # the ms_per_step of the last JSON line on stdin, or null
+  /usr/bin/python3 -c 'import json,sys
+lines=[l for l in sys.stdin.read().splitlines() if "ms_per_step" in l]
+print(json.loads(lines[-1])["ms_per_step"] if lines else "null")' 2>/dev/null || echo null
+}
+
+# time_reference REF THREADS STEPS "POLICIES" "CORES": the eager reference REF
+# (--time_only, STEPS timed steps after 20, 100 episodes) at THREADS threads under
+# each OpenMP wait policy and OpenBLAS kernels (ref_blas_cores); sets REF_TIMES to
+# a JSON object {label (ref_label): ms per step or null}.
+time_reference() {
+  local ref=$1 threads=$2 steps=$3 policies=$4 cores=$5 pol core label ms
+  REF_TIMES="{"
+  for pol in $policies; do
+    for core in $cores; do
+      label=$(ref_label "$pol" "$core")
+      echo "[bench] reference (eager PyTorch), $threads thread(s), OpenMP wait policy $label"
+      # shellcheck disable=SC2046  # blas_env prints env(1)'s arguments
+      ms=$(with_policy ref "$pol" env $(blas_env "$core") /usr/bin/python3 "$ref" --time_only \
+             --steps $((steps + 20)) --episodes 100 --threads "$threads" 2>/dev/null | ms_of)
+      REF_TIMES+="\"$label\": $ms, "
+    done
+  done
+  REF_TIMES="${REF_TIMES%, }}"
+}

@@ -74,20 +74,8 @@ else
   if [ -f "$REF" ] && /usr/bin/python3 -c 'import torch' 2>/dev/null; then
     ref_cores=$(ref_blas_cores "$BIN/msspr_train" | tr '\n' ' ')
     for threads in 1 2; do
-      times="{"
-      for pol in $REF_POLICIES; do
-        for core in $ref_cores; do
-          label=$(ref_label "$pol" "$core")
-          echo "[bench] reference (eager PyTorch), $threads thread(s), OpenMP wait policy $label"
-          # shellcheck disable=SC2046  # blas_env prints env(1)'s arguments
-          ms=$(with_policy ref "$pol" env $(blas_env "$core") /usr/bin/python3 "$REF" --time_only \
-                 --steps $((REF_STEPS + 20)) --episodes 100 --threads "$threads" 2>/dev/null |
-               grep ms_per_step | tail -1 |
-               /usr/bin/python3 -c 'import json,sys; print(json.loads(sys.stdin.read())["ms_per_step"])' 2>/dev/null || echo null)
-          times+="\"$label\": $ms, "
-        done
-      done
-      ref_rows+=("{\"threads\": $threads, \"reference_ms_by_policy\": ${times%, }}}")
+      time_reference "$REF" "$threads" "$REF_STEPS" "$REF_POLICIES" "$ref_cores"
+      ref_rows+=("{\"threads\": $threads, \"reference_ms_by_policy\": $REF_TIMES}")
     done
   else
     echo "[bench] train_cli_vs_reference: no reference ($REF) or no python3-torch; msspr_train alone"

@@ -48,11 +48,6 @@ spin_count() {
         sed -n "s/.*GOMP_SPINCOUNT = '\([0-9]*\)'.*/\1/p" | tail -1)
   echo "${n:-null}"
 }
-ms_of() {  # the ms_per_step of the last JSON line on stdin, or null
-  /usr/bin/python3 -c 'import json,sys
-lines=[l for l in sys.stdin.read().splitlines() if "ms_per_step" in l]
-print(json.loads(lines[-1])["ms_per_step"] if lines else "null")' 2>/dev/null || echo null
-}
 
 # The CPU-scale pixel step: the shipped preset against the earlier one (Impala CNN on
 # 64x64, batch 32, fp32), synthetic 64x64 images, 1 thread. Under the caller's
@@ -115,18 +110,8 @@ REF_CORES=$(ref_blas_cores "$BENCH" | tr '\n' ' ')
 echo "[bench] reference timed under OpenBLAS kernels: $REF_CORES(own = OpenBLAS's pick)"
 rows=()
 for threads in 1 2; do
-  ref_times="{"
-  for pol in $POLICIES; do
-    for core in $REF_CORES; do
-      label=$(ref_label "$pol" "$core")
-      echo "[bench] reference (eager PyTorch), $threads thread(s), OpenMP wait policy $label"
-      # shellcheck disable=SC2046  # blas_env prints env(1)'s arguments
-      ms=$(with_policy ref "$pol" env $(blas_env "$core") /usr/bin/python3 "$REF" --time_only \
-             --steps $((STEPS + 20)) --episodes 100 --threads "$threads" 2>/dev/null | ms_of)
-      ref_times+="\"$label\": $ms, "
-    done
-  done
-  ref_times="${ref_times%, }}"
+  time_reference "$REF" "$threads" "$STEPS" "$POLICIES" "$REF_CORES"
+  ref_times=$REF_TIMES
   for precision in fp32 bf16; do
     ours_times="{"
     for pol in $POLICIES; do

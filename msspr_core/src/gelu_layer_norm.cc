@@ -361,10 +361,15 @@ class GeluFn : public torch::autograd::Function<GeluFn<T>> {
   }
 };
 
-void CheckNormArgs(const char* op, bool takes_x, const char* x_kind, const torch::Tensor& x,
-                   const torch::Tensor& weight, const torch::Tensor& bias) {
+// x is the CPU tensor op takes (takes_x: of x_kind, "bfloat16" or "float32").
+void CheckInput(const char* op, bool takes_x, const char* x_kind, const torch::Tensor& x) {
   TORCH_CHECK(takes_x, op, " takes a ", x_kind, " CPU tensor, got ", x.scalar_type(), " on ",
               x.device());
+}
+
+void CheckNormArgs(const char* op, bool takes_x, const char* x_kind, const torch::Tensor& x,
+                   const torch::Tensor& weight, const torch::Tensor& bias) {
+  CheckInput(op, takes_x, x_kind, x);
   TORCH_CHECK(weight.scalar_type() == torch::kFloat32 && bias.scalar_type() == torch::kFloat32, op,
               " takes fp32 weight and bias");
   TORCH_CHECK(x.dim() >= 1 && weight.numel() == x.size(-1) && bias.numel() == x.size(-1), op,
@@ -387,8 +392,7 @@ torch::Tensor GeluLayerNormBf16(const torch::Tensor& x, const torch::Tensor& wei
 }
 
 torch::Tensor GeluBf16(const torch::Tensor& x) {
-  TORCH_CHECK(UseLayerNormBf16(x), "GeluBf16 takes a bfloat16 CPU tensor, got ", x.scalar_type(),
-              " on ", x.device());
+  CheckInput("GeluBf16", UseLayerNormBf16(x), "bfloat16", x);
   return GeluFn<uint16_t>::apply(x);
 }
 
@@ -399,8 +403,7 @@ torch::Tensor GeluLayerNormFp32(const torch::Tensor& x, const torch::Tensor& wei
 }
 
 torch::Tensor GeluFp32(const torch::Tensor& x) {
-  TORCH_CHECK(UseFusedFp32(x), "GeluFp32 takes a float32 CPU tensor, got ", x.scalar_type(), " on ",
-              x.device());
+  CheckInput("GeluFp32", UseFusedFp32(x), "float32", x);
   return GeluFn<float>::apply(x);
 }
 

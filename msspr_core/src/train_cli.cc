@@ -173,13 +173,13 @@ void WriteTextAtomically(const std::string& path, const std::string& text) {
     throw std::runtime_error(path + ": cannot rename " + tmp + " to it: " + std::strerror(errno));
 }
 
-// Where the latest segment ran: the figures in metrics.csv depend on it.
 // ", OpenBLAS kernels SkylakeX" (fp32 products run in them), or "".
 std::string BlasNote() {
   const std::string core = LoadedOpenBlasCore();
   return core.empty() ? "" : ", OpenBLAS kernels " + core;
 }
 
+// Where the latest segment ran: the figures in metrics.csv depend on it.
 std::string HostRecord(const std::string& precision_why) {
   std::ostringstream s;
   s << "# msspr_train: the machine, threads and precision of the run's latest segment\n"
