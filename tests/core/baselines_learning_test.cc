@@ -84,12 +84,14 @@ TEST_P(BaselineLearningTest, PointInSquareReachesGoals) {
 INSTANTIATE_TEST_SUITE_P(
     Agents, BaselineLearningTest,
     // The DDPG+BC agents (small BC weights) learn through their critics: slower.
+    // At the steps given QRL, HIQL and the two bf16 GCIVL cases reached 0.98-1.00 (seed 7);
+    // GCIQL reached 0.33 at 2000 steps and CRL 0.59 at 4000.
     testing::Values(Case{"gcbc", 2000, 0.9}, Case{"gcivl", 2000, 0.9}, Case{"gciql", 4000, 0.9},
-                    Case{"qrl", 2000, 0.9}, Case{"crl", 8000, 0.7}, Case{"hiql", 2000, 0.9},
+                    Case{"qrl", 1000, 0.9}, Case{"crl", 8000, 0.7}, Case{"hiql", 1000, 0.9},
                     // The policy (MakePolicy) acts with the average of the actor.
-                    Case{"gcivl", 2000, 0.9, "bf16", 0.99},
+                    Case{"gcivl", 1000, 0.9, "bf16", 0.99},
                     // From images of the point and the goal.
-                    Case{"gcivl", 2000, 0.9, "bf16", 0, true},
+                    Case{"gcivl", 1000, 0.9, "bf16", 0, true},
                     // HIQL's five CNNs learn slower from images: 0.77 at 2000 steps and
                     // 0.86 at 3000 (Intel Xeon); 0.6 shows it learned (untrained: 0).
                     Case{"hiql", 2000, 0.6, "bf16", 0, true}),

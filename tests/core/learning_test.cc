@@ -17,7 +17,9 @@ namespace {
 using point_square::ExpertDataset;
 using point_square::SuccessRate;
 
-// The small agent of these tests (widths 64, batch 128, 2000 steps, seed 7).
+// The small agent of these tests (widths 64, batch 128, 1000 steps, seed 7). At 1000 steps it
+// reached 0.97-1.00 of the goals: fp32 with seeds 7, 1 and 2; bf16, the AWR actor and the
+// expectile critic target with seeds 7 and 3.
 MsprOptions SmallAgent(const std::string& precision) {
   MsprOptions o = MakePreset("mspr", "cpu");
   o.trainer.precision = precision;
@@ -29,7 +31,7 @@ MsprOptions SmallAgent(const std::string& precision) {
   o.agent.gamma = 0.95;
   o.agent.bc_weight = 0.1;
   o.trainer.batch_size = 128;
-  o.trainer.steps = 2000;
+  o.trainer.steps = 1000;
   o.trainer.seed = 7;
   // Overrides for experiments (the asserted configuration uses neither).
   if (const char* s = std::getenv("MSSPR_LEARNING_STEPS")) o.trainer.steps = std::atoll(s);
@@ -90,10 +92,12 @@ TEST(LearningExpectileCritic, PointInSquareReachesGoals) {
 }
 
 // The subgoal policy (agent.subgoal_steps: the actor toward the state k steps
-// ahead, a subgoal actor proposing it) learns too.
+// ahead, a subgoal actor proposing it) learns too, more slowly (0.93-0.94 at 1000 steps, seeds 7
+// and 3).
 TEST(LearningSubgoalPolicy, PointInSquareReachesGoals) {
   MsprOptions o = SmallAgent("fp32");
   o.agent.subgoal_steps = 5;
+  if (std::getenv("MSSPR_LEARNING_STEPS") == nullptr) o.trainer.steps = 2000;
   ExpectLearnsPointInSquare(o, "fp32, subgoal policy");
 }
 
