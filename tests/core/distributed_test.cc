@@ -2,7 +2,7 @@
 // threads of one process, each with its own TCPStore client and Gloo
 // group) average gradients to the whole batch's and keep identical
 // parameters. The two-process runs of msspr_train (checkpoint, resume,
-// export, a killed rank) are in tests/ros/agent_ros_test.cc.
+// export, a killed rank) are in tests/ros/training/agent_ros_test.cc.
 #include "msspr_core/distributed.h"
 
 #include <gtest/gtest.h>

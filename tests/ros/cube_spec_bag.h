@@ -17,7 +17,7 @@
 #include "msspr_sim/cube_oracle.h"
 #include "msspr_sim_nodes/cube_sim_node.h"
 
-namespace msspr::ros_bridge::test {
+namespace msspr::ros_bridge::spec_bags {
 
 // An arm action's commands, as msspr_policy_node publishes them through the arm's specs:
 // ee_twist and gripper_command under `ns`, 1 ms after `stamp`.
@@ -75,4 +75,4 @@ inline CubeSpecBag WriteCubeSpecBag(const std::string& path, int steps, uint64_t
   return out;
 }
 
-}  // namespace msspr::ros_bridge::test
+}  // namespace msspr::ros_bridge::spec_bags

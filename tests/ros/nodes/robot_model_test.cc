@@ -5,18 +5,13 @@
 
 #include <string>
 
+#include "replace_once.h"
+
 namespace msspr::ros_bridge {
 namespace {
 
 std::string ShippedUrdf() {
   return ReadTextFile(std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/point_robot.urdf");
-}
-
-std::string Replace(std::string s, const std::string& from, const std::string& to) {
-  const size_t at = s.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) s.replace(at, from.size(), to);
-  return s;
 }
 
 // The error CheckPointRobotUrdf gives, or "" when the description passes.
@@ -56,35 +51,39 @@ TEST(RobotModel, DisagreementsNameTheElement) {
   };
   expect(Error(""), "the robot description is empty");
   expect(Error("<robot name='x'><link name='world'/>"), "urdfdom could not parse");
-  expect(Error(Replace(u, "name=\"agent_y\"", "name=\"agent_z\"")),
+  expect(Error(testing_util::ReplaceOnce(u, "name=\"agent_y\"", "name=\"agent_z\"")),
          "joint 'agent_z': joint 2 of the chain must be the simulation's 'agent_y'");
-  expect(Error(Replace(u, "<axis xyz=\"0 1 0\"/>", "<axis xyz=\"1 0 0\"/>")),
+  expect(Error(testing_util::ReplaceOnce(u, "<axis xyz=\"0 1 0\"/>", "<axis xyz=\"1 0 0\"/>")),
          "joint 'agent_y': axis (1 0 0) differs from the simulation's (0 1 0)");
-  expect(Error(Replace(u, "<joint name=\"agent_x\" type=\"prismatic\">",
-                       "<joint name=\"agent_x\" type=\"revolute\">")),
+  expect(Error(testing_util::ReplaceOnce(u, "<joint name=\"agent_x\" type=\"prismatic\">",
+                                         "<joint name=\"agent_x\" type=\"revolute\">")),
          "joint 'agent_x': must be prismatic");
-  expect(Error(Replace(u, "<geometry><sphere radius=\"0.7\"/></geometry>\n      <material",
-                       "<geometry><sphere radius=\"0.5\"/></geometry>\n      <material")),
+  expect(Error(testing_util::ReplaceOnce(
+             u, "<geometry><sphere radius=\"0.7\"/></geometry>\n      <material",
+             "<geometry><sphere radius=\"0.5\"/></geometry>\n      <material")),
          "link 'agent': sphere radius 0.500000 differs from the simulation's 0.700000");
-  expect(Error(Replace(u, "<geometry><sphere radius=\"0.7\"/></geometry>\n    </collision>",
-                       "<geometry><box size=\"1 1 1\"/></geometry>\n    </collision>")),
+  expect(Error(testing_util::ReplaceOnce(
+             u, "<geometry><sphere radius=\"0.7\"/></geometry>\n    </collision>",
+             "<geometry><box size=\"1 1 1\"/></geometry>\n    </collision>")),
          "its collision geometry must be a sphere");
-  expect(Error(Replace(u, "<origin xyz=\"0 0 0.7\" rpy=\"0 0 0\"/>",
-                       "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>")),
+  expect(Error(testing_util::ReplaceOnce(u, "<origin xyz=\"0 0 0.7\" rpy=\"0 0 0\"/>",
+                                         "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>")),
          "lift the agent by 0");
-  expect(Error(Replace(u, "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>",
-                       "<origin xyz=\"0 0 0\" rpy=\"0 0 0.3\"/>")),
+  expect(Error(testing_util::ReplaceOnce(u, "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>",
+                                         "<origin xyz=\"0 0 0\" rpy=\"0 0 0.3\"/>")),
          "joint 'agent_y': origin rpy must be 0 0 0");
   // Limits that fit the medium maze but not the giant one.
-  const std::string small =
-      Replace(Replace(u, "<limit lower=\"-10\" upper=\"60\"", "<limit lower=\"-6\" upper=\"30\""),
-              "<limit lower=\"-10\" upper=\"60\"", "<limit lower=\"-6\" upper=\"30\"");
+  const std::string small = testing_util::ReplaceOnce(
+      testing_util::ReplaceOnce(u, "<limit lower=\"-10\" upper=\"60\"",
+                                "<limit lower=\"-6\" upper=\"30\""),
+      "<limit lower=\"-10\" upper=\"60\"", "<limit lower=\"-6\" upper=\"30\"");
   EXPECT_EQ(Error(small, "medium"), "");
   expect(Error(small, "giant"),
          "joint 'agent_x': limits [-6.000000, 30.000000] do not cover maze giant");
   // A world frame by another name, a missing agent link.
-  expect(Error(Replace(Replace(u, "<link name=\"world\"/>", "<link name=\"map\"/>"),
-                       "<parent link=\"world\"/>", "<parent link=\"map\"/>")),
+  expect(Error(testing_util::ReplaceOnce(
+             testing_util::ReplaceOnce(u, "<link name=\"world\"/>", "<link name=\"map\"/>"),
+             "<parent link=\"world\"/>", "<parent link=\"map\"/>")),
          "the root link is 'map', expected the world frame 'world'");
   sim::PointMaze env(sim::PointMazeOptions{});
   EXPECT_THROW(CheckPointRobotUrdf(u, "x", env, "world", "base_link"), std::runtime_error);

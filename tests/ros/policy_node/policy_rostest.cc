@@ -1,5 +1,5 @@
 // rostest scenarios of msspr_policy_node (one suite per .test file, see
-// tests/ros/policy_*.test).
+// tests/ros/policy_node/policy_*.test).
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <poll.h>

@@ -67,7 +67,7 @@ void ExpectSpecReadsTheSim(
       typename Env::Action a = act(env);
       for (auto& v : a) v = std::clamp(v, -1.0, 1.0);
       actions.push_back(a);
-      test::WriteArmCommands(bag, "", stamp, a);
+      spec_bags::WriteArmCommands(bag, "", stamp, a);
       env.Step(a);
     }
   }

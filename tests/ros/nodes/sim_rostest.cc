@@ -1,4 +1,4 @@
-// rostest scenarios of the sim node (one suite per .test file, see tests/ros/*.test).
+// rostest scenarios of the sim node (one suite per .test file, see tests/ros/nodes/*.test).
 #include <gtest/gtest.h>
 #include <sensor_msgs/JointState.h>
 #include <signal.h>

@@ -31,7 +31,7 @@ TEST(RobotSpecCube, SpecObservationsEqualTheNative28D) {
   fs::create_directories(dir);
   const std::string bag_path = (dir / "cube.bag").string();
   constexpr int kSteps = 120;
-  const test::CubeSpecBag written = test::WriteCubeSpecBag(bag_path, kSteps, 11);
+  const spec_bags::CubeSpecBag written = spec_bags::WriteCubeSpecBag(bag_path, kSteps, 11);
   const auto& native = written.observations;
   const auto& actions = written.actions;
   const RobotSpec spec =

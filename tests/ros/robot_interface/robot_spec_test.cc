@@ -12,6 +12,7 @@
 #include "msspr_bags/dataset_bag.h"
 #include "msspr_robot_interface/robot_fields.h"
 #include "msspr_robot_interface/spec_bag.h"
+#include "replace_once.h"
 #include "robot_spec_test.h"
 
 namespace msspr::ros_bridge {
@@ -66,13 +67,6 @@ action:
     - {name: velocity, field: linear, components: [x, y], scale: 2.0}
 )";
 
-std::string Replace(std::string s, const std::string& from, const std::string& to) {
-  const size_t at = s.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) s.replace(at, from.size(), to);
-  return s;
-}
-
 TEST_F(RobotSpecTest, LoadsTheShippedSpecs) {
   for (const auto& entry :
        fs::directory_iterator(std::string(MSSPR_SOURCE_DIR) + "/config/robots")) {
@@ -91,7 +85,7 @@ TEST_F(RobotSpecTest, LoadsTheShippedSpecs) {
 }
 
 TEST_F(RobotSpecTest, RejectsUnknownKeysNamingFileTopicAndField) {
-  std::string e = LoadError(Replace(
+  std::string e = LoadError(testing_util::ReplaceOnce(
       kBaseSpec, "    components: [x, y]\ngoal:", "    components: [x, y]\n    scael: 2\ngoal:"));
   EXPECT_NE(e.find(Path("spec.yaml")), std::string::npos) << e;
   EXPECT_NE(e.find("unknown key 'scael'"), std::string::npos) << e;
@@ -99,39 +93,42 @@ TEST_F(RobotSpecTest, RejectsUnknownKeysNamingFileTopicAndField) {
   EXPECT_NE(e.find("'position'"), std::string::npos) << e;
   e = LoadError(std::string(kBaseSpec) + "controll_rate: 5\n");
   EXPECT_NE(e.find("unknown key 'controll_rate'"), std::string::npos) << e;
-  e = LoadError(Replace(kBaseSpec, "stale_after: 0.25", "stale_after: 0.25, stale: 1"));
+  e = LoadError(
+      testing_util::ReplaceOnce(kBaseSpec, "stale_after: 0.25", "stale_after: 0.25, stale: 1"));
   EXPECT_NE(e.find("alignment"), std::string::npos) << e;
   EXPECT_NE(e.find("unknown key 'stale'"), std::string::npos) << e;
 }
 
 TEST_F(RobotSpecTest, RejectsAMissingTopicNamingFileAndField) {
-  const std::string e = LoadError(Replace(kBaseSpec, "    topic: odom\n", ""));
+  const std::string e = LoadError(testing_util::ReplaceOnce(kBaseSpec, "    topic: odom\n", ""));
   EXPECT_NE(e.find(Path("spec.yaml")), std::string::npos) << e;
   EXPECT_NE(e.find("'position'"), std::string::npos) << e;
   EXPECT_NE(e.find("no topic"), std::string::npos) << e;
 }
 
 TEST_F(RobotSpecTest, RejectsAFieldTheTypeDoesNotHave) {
-  std::string e =
-      LoadError(Replace(kBaseSpec, "field: pose.pose.position\n", "field: pose.pose.positon\n"));
+  std::string e = LoadError(testing_util::ReplaceOnce(kBaseSpec, "field: pose.pose.position\n",
+                                                      "field: pose.pose.positon\n"));
   EXPECT_NE(e.find(Path("spec.yaml")), std::string::npos) << e;
   EXPECT_NE(e.find("topic odom"), std::string::npos) << e;
   EXPECT_NE(e.find("nav_msgs/Odometry has no field 'pose.pose.positon'"), std::string::npos) << e;
-  e = LoadError(Replace(kBaseSpec, "components: [x, y]\ngoal", "components: [x, q]\ngoal"));
-  EXPECT_NE(e.find("no component 'q'"), std::string::npos) << e;
   e = LoadError(
-      Replace(kBaseSpec, "{name: velocity, field: linear", "{name: velocity, field: lineer"));
+      testing_util::ReplaceOnce(kBaseSpec, "components: [x, y]\ngoal", "components: [x, q]\ngoal"));
+  EXPECT_NE(e.find("no component 'q'"), std::string::npos) << e;
+  e = LoadError(testing_util::ReplaceOnce(kBaseSpec, "{name: velocity, field: linear",
+                                          "{name: velocity, field: lineer"));
   EXPECT_NE(e.find("topic cmd_vel"), std::string::npos) << e;
   EXPECT_NE(e.find("geometry_msgs/Twist has no field 'lineer'"), std::string::npos) << e;
-  e = LoadError(Replace(kBaseSpec, "{observation: position,", "{observation: pos,"));
+  e = LoadError(
+      testing_util::ReplaceOnce(kBaseSpec, "{observation: position,", "{observation: pos,"));
   EXPECT_NE(e.find("goal (topic goal_pose"), std::string::npos) << e;
   EXPECT_NE(e.find("no observation field named 'pos'"), std::string::npos) << e;
 }
 
 TEST_F(RobotSpecTest, JointsByNameAndArraysBySlice) {
-  const std::string joints = Replace(kBaseSpec, R"(    components: [x, y]
+  const std::string joints = testing_util::ReplaceOnce(kBaseSpec, R"(    components: [x, y]
 goal:)",
-                                     R"(    components: [x, y]
+                                                       R"(    components: [x, y]
   - name: arm
     topic: joint_states
     type: sensor_msgs/JointState
@@ -151,10 +148,12 @@ goal:)");
   const RobotSpec s = ParseRobotSpec(joints, "joints.yaml");
   EXPECT_EQ(s.obs_dim(), 2 + 2 + 2 + 2);
   // A joint named twice, a JointState field it lacks: load errors naming the field.
-  std::string e = LoadError(Replace(joints, "joints: [elbow, shoulder]", "joints: [elbow, elbow]"));
+  std::string e = LoadError(
+      testing_util::ReplaceOnce(joints, "joints: [elbow, shoulder]", "joints: [elbow, elbow]"));
   EXPECT_NE(e.find("topic joint_states"), std::string::npos) << e;
   EXPECT_NE(e.find("joint 'elbow' is empty or named twice"), std::string::npos) << e;
-  e = LoadError(Replace(joints, "field: position\n    joints", "field: positions\n    joints"));
+  e = LoadError(testing_util::ReplaceOnce(joints, "field: position\n    joints",
+                                          "field: positions\n    joints"));
   EXPECT_NE(e.find("sensor_msgs/JointState has no field 'positions'"), std::string::npos) << e;
   // A message without a joint of the spec: the reading names topic, field and joint.
   sensor_msgs::JointState js;
@@ -184,8 +183,8 @@ goal:)");
 }
 
 TEST_F(RobotSpecTest, ImagesAreNoObservationFields) {
-  const std::string e =
-      LoadError(Replace(kBaseSpec, "type: nav_msgs/Odometry", "type: sensor_msgs/CompressedImage"));
+  const std::string e = LoadError(testing_util::ReplaceOnce(kBaseSpec, "type: nav_msgs/Odometry",
+                                                            "type: sensor_msgs/CompressedImage"));
   EXPECT_NE(e.find("name the camera in the images: section"), std::string::npos) << e;
   EXPECT_NE(e.find("topic odom"), std::string::npos) << e;
 }
@@ -193,13 +192,15 @@ TEST_F(RobotSpecTest, ImagesAreNoObservationFields) {
 TEST_F(RobotSpecTest, CompareNamesTheField) {
   const RobotSpec a = ParseRobotSpec(kBaseSpec, "a");
   EXPECT_EQ(CompareRobotSpecs(a, ParseRobotSpec(kBaseSpec, "b")), "");
-  const RobotSpec b = ParseRobotSpec(Replace(kBaseSpec, "scale: 2.0", "scale: 1.5"), "b");
+  const RobotSpec b =
+      ParseRobotSpec(testing_util::ReplaceOnce(kBaseSpec, "scale: 2.0", "scale: 1.5"), "b");
   const std::string d = CompareRobotSpecs(a, b);
   EXPECT_NE(d.find("action field 0 'velocity' (topic cmd_vel, linear): scale [2] vs [1.5]"),
             std::string::npos)
       << d;
   const RobotSpec c = ParseRobotSpec(
-      Replace(kBaseSpec, "components: [x, y]\ngoal", "components: [y, x]\ngoal"), "c");
+      testing_util::ReplaceOnce(kBaseSpec, "components: [x, y]\ngoal", "components: [y, x]\ngoal"),
+      "c");
   EXPECT_NE(CompareRobotSpecs(a, c).find("observation field 0 'position' (topic odom"),
             std::string::npos);
 }

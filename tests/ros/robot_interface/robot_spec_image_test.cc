@@ -20,6 +20,7 @@
 #include "msspr_robot_interface/robot_fields.h"
 #include "msspr_robot_interface/robot_spec.h"
 #include "msspr_robot_interface/spec_bag.h"
+#include "replace_once.h"
 #include "robot_spec_test.h"
 
 namespace msspr::ros_bridge {
@@ -36,13 +37,6 @@ std::string ReadFile(const std::string& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-std::string Replace(std::string s, const std::string& from, const std::string& to) {
-  const size_t at = s.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) s.replace(at, from.size(), to);
-  return s;
 }
 
 // The error of parsing `yaml` ("" when it loads).
@@ -74,60 +68,61 @@ TEST(RobotSpecImages, TheShippedCameraSpecLoads) {
 TEST(RobotSpecImages, BadImageEntriesAreRejectedNamingFileCameraAndTopic) {
   const std::string spec = ReadFile(CameraSpecPath());
   // An unknown key in a camera entry.
-  std::string e = ParseError(Replace(spec, "    size: 64\n", "    size: 64\n    sise: 32\n"));
+  std::string e =
+      ParseError(testing_util::ReplaceOnce(spec, "    size: 64\n", "    size: 64\n    sise: 32\n"));
   EXPECT_NE(e.find("cam.yaml: image 'camera' (topic camera/image): unknown key 'sise'"),
             std::string::npos)
       << e;
   // No size, a size out of range, a type that is no image.
-  e = ParseError(Replace(spec, "    size: 64\n", ""));
+  e = ParseError(testing_util::ReplaceOnce(spec, "    size: 64\n", ""));
   EXPECT_NE(e.find("image 'camera' (topic camera/image): no size"), std::string::npos) << e;
-  e = ParseError(Replace(spec, "    size: 64\n", "    size: 4\n"));
+  e = ParseError(testing_util::ReplaceOnce(spec, "    size: 64\n", "    size: 4\n"));
   EXPECT_NE(e.find("size must be in 8..1024"), std::string::npos) << e;
-  e = ParseError(
-      Replace(spec, "    type: sensor_msgs/Image   #", "    type: sensor_msgs/PointCloud2   #"));
+  e = ParseError(testing_util::ReplaceOnce(spec, "    type: sensor_msgs/Image   #",
+                                           "    type: sensor_msgs/PointCloud2   #"));
   EXPECT_NE(
       e.find(
           "image 'camera' (topic camera/image): unsupported image type 'sensor_msgs/PointCloud2'"),
       std::string::npos)
       << e;
-  e = ParseError(Replace(spec, "    topic: camera/image\n", ""));
+  e = ParseError(testing_util::ReplaceOnce(spec, "    topic: camera/image\n", ""));
   EXPECT_NE(e.find("image 'camera': no topic"), std::string::npos) << e;
   // Two cameras.
-  e = ParseError(Replace(
+  e = ParseError(testing_util::ReplaceOnce(
       spec, "observation:  ", R"(  - {name: second, topic: cam2, type: sensor_msgs/Image, size: 64}
 observation:  )"));
   EXPECT_NE(e.find("images: 2 cameras, a pixels policy takes one"), std::string::npos) << e;
   // An image as an observation field.
-  e = ParseError(
-      Replace(spec, "    type: nav_msgs/Odometry", "    type: sensor_msgs/CompressedImage"));
+  e = ParseError(testing_util::ReplaceOnce(spec, "    type: nav_msgs/Odometry",
+                                           "    type: sensor_msgs/CompressedImage"));
   EXPECT_NE(e.find("observation field 'position' (topic odom"), std::string::npos) << e;
   EXPECT_NE(e.find("name the camera in the images: section"), std::string::npos) << e;
   // Goals: an image goal needs a camera; a camera needs an image goal of an image type.
-  const std::string no_images = Replace(
+  const std::string no_images = testing_util::ReplaceOnce(
       spec, spec.substr(spec.find("images:"), spec.find("observation:") - spec.find("images:")),
       "");
   e = ParseError(no_images);
   EXPECT_NE(e.find("goal (topic goal_image): source image needs a camera in the images: section"),
             std::string::npos)
       << e;
-  e = ParseError(
-      Replace(spec, "  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n",
-              "  source: pose\n  topic: goal_pose\n  type: geometry_msgs/PoseStamped\n  fields:\n"
-              "    - {observation: position, field: pose.position, components: [x, y]}\n"));
+  e = ParseError(testing_util::ReplaceOnce(
+      spec, "  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n",
+      "  source: pose\n  topic: goal_pose\n  type: geometry_msgs/PoseStamped\n  fields:\n"
+      "    - {observation: position, field: pose.position, components: [x, y]}\n"));
   EXPECT_NE(e.find("goal: a spec with images serves pixels policies, whose goal is an image"),
             std::string::npos)
       << e;
-  e = ParseError(
-      Replace(spec, "  type: sensor_msgs/Image\naction", "  type: sensor_msgs/Imag\naction"));
+  e = ParseError(testing_util::ReplaceOnce(spec, "  type: sensor_msgs/Image\naction",
+                                           "  type: sensor_msgs/Imag\naction"));
   EXPECT_NE(e.find("goal (topic goal_image): source image takes sensor_msgs/Image or "
                    "sensor_msgs/CompressedImage"),
             std::string::npos)
       << e;
-  e = ParseError(Replace(spec, "  type: sensor_msgs/Image\naction",
-                         "  type: sensor_msgs/Image\n  colour: rgb\naction"));
+  e = ParseError(testing_util::ReplaceOnce(spec, "  type: sensor_msgs/Image\naction",
+                                           "  type: sensor_msgs/Image\n  colour: rgb\naction"));
   EXPECT_NE(e.find("goal: unknown key 'colour'"), std::string::npos) << e;
-  const std::string no_goal =
-      Replace(spec, "goal:\n  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n", "");
+  const std::string no_goal = testing_util::ReplaceOnce(
+      spec, "goal:\n  source: image\n  topic: goal_image\n  type: sensor_msgs/Image\n", "");
   e = ParseError(no_goal);
   EXPECT_NE(e.find("a spec with images needs a goal"), std::string::npos) << e;
 }
@@ -135,21 +130,25 @@ observation:  )"));
 TEST(RobotSpecImages, CompareNamesTheCamera) {
   const std::string spec = ReadFile(CameraSpecPath());
   const RobotSpec a = ParseRobotSpec(spec, "a");
-  std::string d =
-      CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "    size: 64\n", "    size: 32\n"), "b"));
+  std::string d = CompareRobotSpecs(
+      a, ParseRobotSpec(testing_util::ReplaceOnce(spec, "    size: 64\n", "    size: 32\n"), "b"));
   EXPECT_EQ(d, "image 0 'camera' (topic camera/image): size 64 vs 32");
   d = CompareRobotSpecs(
-      a, ParseRobotSpec(Replace(spec, "    topic: camera/image\n", "    topic: cam\n"), "b"));
+      a,
+      ParseRobotSpec(
+          testing_util::ReplaceOnce(spec, "    topic: camera/image\n", "    topic: cam\n"), "b"));
   EXPECT_EQ(d, "image 0 'camera' (topic camera/image): topic camera/image vs cam");
-  d = CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "    type: sensor_msgs/Image   #",
+  d = CompareRobotSpecs(
+      a, ParseRobotSpec(testing_util::ReplaceOnce(spec, "    type: sensor_msgs/Image   #",
                                                   "    type: sensor_msgs/CompressedImage #"),
-                                          "b"));
+                        "b"));
   EXPECT_EQ(d,
             "image 0 'camera' (topic camera/image): type sensor_msgs/Image vs "
             "sensor_msgs/CompressedImage");
-  d = CompareRobotSpecs(a, ParseRobotSpec(Replace(spec, "  type: sensor_msgs/Image\naction",
+  d = CompareRobotSpecs(
+      a, ParseRobotSpec(testing_util::ReplaceOnce(spec, "  type: sensor_msgs/Image\naction",
                                                   "  type: sensor_msgs/CompressedImage\naction"),
-                                          "b"));
+                        "b"));
   EXPECT_EQ(d, "goal (topic goal_image): type sensor_msgs/Image vs sensor_msgs/CompressedImage");
 }
 
@@ -299,10 +298,11 @@ class SpecBagImages : public ::testing::Test {
   // The shipped camera spec reading the synthetic bag's standard camera in `format`.
   static RobotSpec Spec(const std::string& format) {
     std::string text = ReadFile(CameraSpecPath());
-    text = Replace(text, "    topic: camera/image\n", "    topic: robot_camera\n");
+    text =
+        testing_util::ReplaceOnce(text, "    topic: camera/image\n", "    topic: robot_camera\n");
     if (format == "png" || format == "jpeg")
-      text = Replace(text, "    type: sensor_msgs/Image   #",
-                     "    type: sensor_msgs/CompressedImage   #");
+      text = testing_util::ReplaceOnce(text, "    type: sensor_msgs/Image   #",
+                                       "    type: sensor_msgs/CompressedImage   #");
     return ParseRobotSpec(text, "camera_" + format + ".yaml");
   }
   fs::path dir_;

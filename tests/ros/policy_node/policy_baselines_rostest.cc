@@ -1,5 +1,5 @@
 // rostest of msspr_policy_node serving a baseline agent's export
-// (tests/ros/policy_serves_{gcbc,hiql}.test): its diagnostics name the agent,
+// (tests/ros/policy_node/policy_serves_{gcbc,hiql}.test): its diagnostics name the agent,
 // and its actions are those of the same export loaded in process.
 #include <gtest/gtest.h>
 

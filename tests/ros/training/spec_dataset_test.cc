@@ -260,8 +260,8 @@ TEST_F(SpecDatasetTest, CameraBagsGiveTheNativeImageDatasetAndTrainPixels) {
 // check with msspr_bag_info --robot ur5e_cube.yaml and train with msspr_train --robot.
 TEST_F(SpecDatasetTest, ArmBagsTrainThroughTheUr5eSpec) {
   const std::string arm_spec = std::string(MSSPR_SOURCE_DIR) + "/config/robots/ur5e_cube.yaml";
-  ros_bridge::test::WriteCubeSpecBag(Path("a.bag"), 60, 3);
-  ros_bridge::test::WriteCubeSpecBag(Path("b.bag"), 60, 4);
+  ros_bridge::spec_bags::WriteCubeSpecBag(Path("a.bag"), 60, 3);
+  ros_bridge::spec_bags::WriteCubeSpecBag(Path("b.bag"), 60, 4);
   Output info =
       RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + arm_spec + " " + Path("a.bag"));
   std::printf("%s\n", info.text.c_str());
@@ -426,7 +426,7 @@ TEST_F(SpecDatasetTest, ARecordingSplitOverBagsOrCompressedReadsAsOne) {
 // given with --ns, and train.
 TEST_F(SpecDatasetTest, ANamespacedArmRecordingReadsAndTrainsThroughTheUr5eSpec) {
   const std::string arm_spec = std::string(MSSPR_SOURCE_DIR) + "/config/robots/ur5e_cube.yaml";
-  ros_bridge::test::WriteCubeSpecBag(Path("ns.bag"), 60, 3, 20.0, "/msspr");
+  ros_bridge::spec_bags::WriteCubeSpecBag(Path("ns.bag"), 60, 3, 20.0, "/msspr");
   for (const std::string ns : {"", " --ns /msspr", " --ns msspr"}) {
     const Output info = RunTool(std::string(MSSPR_BAG_INFO_EXE) + " --robot " + arm_spec + ns +
                                 " " + Path("ns.bag"));

@@ -6,19 +6,13 @@
 #include <string>
 
 #include "msspr_sim_nodes/robot_model.h"
+#include "replace_once.h"
 
 namespace msspr::ros_bridge {
 namespace {
 
 std::string AntUrdf() {
   return ReadTextFile(std::string(MSSPR_SOURCE_DIR) + "/msspr_sim/urdf/ant.urdf");
-}
-
-std::string Replace(std::string s, const std::string& from, const std::string& to) {
-  const size_t at = s.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) s.replace(at, from.size(), to);
-  return s;
 }
 
 // The error CheckAntUrdf gives, or "" when the description passes.
@@ -61,20 +55,21 @@ TEST(AntRobotModel, DisagreementsNameTheElement) {
     EXPECT_NE(err.find(says), std::string::npos) << "expected '" << says << "' in: " << err;
   };
   expect(AntError(""), "the robot description is empty");
-  expect(AntError(Replace(u, "name=\"hip_3\"", "name=\"hip_9\"")), "joint 'hip_9' moves");
-  expect(AntError(Replace(u, "<joint name=\"ankle_2\" type=\"revolute\">",
-                          "<joint name=\"ankle_2\" type=\"continuous\">")),
+  expect(AntError(testing_util::ReplaceOnce(u, "name=\"hip_3\"", "name=\"hip_9\"")),
+         "joint 'hip_9' moves");
+  expect(AntError(testing_util::ReplaceOnce(u, "<joint name=\"ankle_2\" type=\"revolute\">",
+                                            "<joint name=\"ankle_2\" type=\"continuous\">")),
          "joint 'ankle_2' must be revolute");
-  expect(AntError(Replace(u, "<axis xyz=\"0 0 1\"/>", "<axis xyz=\"0 1 0\"/>")),
+  expect(AntError(testing_util::ReplaceOnce(u, "<axis xyz=\"0 0 1\"/>", "<axis xyz=\"0 1 0\"/>")),
          "joint 'hip_1': axis (0 1 0)");
-  expect(AntError(Replace(u, "lower=\"-0.52359878\"", "lower=\"-0.6\"")),
+  expect(AntError(testing_util::ReplaceOnce(u, "lower=\"-0.52359878\"", "lower=\"-0.6\"")),
          "joint 'hip_1': limits must be");
   // A leg 1 cm too long: forward kinematics disagrees with MuJoCo's.
-  expect(AntError(Replace(u, "<origin xyz=\"0.2 0.2 0\" rpy=\"0 0 0\"/>",
-                          "<origin xyz=\"0.21 0.2 0\" rpy=\"0 0 0\"/>")),
+  expect(AntError(testing_util::ReplaceOnce(u, "<origin xyz=\"0.2 0.2 0\" rpy=\"0 0 0\"/>",
+                                            "<origin xyz=\"0.21 0.2 0\" rpy=\"0 0 0\"/>")),
          "link 'aux_1' lies at");
-  expect(AntError(Replace(u, "<origin xyz=\"0.2 0.2 0\" rpy=\"0 0 0\"/>",
-                          "<origin xyz=\"0.2 0.2 0\" rpy=\"0 0 0.1\"/>")),
+  expect(AntError(testing_util::ReplaceOnce(u, "<origin xyz=\"0.2 0.2 0\" rpy=\"0 0 0\"/>",
+                                            "<origin xyz=\"0.2 0.2 0\" rpy=\"0 0 0.1\"/>")),
          "must not rotate");
   sim::AntMaze env(sim::AntMazeOptions{});
   EXPECT_THROW(CheckAntUrdf(u, "x", env, "base_link"), std::runtime_error);
