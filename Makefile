@@ -31,10 +31,10 @@ test: deps
 	@$(MAKE) --no-print-directory build
 	@scripts/run_tests.sh $(BUILD)
 
-# What `make demo` runs (launch/demo.launch and the tools beside it): the
-# libraries, nodes and tools only, none of the test binaries.
-DEMO_TARGETS := msspr_sim_node msspr_expert_node msspr_policy_node msspr_eval msspr_collect \
-                msspr_bag_info msspr_train
+# What `make demo` runs (launch/demo.launch, expert_demo.launch): the sim, the
+# expert, the policy node and the evaluator; the other tools and the tests
+# come with `make build`.
+DEMO_TARGETS := msspr_sim_node msspr_expert_node msspr_policy_node msspr_eval
 
 build-demo: configure
 	cmake --build $(BUILD) -j$(JOBS) --target $(DEMO_TARGETS)

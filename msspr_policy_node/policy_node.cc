@@ -21,12 +21,11 @@ namespace msspr::ros_bridge {
 
 namespace {
 
-constexpr char kLog[] = "msspr_policy";
 constexpr size_t kMaxPending = 8;  // pixels: unpaired observations / images kept
 
 template <typename T>
 T Param(const ros::NodeHandle& pnh, const std::string& name, const T& def) {
-  return LoggedParam(pnh, name, def, kLog);
+  return LoggedParam(pnh, name, def, kPolicyLog);
 }
 
 // Percentile q in [0, 1] of the values (nearest rank); NaN when empty.
@@ -67,7 +66,7 @@ const char* RejectKey(RejectReason reason) {
 
 PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   PolicyNodeOptions o;
-  ROS_INFO_NAMED(kLog, "msspr_policy_node parameters:");
+  ROS_INFO_NAMED(kPolicyLog, "msspr_policy_node parameters:");
   o.checkpoint = Param(pnh, "checkpoint", o.checkpoint);
   o.robot = Param(pnh, "robot", o.robot);
   o.observation_mode = Param(pnh, "observation_mode", o.observation_mode);
@@ -75,7 +74,7 @@ PolicyNodeOptions LoadPolicyNodeOptions(const ros::NodeHandle& pnh) {
   std::string stepping = Param(pnh, "stepping", std::string());
   std::string mode;
   if (pnh.getParam("mode", mode)) {
-    ROS_WARN_STREAM_NAMED(kLog,
+    ROS_WARN_STREAM_NAMED(kPolicyLog,
                           "~mode is deprecated: use ~stepping (lockstep | realtime; "
                           "~mode rate is ~stepping realtime)");
     if (mode != "lockstep" && mode != "rate")
@@ -146,15 +145,15 @@ std::shared_ptr<core::Policy> LoadPolicyForNode(const PolicyNodeOptions& options
   auto policy = std::make_shared<core::Policy>(core::Policy::Load(options.checkpoint, device));
   const auto& n = policy->options().network;
   ROS_INFO_STREAM_NAMED(
-      kLog, "loaded " << options.checkpoint << ": agent " << policy->agent_name() << ", obs_mode "
-                      << n.obs_mode << ", obs_dim " << n.obs_dim << ", action_dim " << n.action_dim
-                      << (policy->pixels() ? ", image " + std::to_string(n.image_height) + "x" +
-                                                 std::to_string(n.image_width) + "x" +
-                                                 std::to_string(n.image_channels) +
-                                                 " frame_stack " + std::to_string(n.frame_stack)
-                                           : std::string())
-                      << ", torch threads " << torch::get_num_threads() << ", device "
-                      << device.str());
+      kPolicyLog,
+      "loaded " << options.checkpoint << ": agent " << policy->agent_name() << ", obs_mode "
+                << n.obs_mode << ", obs_dim " << n.obs_dim << ", action_dim " << n.action_dim
+                << (policy->pixels() ? ", image " + std::to_string(n.image_height) + "x" +
+                                           std::to_string(n.image_width) + "x" +
+                                           std::to_string(n.image_channels) + " frame_stack " +
+                                           std::to_string(n.frame_stack)
+                                     : std::string())
+                << ", torch threads " << torch::get_num_threads() << ", device " << device.str());
   return policy;
 }
 
@@ -209,12 +208,12 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
   if (!options_.value_marker_maze.empty()) {
     if (!policy_->has_value()) {
       ROS_WARN_STREAM_NAMED(
-          kLog, "~value_marker_maze: the "
-                    << policy_->agent_name()
-                    << " agent has no value function; no value markers will be published");
+          kPolicyLog, "~value_marker_maze: the "
+                          << policy_->agent_name()
+                          << " agent has no value function; no value markers will be published");
     } else if (pixels_ || obs_dim_ != 2) {
       ROS_WARN_STREAM_NAMED(
-          kLog,
+          kPolicyLog,
           "~value_marker_maze: value markers need a state policy of the point maze "
           "(obs_dim 2); none will be published");
     } else {
@@ -226,9 +225,9 @@ PolicyNode::PolicyNode(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNode
                                          &PolicyNode::OnValueMarkers, this);
     }
   }
-  ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving " << options_.checkpoint << " ("
-                                                           << SteppingName(options_.stepping)
-                                                           << ", " << ckpt_mode << ")");
+  ROS_INFO_STREAM_NAMED(kPolicyLog, "msspr_policy_node serving " << options_.checkpoint << " ("
+                                                                 << SteppingName(options_.stepping)
+                                                                 << ", " << ckpt_mode << ")");
 }
 
 PolicyNode::~PolicyNode() = default;
@@ -239,7 +238,7 @@ void PolicyNode::Reject(RejectReason reason, const std::string& what) {
   if (!said_[r]) {  // once, unthrottled: what the checkpoint expects and what came
     said_[r] = true;
     const auto& n = policy_->options().network;
-    ROS_ERROR_STREAM_NAMED(kLog,
+    ROS_ERROR_STREAM_NAMED(kPolicyLog,
                            "first rejected input ("
                                << RejectKey(reason) << "): " << what << "; " << options_.checkpoint
                                << " expects "
@@ -250,7 +249,7 @@ void PolicyNode::Reject(RejectReason reason, const std::string& what) {
                                << "; further rejections are counted in /diagnostics");
     return;
   }
-  ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, RejectKey(reason) << ": " << what);
+  ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog, RejectKey(reason) << ": " << what);
 }
 
 bool PolicyNode::MakeStateInput(const msspr::Observation& msg, Input* in) {
@@ -395,7 +394,7 @@ void PolicyNode::OnGoalState(const msspr::Observation::ConstPtr& msg) {
   if (msg->state.empty()) {
     goal_override_.clear();
     goal_source_ = "observation";
-    ROS_INFO_NAMED(kLog, "goal override cleared: using each observation's goal");
+    ROS_INFO_NAMED(kPolicyLog, "goal override cleared: using each observation's goal");
     return;
   }
   if (msg->state.size() != static_cast<size_t>(obs_dim_)) {
@@ -428,7 +427,7 @@ bool PolicyNode::OnSetGoal(msspr::SetGoal::Request& req, msspr::SetGoal::Respons
     res.ok = true;
     res.message = "goal set";
   }
-  ROS_INFO_STREAM_NAMED(kLog, "~set_goal: " << res.message);
+  ROS_INFO_STREAM_NAMED(kPolicyLog, "~set_goal: " << res.message);
   return true;
 }
 
@@ -437,7 +436,7 @@ void PolicyNode::OnRateTick(const ros::WallTimerEvent&) {
   const ros::WallTime now = ros::WallTime::now();
   if ((now - latest_->received).toSec() > options_.observation_timeout) {
     ROS_WARN_STREAM_THROTTLE_NAMED(
-        5.0, kLog, "no observation for " << options_.observation_timeout << " s: not acting");
+        5.0, kPolicyLog, "no observation for " << options_.observation_timeout << " s: not acting");
     return;
   }
   Act(*latest_, now);
@@ -459,14 +458,15 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
     a = policy_->Act(obs, goal).to(torch::kCPU).contiguous();
   } catch (const c10::Error& e) {
     ++counters_.inference_errors;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, "inference failed: " << e.what_without_backtrace());
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog,
+                                    "inference failed: " << e.what_without_backtrace());
     return;
   }
   out.action.assign(a.data_ptr<float>(), a.data_ptr<float>() + a.numel());
   if (out.action.size() != static_cast<size_t>(action_dim_) || !AllFinite(out.action)) {
     ++counters_.inference_errors;
     ROS_ERROR_STREAM_THROTTLE_NAMED(
-        1.0, kLog,
+        1.0, kPolicyLog,
         "the policy returned " << out.action.size() << " values or NaN / Inf: not published");
     return;
   }
@@ -486,7 +486,7 @@ void PolicyNode::Act(const Input& in, const ros::WallTime& start) {
     try {
       value_ = policy_->Q(obs, a, goal).min().item<double>();
     } catch (const c10::Error& e) {
-      ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog,
+      ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog,
                                       "value estimate failed: " << e.what_without_backtrace());
     }
   }
@@ -501,7 +501,7 @@ void PolicyNode::OnValueMarkers(const ros::WallTimerEvent&) {
   } catch (const c10::Error& e) {
     ++counters_.inference_errors;
     ROS_ERROR_STREAM_THROTTLE_NAMED(
-        10.0, kLog, "value markers: inference failed: " << e.what_without_backtrace());
+        10.0, kPolicyLog, "value markers: inference failed: " << e.what_without_backtrace());
     return;
   }
   value_pub_.publish(arr);

@@ -27,6 +27,9 @@ class Policy;
 
 namespace msspr::ros_bridge {
 
+// The ROS logger name of the policy node (its own messages and the robot server's).
+inline constexpr char kPolicyLog[] = "msspr_policy";
+
 class ValueMarkers;
 
 // How the node paces its actions (~stepping).

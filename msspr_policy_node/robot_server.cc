@@ -12,11 +12,6 @@
 #include "msspr_core/policy.h"
 
 namespace msspr::ros_bridge {
-namespace {
-
-constexpr char kLog[] = "msspr_policy";
-
-}  // namespace
 
 std::string CheckCheckpointAgainstSpec(const std::string& checkpoint, const RobotSpec& spec,
                                        int obs_dim, int action_dim, bool* stored_spec) {
@@ -78,10 +73,10 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
                                                      policy_->action_dim(), &stored);
   if (!bad.empty()) throw std::invalid_argument("~robot: " + bad);
   if (!stored)
-    ROS_WARN_STREAM_NAMED(kLog, options_.checkpoint
-                                    << " stores no robot spec (trained on msspr's own topics): "
-                                    << "serving it through " << spec_.source
-                                    << " on the sizes alone");
+    ROS_WARN_STREAM_NAMED(
+        kPolicyLog, options_.checkpoint << " stores no robot spec (trained on msspr's own topics): "
+                                        << "serving it through " << spec_.source
+                                        << " on the sizes alone");
   histories_.resize(layout_.topics.size());
   last_receipt_.resize(layout_.topics.size());
   rejected_since_accepted_.assign(layout_.topics.size(), 0);
@@ -165,12 +160,12 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
   std::string commands;
   for (const auto& c : cmd_topics_)
     commands += (commands.empty() ? "" : ", ") + c.type + " on " + c.topic;
-  ROS_INFO_STREAM_NAMED(kLog, "msspr_policy_node serving "
-                                  << options_.checkpoint << " through robot spec '" << spec_.name
-                                  << "' (" << spec_.source << ", "
-                                  << SteppingName(options_.stepping) << "): observation from"
-                                  << s.str() << ", goal from " << spec_.goal.topic << ", "
-                                  << commands << " at " << spec_.control_rate << " Hz");
+  ROS_INFO_STREAM_NAMED(kPolicyLog, "msspr_policy_node serving "
+                                        << options_.checkpoint << " through robot spec '"
+                                        << spec_.name << "' (" << spec_.source << ", "
+                                        << SteppingName(options_.stepping) << "): observation from"
+                                        << s.str() << ", goal from " << spec_.goal.topic << ", "
+                                        << commands << " at " << spec_.control_rate << " Hz");
 }
 
 RobotServer::~RobotServer() = default;
@@ -194,7 +189,7 @@ void RobotServer::OnObservationMessage(int k, const M& msg) {
     ++counters_.rejected;
     ++rejected_since_accepted_[k];
     last_rejection_[k] = why;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected message: " << why);
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog, spec_.source << ": rejected message: " << why);
     return;
   }
   rejected_since_accepted_[k] = 0;
@@ -221,7 +216,7 @@ void RobotServer::OnImageMessage(const M& msg) {
   if (!DecodeImageSample(spec_.images[0], msg, ros::Time::now(), &s, &why)) {
     ++counters_.rejected;
     ++counters_.bad_images;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected image: " << why);
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog, spec_.source << ": rejected image: " << why);
     return;
   }
   if (!image_history_.samples().empty() && s.stamp < image_history_.samples().back().stamp)
@@ -241,7 +236,7 @@ void RobotServer::OnGoalImage(const M& msg) {
     ++counters_.rejected;
     ++counters_.bad_images;
     ROS_ERROR_STREAM_THROTTLE_NAMED(
-        1.0, kLog,
+        1.0, kPolicyLog,
         spec_.source << ": rejected goal image (topic " << spec_.goal.topic << "): " << why);
     return;
   }
@@ -259,7 +254,8 @@ void RobotServer::PollTf() {
                 &nonfinite)) {
     if (nonfinite) {
       ++counters_.rejected;
-      ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected transform: " << why);
+      ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog,
+                                      spec_.source << ": rejected transform: " << why);
     }
     return;
   }
@@ -318,7 +314,7 @@ void RobotServer::OnGoalMessage(const M& msg) {
   std::string why;
   if (!DecodeGoal(spec_, msg, &g, &why)) {
     ++counters_.rejected;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, spec_.source << ": rejected goal: " << why);
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog, spec_.source << ": rejected goal: " << why);
     return;
   }
   goal_.assign(g.begin(), g.end());
@@ -372,7 +368,7 @@ void RobotServer::OnWatchdog(const ros::WallTimerEvent&) {
       PublishStop(why);
   } else if (stale_ && options_.stepping == Stepping::kLockstep) {
     stale_ = false;  // inputs are back; the next message acts
-    ROS_INFO_STREAM_NAMED(kLog, "inputs fresh again: serving");
+    ROS_INFO_STREAM_NAMED(kPolicyLog, "inputs fresh again: serving");
   }
 }
 
@@ -412,7 +408,7 @@ void RobotServer::ActAt(const ros::Time& t) {
   }
   if (stale_) {
     stale_ = false;
-    ROS_INFO_STREAM_NAMED(kLog, "inputs fresh again: serving");
+    ROS_INFO_STREAM_NAMED(kPolicyLog, "inputs fresh again: serving");
   }
   torch::Tensor a;
   try {
@@ -430,7 +426,8 @@ void RobotServer::ActAt(const ros::Time& t) {
     a = a.to(torch::kCPU).contiguous();
   } catch (const c10::Error& e) {
     ++counters_.inference_errors;
-    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kLog, "inference failed: " << e.what_without_backtrace());
+    ROS_ERROR_STREAM_THROTTLE_NAMED(1.0, kPolicyLog,
+                                    "inference failed: " << e.what_without_backtrace());
     return;
   }
   std::vector<double> av(a.data_ptr<float>(), a.data_ptr<float>() + a.numel());
@@ -476,7 +473,7 @@ void RobotServer::PublishStop(const std::string& why) {
   if (!stale_) {
     stale_ = true;
     ++counters_.stale_events;
-    ROS_WARN_STREAM_NAMED(kLog, "inputs stale, sending stop commands: " << why);
+    ROS_WARN_STREAM_NAMED(kPolicyLog, "inputs stale, sending stop commands: " << why);
   }
   stale_why_ = why;
   last_stop_ = ros::WallTime::now();

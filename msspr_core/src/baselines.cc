@@ -21,13 +21,6 @@ namespace {
 
 constexpr double kLog2Pi = 1.8378770664093453;  // log(2 pi)
 
-// linear(x) in fp32 with autocast off: a network's output keeps fp32
-// resolution under bf16 (a value near -70 would round to a multiple of 0.5).
-torch::Tensor LinearFp32(torch::nn::LinearImpl& linear, const torch::Tensor& x) {
-  internal::AutocastOffScope off;
-  return torch::linear(x.to(torch::kFloat32), linear.weight, linear.bias);
-}
-
 // OGBench's GELU (tanh approximation) of a bfloat16 CPU activation, in fp32
 // and rounded to bfloat16 once: 0.5 x (1 + tanh(u / 2)) = x sigmoid(u) with
 // u = 2 sqrt(2 / pi) (x + 0.044715 x^3). LibTorch 1.13's tanh-GELU runs a slow
@@ -156,7 +149,7 @@ torch::Tensor OgMlpImpl::forward(const torch::Tensor& x) {
   for (auto it = net->begin(); it != net->end(); ++it) {
     torch::nn::Module* layer = it->ptr().get();
     if (auto* linear = layer->as<torch::nn::Linear>()) {
-      h = !activate_final_ && std::next(it) == net->end() ? LinearFp32(*linear, h)
+      h = !activate_final_ && std::next(it) == net->end() ? internal::LinearFp32(*linear, h)
                                                           : internal::Linear(*linear, h);
       continue;
     }
@@ -192,7 +185,7 @@ GaussianActorImpl::GaussianActorImpl(int64_t in, int64_t hidden, int64_t layers,
 }
 
 torch::Tensor GaussianActorImpl::Mean(const torch::Tensor& x) {
-  return LinearFp32(*head, backbone->forward(x));
+  return internal::LinearFp32(*head, backbone->forward(x));
 }
 
 torch::Tensor GaussianActorImpl::LogProb(const torch::Tensor& x, const torch::Tensor& a) {

@@ -60,6 +60,11 @@ torch::Tensor Linear(torch::nn::LinearImpl& linear, const torch::Tensor& x) {
   return torch::linear(x, cache->Get(w), b.defined() ? cache->Get(b) : torch::Tensor());
 }
 
+torch::Tensor LinearFp32(torch::nn::LinearImpl& linear, const torch::Tensor& x) {
+  AutocastOffScope off;
+  return torch::linear(x.to(torch::kFloat32), linear.weight, linear.bias);
+}
+
 }  // namespace internal
 }  // namespace core
 }  // namespace msspr

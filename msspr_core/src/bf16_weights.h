@@ -56,6 +56,14 @@ class Bf16WeightCacheScope {
 // weight is fp32 on the CPU. The same result and gradients either way.
 torch::Tensor Linear(torch::nn::LinearImpl& linear, const torch::Tensor& x);
 
+// linear(x) in float32 with autocast off, for the last Linear of a value head
+// (the critics' Q, the value network's V) or an actor's output under bf16
+// autocast. Returns reach 1 / (1 - gamma) = 100 in magnitude, where bfloat16
+// keeps 8 significant bits: Q = -70 would round to a multiple of 0.5, coarser
+// than the differences of a step or an action (about gamma^d for a goal d
+// steps away) that the critic has to resolve.
+torch::Tensor LinearFp32(torch::nn::LinearImpl& linear, const torch::Tensor& x);
+
 }  // namespace internal
 }  // namespace core
 }  // namespace msspr

@@ -45,16 +45,6 @@ torch::Tensor Gelu(const torch::Tensor& h) {
   return torch::gelu(h);
 }
 
-// The last Linear of a value head (the critics' Q, the value network's V) in
-// float32 under bf16 autocast too. Returns reach 1 / (1 - gamma) = 100 in
-// magnitude, where bfloat16 keeps 8 significant bits: Q = -70 would round to
-// a multiple of 0.5, coarser than the differences of a step or an action
-// (about gamma^d for a goal d steps away) that the critic has to resolve.
-torch::Tensor LinearFp32(nn::LinearImpl& linear, const torch::Tensor& x) {
-  internal::AutocastOffScope off;
-  return torch::linear(x.to(torch::kFloat32), linear.weight, linear.bias);
-}
-
 // MlpImpl::forward; fp32_output: the last Linear as LinearFp32.
 torch::Tensor MlpForward(MlpImpl& mlp, const torch::Tensor& x, bool fp32_output) {
   // Under bf16 autocast (trainer.precision) a Linear returns bfloat16, and
@@ -69,7 +59,7 @@ torch::Tensor MlpForward(MlpImpl& mlp, const torch::Tensor& x, bool fp32_output)
   for (auto it = net->begin(); it != net->end(); ++it) {
     torch::nn::Module* layer = it->ptr().get();
     if (auto* linear = layer->as<nn::Linear>()) {
-      h = fp32_output && std::next(it) == net->end() ? LinearFp32(*linear, h)
+      h = fp32_output && std::next(it) == net->end() ? internal::LinearFp32(*linear, h)
                                                      : internal::Linear(*linear, h);
       continue;
     }

@@ -25,7 +25,7 @@ const char* const kQposOrder[8] = {"hip_1", "ankle_1", "hip_2", "ankle_2",
 const char* const kActionOrder[8] = {"hip_4", "ankle_4", "hip_1", "ankle_1",
                                      "hip_2", "ankle_2", "hip_3", "ankle_3"};
 
-AntMazeOptions Options(const std::string& maze) {
+AntMazeOptions AntOptions(const std::string& maze) {
   AntMazeOptions o;
   o.maze = maze;
   return o;
@@ -55,14 +55,14 @@ TEST(AntMazeTest, EnvIdsNameTheMediumAndLargeMazes) {
   EXPECT_EQ(AntMazeName(ParseEnvId("antmaze-large")), "large");
   EXPECT_THROW(ParseEnvId("pointmaze-medium"), std::invalid_argument);
   EXPECT_THROW(AntMazeName(EnvId::kPointMaze), std::invalid_argument);
-  EXPECT_EQ(EnvIdName(AntMaze(Options("large")).env_id()), "antmaze-large");
-  EXPECT_THROW(AntMaze(Options("nope")), std::invalid_argument);
+  EXPECT_EQ(EnvIdName(AntMaze(AntOptions("large")).env_id()), "antmaze-large");
+  EXPECT_THROW(AntMaze(AntOptions("nope")), std::invalid_argument);
 }
 
 // qpos (x, y, z, quaternion w first, 8 hinges) then qvel (14); qpos0's z is
 // 0.75 and its quaternion (1, 0, 0, 0), each within the reset noise of 0.1.
 TEST(AntMazeTest, ObservationLayoutAtReset) {
-  AntMaze env(Options("medium"));
+  AntMaze env(AntOptions("medium"));
   const mjModel* m = env.model();
   ASSERT_EQ(m->nq, 15);
   ASSERT_EQ(m->nv, 14);
@@ -102,7 +102,7 @@ TEST(AntMazeTest, ObservationLayoutAtReset) {
 // Hinge axes and ranges of OGBench's ant.xml (degrees there, radians here),
 // armature 1, damping 1.
 TEST(AntMazeTest, HingeAxesAndRangesMatchOgbench) {
-  AntMaze env(Options("medium"));
+  AntMaze env(AntOptions("medium"));
   const mjModel* m = env.model();
   struct Expect {
     const char* name;
@@ -138,7 +138,7 @@ TEST(AntMazeTest, HingeAxesAndRangesMatchOgbench) {
 // on that joint alone, and (from one pose, in the air) that joint moves most
 // and in the torque's direction over one step.
 TEST(AntMazeTest, ActuatorOrderMatchesOgbench) {
-  AntMaze env(Options("medium"));
+  AntMaze env(AntOptions("medium"));
   const mjModel* m = env.model();
   ASSERT_EQ(m->nu, 8);
   mjData* d = mj_makeData(m);
@@ -181,7 +181,7 @@ TEST(AntMazeTest, ActuatorOrderMatchesOgbench) {
 }
 
 TEST(AntMazeTest, MediumWallsAndFloorAreWhereOgbenchPutsThem) {
-  AntMaze env(Options("medium"));
+  AntMaze env(AntOptions("medium"));
   const mjModel* m = env.model();
   const MazeMap& map = env.map();
   int walls = 0;
@@ -232,7 +232,7 @@ TEST(AntMazeTest, MediumWallsAndFloorAreWhereOgbenchPutsThem) {
 // A wall stops the ant: thrown hard toward wall block (1, 3) (x in [6, 10])
 // from the free cell (1, 2), the torso (radius 0.25) never enters it.
 TEST(AntMazeTest, WallStopsTheTorso) {
-  AntMaze env(Options("medium"));
+  AntMaze env(AntOptions("medium"));
   Eigen::VectorXd q = AntQpos0();
   q[0] = 4.0;
   Eigen::VectorXd v = Eigen::VectorXd::Zero(14);
@@ -248,7 +248,7 @@ TEST(AntMazeTest, WallStopsTheTorso) {
 }
 
 TEST(AntMazeTest, SuccessWithinHalfAMetre) {
-  AntMaze env(Options("medium"));
+  AntMaze env(AntOptions("medium"));
   env.ResetToTask(1, 5);
   EXPECT_FALSE(env.success());  // task 1 ends at the far corner
   Eigen::VectorXd goal = env.goal();
@@ -259,7 +259,7 @@ TEST(AntMazeTest, SuccessWithinHalfAMetre) {
   env.SetGoal(goal);
   EXPECT_FALSE(env.success());
   EXPECT_THROW(env.SetGoal(Eigen::VectorXd::Zero(2)), std::invalid_argument);
-  AntMazeOptions wide = Options("medium");
+  AntMazeOptions wide = AntOptions("medium");
   wide.success_radius = 1.0;
   AntMaze loose(wide);
   loose.ResetToTask(1, 5);
@@ -270,7 +270,7 @@ TEST(AntMazeTest, SuccessWithinHalfAMetre) {
 // The goal is a full 29-D state: a noisy pose after 5 random steps (so not
 // the start's pose, and moving), placed at the goal xy.
 TEST(AntMazeTest, GoalIsAFullStateAtTheGoalXy) {
-  AntMaze env(Options("large"));
+  AntMaze env(AntOptions("large"));
   const Eigen::Vector2d start(0.3, -0.2), goal_xy(24.5, 11.7);
   const Eigen::VectorXd ob = env.Reset(start, goal_xy, 9);
   EXPECT_EQ(ob.head<2>(), start);
@@ -294,7 +294,7 @@ TEST(AntMazeTest, GoalIsAFullStateAtTheGoalXy) {
 }
 
 TEST(AntMazeTest, SeededEpisodeIsDeterministic) {
-  AntMaze a(Options("medium")), b(Options("medium"));
+  AntMaze a(AntOptions("medium")), b(AntOptions("medium"));
   const auto run = [](AntMaze& env, uint64_t seed) {
     std::vector<Eigen::VectorXd> obs = {env.ResetToTask(2, seed), env.goal()};
     std::mt19937_64 rng(seed);
@@ -323,7 +323,7 @@ TEST(AntMazeTest, SeededEpisodeIsDeterministic) {
 // Ants of one maze share one compiled model (the evaluators build hundreds side
 // by side); each keeps its own state, and another maze gets its own model.
 TEST(AntMazeTest, MazesOfOneMapShareOneCompiledModelAndKeepTheirOwnState) {
-  AntMaze a(Options("medium")), b(Options("medium")), large(Options("large"));
+  AntMaze a(AntOptions("medium")), b(AntOptions("medium")), large(AntOptions("large"));
   EXPECT_EQ(a.model(), b.model());
   EXPECT_NE(a.model(), large.model());
   EXPECT_NE(a.data(), b.data());
@@ -340,16 +340,16 @@ TEST(AntMazeTest, MazesOfOneMapShareOneCompiledModelAndKeepTheirOwnState) {
   // The model lives while any ant holds it: one built after another is gone shares it.
   const mjModel* shared = b.model();
   {
-    AntMaze c(Options("medium"));
+    AntMaze c(AntOptions("medium"));
     EXPECT_EQ(c.model(), shared);
   }
-  AntMaze d(Options("medium"));
+  AntMaze d(AntOptions("medium"));
   EXPECT_EQ(d.model(), shared);
 }
 
 // The ant with zero action settles on its legs and stays upright.
 TEST(AntMazeTest, AntAtRestStaysUpright) {
-  AntMaze env(Options("medium"));
+  AntMaze env(AntOptions("medium"));
   env.ResetToTask(1, 3);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(8);
   double lo = 1e9, hi = -1e9;
@@ -369,7 +369,7 @@ TEST(AntMazeTest, AntAtRestStaysUpright) {
 }
 
 TEST(AntMazeTest, TruncatesAtMaxEpisodeSteps) {
-  AntMazeOptions o = Options("medium");
+  AntMazeOptions o = AntOptions("medium");
   o.max_episode_steps = 3;
   AntMaze env(o);
   env.ResetToTask(1, 1);

@@ -17,8 +17,6 @@
 namespace msspr::sim {
 namespace {
 
-const std::string kUrdfPath = testing_util::ArmUrdfPath();
-
 Eigen::VectorXd Home() {
   Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
   q.head<6>() << -M_PI / 2, -M_PI / 2, M_PI / 2, -M_PI / 2, -M_PI / 2, 0;
@@ -54,7 +52,7 @@ TEST(ArmIkTest, PoseErrorIsTheRotationVector) {
 // The Jacobian equals finite differences of the URDF forward kinematics and
 // MuJoCo's mj_jacSite on the generated scene.
 TEST(ArmIkTest, JacobianMatchesFiniteDifferencesAndMujoco) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   const ArmIk ik(arm);
   const std::string xml = CubeSceneMjcf(arm);
   const std::filesystem::path dir = MSSPR_TEST_TMPDIR;
@@ -109,7 +107,7 @@ TEST(ArmIkTest, JacobianMatchesFiniteDifferencesAndMujoco) {
 // as the cube task's targets are) are met within OGBench's tolerances and
 // 20 iterations, starting from home.
 TEST(ArmIkTest, ConvergesToReachablePoses) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   const ArmIk ik(arm);
   std::mt19937_64 rng(2026);
   const Eigen::VectorXd lo = arm.LowerLimits(), hi = arm.UpperLimits();
@@ -142,7 +140,7 @@ TEST(ArmIkTest, ConvergesToReachablePoses) {
 // stays inside the limits (and reports no convergence); the unclamped one,
 // as OGBench's, leaves them.
 TEST(ArmIkTest, RespectsJointLimits) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   Eigen::VectorXd q_goal = Home();
   q_goal[2] = 3.3;  // beyond the elbow's limit
   Eigen::VectorXd q0 = Home();
@@ -163,7 +161,7 @@ TEST(ArmIkTest, RespectsJointLimits) {
 // The step cap: one iteration toward a far target moves no joint by more
 // than 45 degrees.
 TEST(ArmIkTest, CapsEachStep) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   ArmIkOptions one;
   one.max_iterations = 1;
   Eigen::VectorXd q_goal = Home();

@@ -15,8 +15,6 @@
 namespace msspr::sim {
 namespace {
 
-const std::string kUrdfPath = testing_util::ArmUrdfPath();
-
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path);
   std::ostringstream s;
@@ -34,7 +32,7 @@ std::string Edited(std::string text, const std::string& from, const std::string&
 
 // The shipped URDF with the first occurrence of `from` replaced by `to`.
 std::string Edited(const std::string& from, const std::string& to) {
-  return Edited(ReadFile(kUrdfPath), from, to);
+  return Edited(ReadFile(testing_util::ArmUrdfPath()), from, to);
 }
 
 // The message of the UrdfError that parsing `text` (named `source`) throws.
@@ -55,8 +53,8 @@ Eigen::VectorXd Home(const ArmModel& arm) {
 }
 
 TEST(ArmModelTest, ParsesTheShippedUrdf) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
-  EXPECT_EQ(arm.source(), kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
+  EXPECT_EQ(arm.source(), testing_util::ArmUrdfPath());
   EXPECT_EQ(arm.links()[0].name, "world");
   ASSERT_EQ(arm.arm_joint_links().size(), 6u);
   const char* names[] = {"shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
@@ -84,7 +82,7 @@ TEST(ArmModelTest, ParsesTheShippedUrdf) {
 // OGBench's home pose puts the pinch at (0.492, 0.134, 0.332), pointing
 // straight down with yaw 0 (manipulation.md, section 1; 3 decimals given).
 TEST(ArmModelTest, HomePoseIsOgbenchs) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   const Eigen::Isometry3d pinch = arm.LinkPose(arm.tip_link(), Home(arm));
   std::printf("pinch at home: (%.4f, %.4f, %.4f)\n", pinch.translation().x(),
               pinch.translation().y(), pinch.translation().z());
@@ -99,7 +97,7 @@ TEST(ArmModelTest, HomePoseIsOgbenchs) {
 // Pinch relative to flange: 0.1558 m along the tool axis, and the flange is
 // Rz(+90) from the pinch (manipulation.md, section 2), at any configuration.
 TEST(ArmModelTest, PinchIsFixedToTheFlange) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   std::mt19937_64 rng(7);
   const Eigen::VectorXd lo = arm.LowerLimits(), hi = arm.UpperLimits();
   for (int k = 0; k < 5; ++k) {
@@ -118,7 +116,7 @@ TEST(ArmModelTest, PinchIsFixedToTheFlange) {
 // The pads' inner faces are 85 mm apart when open and meet at the pinch
 // point when closed; the pads stay centred on the pinch point's y.
 TEST(ArmModelTest, FingersOpenTo85Millimetres) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   const int left = arm.LinkIndex("left_finger"), right = arm.LinkIndex("right_finger");
   const double pad_half_thickness = 0.004;
   for (double travel : {0.0, 0.02, 0.0425}) {
@@ -136,7 +134,7 @@ TEST(ArmModelTest, FingersOpenTo85Millimetres) {
 }
 
 TEST(ArmModelTest, LinkPosesAgreesWithLinkPose) {
-  const ArmModel arm = ArmModel::FromFile(kUrdfPath);
+  const ArmModel arm = ArmModel::FromFile(testing_util::ArmUrdfPath());
   Eigen::VectorXd q(arm.num_dofs());
   q << 0.3, -1.1, 0.7, -2.0, 1.4, 2.5, 0.01;
   const auto poses = arm.LinkPoses(q);

@@ -9,10 +9,8 @@
 namespace msspr::sim {
 namespace {
 
-CubeEnvOptions EnvOptions() { return testing_util::CubeOptions(); }
-
 TEST(CubeDatasetTest, RowsAreTheStateBeforeEachAction) {
-  CubeEnv env(EnvOptions());
+  CubeEnv env(testing_util::CubeOptions());
   CubeCollectOptions o;
   o.episode_length = 120;
   o.seed = 9;
@@ -30,7 +28,7 @@ TEST(CubeDatasetTest, RowsAreTheStateBeforeEachAction) {
     EXPECT_NEAR(ep.observations[t * 28 + 19], 10 * (ep.qpos[t * 15 + 8] - 0.425), 1e-5);
   }
   // Same seed and index, same episode; another index, another one.
-  CubeEnv other(EnvOptions());
+  CubeEnv other(testing_util::CubeOptions());
   const CubeEpisode again = CollectCubeEpisode(other, o, 3);
   EXPECT_EQ(again.observations, ep.observations);
   EXPECT_EQ(again.actions, ep.actions);
@@ -56,7 +54,7 @@ TEST(CubeDatasetTest, RowsAreTheStateBeforeEachAction) {
 }
 
 TEST(CubeDatasetTest, ImagesAreStoredPerRow) {
-  CubeEnvOptions eo = EnvOptions();
+  CubeEnvOptions eo = testing_util::CubeOptions();
   eo.enable_rendering = true;
   eo.scene.pixel_style = true;
   CubeEnv env(eo);

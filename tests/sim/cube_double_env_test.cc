@@ -13,14 +13,14 @@
 namespace msspr::sim {
 namespace {
 
-CubeDoubleEnvOptions Options() {
+CubeDoubleEnvOptions CubeDoubleOptions() {
   CubeDoubleEnvOptions o;
   o.urdf_path = testing_util::ArmUrdfPath();
   return o;
 }
 
 TEST(CubeDoubleEnvTest, ObservationLayout) {
-  CubeDoubleEnv env(Options());
+  CubeDoubleEnv env(CubeDoubleOptions());
   const CubeDoubleEnv::Observation o = env.ResetToTask(2, 3);
   ASSERT_EQ(o.size(), 37u);
   EXPECT_EQ(env.Qpos().size(), 8u + 14u);  // arm 6, fingers 2, two free joints
@@ -35,7 +35,7 @@ TEST(CubeDoubleEnvTest, ObservationLayout) {
 }
 
 TEST(CubeDoubleEnvTest, TaskResetsPermuteTheRowsOverTheCubes) {
-  CubeDoubleEnv env(Options());
+  CubeDoubleEnv env(CubeDoubleOptions());
   const CubeDoubleTask& t = CubeDoubleTasks()[3];  // swap
   int swapped = 0;
   for (uint64_t seed = 0; seed < 20; ++seed) {
@@ -51,14 +51,14 @@ TEST(CubeDoubleEnvTest, TaskResetsPermuteTheRowsOverTheCubes) {
   }
   EXPECT_GT(swapped, 3);  // both orders occur
   EXPECT_LT(swapped, 17);
-  CubeDoubleEnv other(Options());
+  CubeDoubleEnv other(CubeDoubleOptions());
   EXPECT_EQ(env.ResetToTask(5, 9), other.ResetToTask(5, 9));
   EXPECT_EQ(env.goal_observation(), other.goal_observation());
   EXPECT_THROW(env.ResetToTask(0, 0), std::out_of_range);
 }
 
 TEST(CubeDoubleEnvTest, SuccessNeedsBothCubesAtTheirOwnGoals) {
-  CubeDoubleEnv env(Options());
+  CubeDoubleEnv env(CubeDoubleOptions());
   env.ResetToTask(4, 1);
   const Eigen::Vector3d g0 = env.GoalPosition(0), g1 = env.GoalPosition(1);
   env.SetCube(0, g1, 0);  // each cube at the other's goal: not a success
@@ -72,7 +72,7 @@ TEST(CubeDoubleEnvTest, SuccessNeedsBothCubesAtTheirOwnGoals) {
 }
 
 TEST(CubeDoubleEnvTest, NewTargetsStackOnlyOnTopCubes) {
-  CubeDoubleEnv env(Options());
+  CubeDoubleEnv env(CubeDoubleOptions());
   env.ResetForCollection(0);
   env.SetCube(0, Eigen::Vector3d(0.40, 0.0, 0.02), 0);
   env.SetCube(1, Eigen::Vector3d(0.40, 0.005, 0.06), 0);  // cube 1 on cube 0
@@ -93,7 +93,7 @@ TEST(CubeDoubleEnvTest, NewTargetsStackOnlyOnTopCubes) {
 }
 
 TEST(CubeDoubleEnvTest, TaskOracleSolvesEveryTask) {
-  CubeDoubleEnv env(Options());
+  CubeDoubleEnv env(CubeDoubleOptions());
   for (int task = 1; task <= 5; ++task) {
     env.ResetToTask(task, 21);
     CubeDoubleTaskOracle oracle(21);
@@ -103,7 +103,7 @@ TEST(CubeDoubleEnvTest, TaskOracleSolvesEveryTask) {
 }
 
 TEST(CubeDoubleDatasetTest, EpisodesAreSeededAndReplay) {
-  CubeDoubleEnv env(Options());
+  CubeDoubleEnv env(CubeDoubleOptions());
   CubeDoubleCollectOptions opt;
   opt.episode_length = 150;
   opt.seed = 2;

@@ -13,8 +13,6 @@
 namespace msspr::sim {
 namespace {
 
-CubeEnvOptions Options() { return testing_util::CubeOptions(); }
-
 // A proportional controller to a pinch position, as OGBench's oracles write
 // actions: (target - current) / scale, clipped to [-1, 1].
 CubeEnv::Action Toward(const CubeEnv& env, const Eigen::Vector3d& target, double grip) {
@@ -27,7 +25,7 @@ CubeEnv::Action Toward(const CubeEnv& env, const Eigen::Vector3d& target, double
 }
 
 TEST(CubeEnvTest, ObservationLayout) {
-  CubeEnv env(Options());
+  CubeEnv env(testing_util::CubeOptions());
   env.SetCube(Eigen::Vector3d(0.40, -0.1, 0.02), 0.7);
   env.SetOpening(0.5);
   const CubeEnv::Observation o = env.GetObservation();
@@ -56,7 +54,7 @@ TEST(CubeEnvTest, ObservationLayout) {
 }
 
 TEST(CubeEnvTest, PlacePinchPointsDownAtTheTarget) {
-  CubeEnv env(Options());
+  CubeEnv env(testing_util::CubeOptions());
   for (double yaw : {-2.5, -0.4, 0.0, 1.0, 3.0}) {
     const Eigen::Vector3d p(0.3 + 0.05 * yaw, 0.1 * std::sin(yaw), 0.25);
     ASSERT_TRUE(env.PlacePinch(p, yaw)) << yaw;
@@ -67,7 +65,7 @@ TEST(CubeEnvTest, PlacePinchPointsDownAtTheTarget) {
 }
 
 TEST(CubeEnvTest, SuccessIsWithinFourCentimetres) {
-  CubeEnv env(Options());
+  CubeEnv env(testing_util::CubeOptions());
   env.SetCube(Eigen::Vector3d(0.45, 0.1, 0.02), 0.0);
   env.SetGoal(Eigen::Vector3d(0.45, 0.139, 0.02));
   EXPECT_TRUE(env.Success());
@@ -83,7 +81,7 @@ TEST(CubeEnvTest, SuccessIsWithinFourCentimetres) {
 // [M] figures of a 2.2.2 re-creation: ~2.1 cm per full +x step, ~0.066 rad
 // per full yaw step, ~1.3 mm sag per zero step).
 TEST(CubeEnvTest, ActionsMoveThePinch) {
-  CubeEnv env(Options());
+  CubeEnv env(testing_util::CubeOptions());
   ASSERT_TRUE(env.PlacePinch(Eigen::Vector3d(0.30, 0.0, 0.25), 0.0));
   Eigen::Vector3d start = env.PinchPosition();
   for (int t = 0; t < 10; ++t) env.Step({0, 0, 0, 0, 0});
@@ -116,7 +114,7 @@ TEST(CubeEnvTest, ActionsMoveThePinch) {
 }
 
 TEST(CubeEnvTest, GripperClosesAndOpens) {
-  CubeEnv env(Options());
+  CubeEnv env(testing_util::CubeOptions());
   ASSERT_TRUE(env.PlacePinch(Eigen::Vector3d(0.40, 0.0, 0.25), 0.0));
   std::string closing, opening;
   for (int t = 0; t < 8; ++t) {
@@ -135,7 +133,7 @@ TEST(CubeEnvTest, GripperClosesAndOpens) {
 
 // A scripted pick: above the cube, down to its centre, close, lift.
 TEST(CubeEnvTest, GraspsAndLiftsTheCube) {
-  CubeEnv env(Options());
+  CubeEnv env(testing_util::CubeOptions());
   const Eigen::Vector3d cube(0.45, 0.05, 0.02);
   env.SetCube(cube, 0.0);
   ASSERT_TRUE(env.PlacePinch(cube + Eigen::Vector3d(0, 0, 0.12), 0.0));
@@ -155,8 +153,8 @@ TEST(CubeEnvTest, GraspsAndLiftsTheCube) {
 }
 
 TEST(CubeEnvTest, TaskResetsAreSeededAndFollowTheTasks) {
-  CubeEnv env(Options());
-  CubeEnv other(Options());
+  CubeEnv env(testing_util::CubeOptions());
+  CubeEnv other(testing_util::CubeOptions());
   for (int task = 1; task <= 5; ++task) {
     const CubeTask& t = CubeSingleTasks()[task - 1];
     const CubeEnv::Observation o = env.ResetToTask(task, 100 + task);
@@ -189,8 +187,8 @@ TEST(CubeEnvTest, TaskResetsAreSeededAndFollowTheTasks) {
 }
 
 TEST(CubeEnvTest, CollectionResetsAreSeededAndInBounds) {
-  CubeEnv env(Options());
-  CubeEnv other(Options());
+  CubeEnv env(testing_util::CubeOptions());
+  CubeEnv other(testing_util::CubeOptions());
   for (uint64_t seed = 0; seed < 20; ++seed) {
     const CubeEnv::Observation o = env.ResetForCollection(seed);
     EXPECT_EQ(other.ResetForCollection(seed), o);
@@ -213,7 +211,7 @@ TEST(CubeEnvTest, CollectionResetsAreSeededAndInBounds) {
 // A closed-loop scripted pick and place (in the spirit of OGBench's markov
 // oracle) solves every evaluation task within the 200-step episode.
 TEST(CubeEnvTest, ScriptedPickAndPlaceSolvesEveryTask) {
-  CubeEnv env(Options());
+  CubeEnv env(testing_util::CubeOptions());
   for (int task = 1; task <= 5; ++task) {
     env.ResetToTask(task, task);
     const Eigen::Vector3d goal = env.GoalPosition();
@@ -304,7 +302,7 @@ RedBlob FindRed(const std::vector<uint8_t>& rgb, int size) {
 // OGBench's pixel camera: image right is world +y, farther (smaller x) is
 // higher up (row 0 = top); the goal image is rendered with the goal state.
 TEST(CubeEnvTest, RendersFromTheFrontPixelsCamera) {
-  CubeEnvOptions options = Options();
+  CubeEnvOptions options = testing_util::CubeOptions();
   options.enable_rendering = true;
   options.scene.pixel_style = true;
   CubeEnv env(options);
@@ -339,13 +337,13 @@ TEST(CubeEnvTest, RendersFromTheFrontPixelsCamera) {
   EXPECT_LT(left.col + 10, right.col);
   EXPECT_LT(far.row + 3, near.row);
   EXPECT_EQ(gone.count, 0);
-  EXPECT_THROW(CubeEnv(Options()).Render(), std::logic_error);
+  EXPECT_THROW(CubeEnv(testing_util::CubeOptions()).Render(), std::logic_error);
 }
 
 // A goal given as an observation (the sim node's set_goal): the goal image is
 // the scene posed as that observation, and the episode goes on bit-exactly.
 TEST(CubeEnvTest, SetGoalObservationRendersItsGoalImageAndKeepsTheState) {
-  CubeEnvOptions options = Options();
+  CubeEnvOptions options = testing_util::CubeOptions();
   options.enable_rendering = true;
   options.scene.pixel_style = true;
   CubeEnv env(options), twin(options);
@@ -390,7 +388,7 @@ TEST(CubeEnvTest, SetGoalObservationRendersItsGoalImageAndKeepsTheState) {
 // mid-step, RenderStateOf(source) is what a rendering twin's Render() gives,
 // and the source's episode goes on unchanged.
 TEST(CubeEnvTest, RenderStateOfDrawsAnotherEnvsSceneBitForBit) {
-  CubeEnvOptions options = Options();
+  CubeEnvOptions options = testing_util::CubeOptions();
   options.scene.pixel_style = true;
   CubeEnv plain(options);  // no rendering, as the evaluator's episodes
   options.enable_rendering = true;

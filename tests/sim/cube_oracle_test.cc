@@ -13,8 +13,6 @@
 namespace msspr::sim {
 namespace {
 
-CubeEnvOptions EnvOptions() { return testing_util::CubeOptions(); }
-
 std::vector<CubePlanSample> Column(const std::vector<double>& v) {
   std::vector<CubePlanSample> out;
   for (double x : v) out.push_back(CubePlanSample::Constant(x));
@@ -39,7 +37,7 @@ TEST(CubeOracleTest, NoiseSmoothingIsScipysGaussianFilter) {
 // Without noise the plan starts at the measured pinch, lasts 4.4 +- 0.08 s,
 // closes the gripper at the cube and ends open.
 TEST(CubeOracleTest, PlanFollowsTheKeyframes) {
-  CubeEnv env(EnvOptions());
+  CubeEnv env(testing_util::CubeOptions());
   env.ResetForCollection(3);
   CubePlayOracleOptions o;
   o.noise_scale = 0;
@@ -63,7 +61,7 @@ TEST(CubeOracleTest, PlanFollowsTheKeyframes) {
 }
 
 TEST(CubeOracleTest, SameSeedSameActions) {
-  CubeEnv a(EnvOptions()), b(EnvOptions());
+  CubeEnv a(testing_util::CubeOptions()), b(testing_util::CubeOptions());
   a.ResetForCollection(11);
   b.ResetForCollection(11);
   CubePlayOracle oa(5), ob(5);
@@ -75,7 +73,7 @@ TEST(CubeOracleTest, SameSeedSameActions) {
     b.Step(y);
   }
   EXPECT_EQ(a.GetObservation(), b.GetObservation());
-  CubeEnv c(EnvOptions());
+  CubeEnv c(testing_util::CubeOptions());
   c.ResetForCollection(11);
   CubePlayOracle oc(6);
   EXPECT_NE(oc.Act(c), CubePlayOracle(5).Act(c));
@@ -117,7 +115,7 @@ TEST(CubeOracleTest, PickYawIsTheCubesSymmetricYawNearestTheEffector) {
 // plan sample at the cube) turns the wrist by at most pi/4 from where it
 // started, and its place keyframe by at most pi/4 from the pick's.
 TEST(CubeOracleTest, PlansNeverAskForMoreThanAnEighthTurn) {
-  CubeEnv env(EnvOptions());
+  CubeEnv env(testing_util::CubeOptions());
   CubePlayOracleOptions o;
   o.noise_scale = 0;
   o.time_jitter = 0;
@@ -137,7 +135,7 @@ TEST(CubeOracleTest, PlansNeverAskForMoreThanAnEighthTurn) {
 // Play data: over a 1000-step collection episode the oracle moves the cube
 // to its target in most pick-and-place cycles.
 TEST(CubeOracleTest, PlayCyclesPlaceTheCube) {
-  CubeEnv env(EnvOptions());
+  CubeEnv env(testing_util::CubeOptions());
   int cycles = 0, placed = 0;
   for (uint64_t seed : {1, 2}) {
     env.ResetForCollection(seed);

@@ -18,8 +18,6 @@
 namespace msspr::sim {
 namespace {
 
-const std::string kUrdfPath = testing_util::ArmUrdfPath();
-
 using internal::DataPtr;
 using internal::ModelPtr;
 
@@ -59,7 +57,7 @@ class CubeSceneTest : public ::testing::Test {
     }
   }
 
-  ArmModel arm_ = ArmModel::FromFile(kUrdfPath);
+  ArmModel arm_ = ArmModel::FromFile(testing_util::ArmUrdfPath());
   std::string xml_;
   ModelPtr model_;
   DataPtr data_;
@@ -189,7 +187,7 @@ TEST_F(CubeSceneTest, ServosHoldHomeAndTheGripperCloses) {
 }
 
 TEST(CubeSceneErrorTest, MeshGeometryIsRejectedWithTheLink) {
-  std::ifstream in(kUrdfPath);
+  std::ifstream in(testing_util::ArmUrdfPath());
   std::ostringstream s;
   s << in.rdbuf();
   std::string text = s.str();
@@ -210,7 +208,7 @@ TEST(CubeSceneErrorTest, MeshGeometryIsRejectedWithTheLink) {
 }
 
 TEST(CubeSceneErrorTest, MissingPadIsNamed) {
-  std::ifstream in(kUrdfPath);
+  std::ifstream in(testing_util::ArmUrdfPath());
   std::ostringstream s;
   s << in.rdbuf();
   std::string text = s.str();

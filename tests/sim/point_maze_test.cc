@@ -32,7 +32,7 @@ double DistanceToWalls(const MazeMap& m, const Eigen::Vector2d& p) {
   return best;
 }
 
-PointMazeOptions Options(const std::string& maze, bool render = false) {
+PointMazeOptions PointOptions(const std::string& maze, bool render = false) {
   PointMazeOptions o;
   o.maze = maze;
   o.enable_rendering = render;
@@ -40,7 +40,7 @@ PointMazeOptions Options(const std::string& maze, bool render = false) {
 }
 
 TEST(PointMazeTest, OneStepMovesByPointTwoTimesActionInFreeSpace) {
-  PointMaze env(Options("medium"));
+  PointMaze env(PointOptions("medium"));
   env.Reset({0.1, -0.2}, {8, 8});
   const Eigen::Vector2d a(0.5, -0.3);
   const Eigen::Vector2d s = env.Step(a);
@@ -94,7 +94,7 @@ TEST(PointMazeTest, PhysicsModelMatchesFullModel) {
 }
 
 TEST(PointMazeTest, NonFiniteActionThrows) {
-  PointMaze env(Options("medium"));
+  PointMaze env(PointOptions("medium"));
   env.Reset({0, 0}, {4, 4});
   EXPECT_THROW(env.Step({std::nan(""), 0}), std::invalid_argument);
   EXPECT_THROW(env.Step({0, std::numeric_limits<double>::infinity()}), std::invalid_argument);
@@ -102,7 +102,7 @@ TEST(PointMazeTest, NonFiniteActionThrows) {
 }
 
 TEST(PointMazeTest, WallsStopTheAgent) {
-  PointMaze env(Options("medium"));
+  PointMaze env(PointOptions("medium"));
   // Cell (1,1) at the origin: wall (1,0) spans x <= -2, wall (0,1) y <= -2.
   env.Reset({0, 0}, {8, 8});
   double min_x = 0;
@@ -123,7 +123,7 @@ TEST(PointMazeTest, WallsStopTheAgent) {
 
 TEST(PointMazeTest, NeverInsideAWallOver100kRandomSteps) {
   for (const std::string maze : {"medium", "large"}) {
-    PointMaze env(Options(maze));
+    PointMaze env(PointOptions(maze));
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     env.ResetRandom(1);
@@ -146,7 +146,7 @@ TEST(PointMazeTest, NeverInsideAWallOver100kRandomSteps) {
 }
 
 TEST(PointMazeTest, ResetToTaskIsSeededAndNoisy) {
-  PointMaze env(Options("large"));
+  PointMaze env(PointOptions("large"));
   for (const MazeMap::Task& task : env.map().Tasks()) {
     const Eigen::Vector2d s1 = env.ResetToTask(task.id, 11);
     const Eigen::Vector2d g1 = env.goal();
@@ -164,7 +164,7 @@ TEST(PointMazeTest, ResetToTaskIsSeededAndNoisy) {
 }
 
 TEST(PointMazeTest, ResetRandomIsSeeded) {
-  PointMaze env(Options("medium"));
+  PointMaze env(PointOptions("medium"));
   const MazeMap& m = env.map();
   const std::vector<Cell> vertices = m.VertexCells();
   for (uint64_t seed = 0; seed < 50; ++seed) {
@@ -179,7 +179,7 @@ TEST(PointMazeTest, ResetRandomIsSeeded) {
 }
 
 TEST(PointMazeTest, SuccessRadius) {
-  PointMaze env(Options("medium"));
+  PointMaze env(PointOptions("medium"));
   env.Reset({0, 0}, {0.99, 0});
   EXPECT_TRUE(env.success());
   env.SetGoal({1.01, 0});
@@ -188,11 +188,11 @@ TEST(PointMazeTest, SuccessRadius) {
 }
 
 TEST(PointMazeTest, BadOptionsThrow) {
-  EXPECT_THROW(PointMaze(Options("nope")), std::invalid_argument);
-  PointMazeOptions o = Options("medium");
+  EXPECT_THROW(PointMaze(PointOptions("nope")), std::invalid_argument);
+  PointMazeOptions o = PointOptions("medium");
   o.image_size = 0;
   EXPECT_THROW(PointMaze{o}, std::invalid_argument);
-  PointMaze env(Options("medium"));
+  PointMaze env(PointOptions("medium"));
   EXPECT_THROW(env.Render(), std::logic_error);
 }
 
@@ -205,7 +205,7 @@ double Variance(const std::vector<uint8_t>& img) {
 }
 
 TEST(PointMazeRenderTest, ImagesAreDeterministicNotBlankAndShowTheGoal) {
-  PointMaze env(Options("medium", true));
+  PointMaze env(PointOptions("medium", true));
   env.ResetToTask(1, 3);
   const Eigen::Vector2d s = env.state();
   const std::vector<uint8_t> a = env.Render();
@@ -219,11 +219,11 @@ TEST(PointMazeRenderTest, ImagesAreDeterministicNotBlankAndShowTheGoal) {
   EXPECT_EQ(a, env.Render());
   EXPECT_EQ(g, env.RenderAt(env.goal()));
   // The goal image equals a render with the agent at the goal.
-  PointMaze other(Options("medium", true));
+  PointMaze other(PointOptions("medium", true));
   other.Reset(env.goal(), env.goal());
   EXPECT_EQ(other.Render(), g);
   // Rendering never changes the physics.
-  PointMaze plain(Options("medium"));
+  PointMaze plain(PointOptions("medium"));
   plain.ResetToTask(1, 3);
   for (int t = 0; t < 100; ++t) {
     const Eigen::Vector2d act(std::sin(0.3 * t), std::cos(0.7 * t));
@@ -235,7 +235,7 @@ TEST(PointMazeRenderTest, ImagesAreDeterministicNotBlankAndShowTheGoal) {
 TEST(PointMazeRenderTest, FloorGradientEncodesPosition) {
   // Renders at nearby positions in the same open area differ, and the top
   // half of the image (floor ahead of the agent) gets redder moving +x.
-  PointMaze env(Options("arena", true));
+  PointMaze env(PointOptions("arena", true));
   env.Reset({4, 4}, {0, 0});
   const std::vector<uint8_t> a = env.RenderAt({8, 8});
   const std::vector<uint8_t> b = env.RenderAt({12, 8});
@@ -247,7 +247,7 @@ TEST(PointMazeRenderTest, FloorGradientEncodesPosition) {
 
 TEST(PointMazeRenderTest, EveryMazeBuildsAndRenders) {
   for (const std::string& name : MazeMap::Names()) {
-    PointMaze env(Options(name, true));
+    PointMaze env(PointOptions(name, true));
     for (const MazeMap::Task& task : env.map().Tasks()) {
       env.ResetToTask(task.id, 1);
       EXPECT_GT(Variance(env.Render()), 100.0) << name << " task " << task.id;
@@ -256,7 +256,7 @@ TEST(PointMazeRenderTest, EveryMazeBuildsAndRenders) {
 }
 
 TEST(PointMazeRenderTest, OtherImageSizes) {
-  PointMazeOptions o = Options("large", true);
+  PointMazeOptions o = PointOptions("large", true);
   o.image_size = 32;
   PointMaze env(o);
   env.ResetRandom(4);
@@ -268,7 +268,7 @@ TEST(PointMazeRenderTest, OtherImageSizes) {
 TEST(PointMazeRenderTest, RendersFromOtherThreads) {
   // Constructed here, rendered in a worker, then here again; plus two
   // threads each with their own env at the same time.
-  PointMaze env(Options("medium", true));
+  PointMaze env(PointOptions("medium", true));
   env.ResetToTask(2, 5);
   const std::vector<uint8_t> here = env.Render();
   std::vector<uint8_t> worker;
@@ -277,12 +277,12 @@ TEST(PointMazeRenderTest, RendersFromOtherThreads) {
   EXPECT_EQ(env.Render(), here);
   std::vector<uint8_t> a, b;
   std::thread ta([&] {
-    PointMaze e(Options("medium", true));
+    PointMaze e(PointOptions("medium", true));
     e.ResetToTask(2, 5);
     for (int k = 0; k < 20; ++k) a = e.Render();
   });
   std::thread tb([&] {
-    PointMaze e(Options("medium", true));
+    PointMaze e(PointOptions("medium", true));
     e.ResetToTask(2, 5);
     for (int k = 0; k < 20; ++k) b = e.Render();
   });

@@ -14,7 +14,7 @@
 namespace msspr::sim {
 namespace {
 
-PuzzleEnvOptions Options(int side) {
+PuzzleEnvOptions PuzzleOptions(int side) {
   PuzzleEnvOptions o;
   o.urdf_path = testing_util::ArmUrdfPath();
   o.side = side;
@@ -31,7 +31,7 @@ bool SolveWithOracle(PuzzleEnv& env, uint64_t seed, int* steps = nullptr) {
 
 TEST(PuzzleEnvTest, ObservationAndStateSizesFollowTheSide) {
   for (const int side : {3, 4}) {
-    PuzzleEnv env(Options(side));
+    PuzzleEnv env(PuzzleOptions(side));
     const int n = side * side;
     EXPECT_EQ(env.num_buttons(), n);
     EXPECT_EQ(env.observation_size(), side == 3 ? 55 : 83);
@@ -50,7 +50,7 @@ TEST(PuzzleEnvTest, ObservationAndStateSizesFollowTheSide) {
 }
 
 TEST(PuzzleEnvTest, ButtonsSitOnTheGridAndRestUp) {
-  PuzzleEnv env(Options(4));
+  PuzzleEnv env(PuzzleOptions(4));
   env.ResetForCollection(3);
   for (int i = 0; i < 4; ++i) {
     for (int j = 0; j < 4; ++j) {
@@ -69,7 +69,7 @@ TEST(PuzzleEnvTest, ButtonsSitOnTheGridAndRestUp) {
 }
 
 TEST(PuzzleEnvTest, PressingTheCentreTogglesItsCrossOnly) {
-  PuzzleEnv env(Options(3));
+  PuzzleEnv env(PuzzleOptions(3));
   env.ResetForCollection(0);
   env.SetButtonStates(env.board().Parse("000/000/000"));
   env.SetGoalStates(env.board().Parse("010/111/010"));
@@ -80,7 +80,7 @@ TEST(PuzzleEnvTest, PressingTheCentreTogglesItsCrossOnly) {
 }
 
 TEST(PuzzleEnvTest, TaskResetsAreSeededAndSetTheTaskBoards) {
-  PuzzleEnv a(Options(3)), b(Options(3));
+  PuzzleEnv a(PuzzleOptions(3)), b(PuzzleOptions(3));
   for (int task = 1; task <= 5; ++task) {
     const PuzzleEnv::Observation oa = a.ResetToTask(task, 7), ob = b.ResetToTask(task, 7);
     EXPECT_EQ(oa, ob) << "task " << task;
@@ -97,7 +97,7 @@ TEST(PuzzleEnvTest, TaskResetsAreSeededAndSetTheTaskBoards) {
 }
 
 TEST(PuzzleEnvTest, CollectionResetsDrawEveryBoardState) {
-  PuzzleEnv env(Options(3));
+  PuzzleEnv env(PuzzleOptions(3));
   int ones = 0;
   for (uint64_t seed = 0; seed < 20; ++seed) {
     env.ResetForCollection(seed);
@@ -111,7 +111,7 @@ TEST(PuzzleEnvTest, CollectionResetsDrawEveryBoardState) {
 }
 
 TEST(PuzzleEnvTest, TaskOracleSolvesEveryThreeByThreeTask) {
-  PuzzleEnv env(Options(3));
+  PuzzleEnv env(PuzzleOptions(3));
   for (int task = 1; task <= 5; ++task) {
     env.ResetToTask(task, 11);
     int steps = 0;
@@ -122,7 +122,7 @@ TEST(PuzzleEnvTest, TaskOracleSolvesEveryThreeByThreeTask) {
 }
 
 TEST(PuzzleEnvTest, PlayOraclePressesRandomButtons) {
-  PuzzleEnv env(Options(3));
+  PuzzleEnv env(PuzzleOptions(3));
   env.ResetForCollection(2);
   PuzzlePlayOracle oracle(2);
   std::vector<int> seen(9, 0);
@@ -142,7 +142,7 @@ TEST(PuzzleEnvTest, PlayOraclePressesRandomButtons) {
 }
 
 TEST(PuzzleDatasetTest, EpisodesAreSeededAndReplayFromTheirStoredActions) {
-  PuzzleEnv env(Options(4));
+  PuzzleEnv env(PuzzleOptions(4));
   PuzzleCollectOptions opt;
   opt.episode_length = 120;
   opt.seed = 5;
@@ -166,8 +166,8 @@ TEST(PuzzleDatasetTest, EpisodesAreSeededAndReplayFromTheirStoredActions) {
 }
 
 TEST(PuzzleEnvTest, RejectsBadSidesAndBoards) {
-  EXPECT_THROW(PuzzleEnv(Options(5)), std::invalid_argument);
-  PuzzleEnv env(Options(3));
+  EXPECT_THROW(PuzzleEnv(PuzzleOptions(5)), std::invalid_argument);
+  PuzzleEnv env(PuzzleOptions(3));
   EXPECT_THROW(env.SetButtonStates(LightsOutState(4, 0)), std::invalid_argument);
   EXPECT_THROW(env.SetGoalStates(LightsOutState(9, 2)), std::invalid_argument);
 }

@@ -13,7 +13,7 @@
 namespace msspr::sim {
 namespace {
 
-SceneEnvOptions Options() {
+SceneEnvOptions SceneOptions() {
   SceneEnvOptions o;
   o.urdf_path = testing_util::ArmUrdfPath();
   return o;
@@ -30,7 +30,7 @@ SceneEnv::Action Toward(const SceneEnv& env, const Eigen::Vector3d& target) {
 }
 
 TEST(SceneEnvTest, ObservationLayout) {
-  SceneEnv env(Options());
+  SceneEnv env(SceneOptions());
   const SceneEnv::Observation o = env.ResetToTask(3, 2);
   ASSERT_EQ(o.size(), 40u);
   // arm 6, fingers 2, the cube's free joint, two buttons, the drawer and the window
@@ -45,7 +45,7 @@ TEST(SceneEnvTest, ObservationLayout) {
 }
 
 TEST(SceneEnvTest, TaskResetsSetStartsGoalsAndLocks) {
-  SceneEnv env(Options()), twin(Options());
+  SceneEnv env(SceneOptions()), twin(SceneOptions());
   for (int task = 1; task <= 5; ++task) {
     const SceneTask& t = SceneTasks()[task - 1];
     EXPECT_EQ(env.ResetToTask(task, 4), twin.ResetToTask(task, 4)) << "task " << task;
@@ -63,7 +63,7 @@ TEST(SceneEnvTest, TaskResetsSetStartsGoalsAndLocks) {
 }
 
 TEST(SceneEnvTest, SuccessNeedsEveryPartAtItsGoal) {
-  SceneEnv env(Options());
+  SceneEnv env(SceneOptions());
   env.ResetToTask(4, 1);  // put_in_drawer
   SceneState goal = env.goal_state();
   env.SetSceneState(goal);
@@ -79,7 +79,7 @@ TEST(SceneEnvTest, SuccessNeedsEveryPartAtItsGoal) {
 }
 
 TEST(SceneEnvTest, ACubeInTheClosedDrawerStaysAtTheTaskGoal) {
-  SceneEnv env(Options());
+  SceneEnv env(SceneOptions());
   env.ResetToTask(4, 1);
   env.SetSceneState(env.goal_state());
   for (int t = 0; t < 20; ++t) env.Step({0, 0, 0, 0, 0});
@@ -88,7 +88,7 @@ TEST(SceneEnvTest, ACubeInTheClosedDrawerStaysAtTheTaskGoal) {
 }
 
 TEST(SceneEnvTest, PressingAButtonTogglesItAndItsLock) {
-  SceneEnv env(Options());
+  SceneEnv env(SceneOptions());
   env.ResetToTask(2, 0);  // both locked
   ASSERT_TRUE(env.DrawerLocked());
   const Eigen::Vector3d top = env.ButtonTop(0);
@@ -109,7 +109,7 @@ TEST(SceneEnvTest, PressingAButtonTogglesItAndItsLock) {
 // has unlocked it and stays put when it is locked.
 TEST(SceneEnvTest, OnlyAnUnlockedDrawerMoves) {
   for (const int unlocked : {1, 0}) {
-    SceneEnv env(Options());
+    SceneEnv env(SceneOptions());
     env.ResetToTask(1, 0);
     SceneState s = env.GetSceneState();
     s.buttons = {unlocked, 1};
@@ -132,7 +132,7 @@ TEST(SceneEnvTest, OnlyAnUnlockedDrawerMoves) {
 // seeded plans from collection resets, most drawer and window plans on unlocked slides end
 // within 4 cm of their target, and the locked ones leave the slide where it was.
 TEST(SceneOracleTest, HandlePlansOpenAndCloseUnlockedSlides) {
-  SceneEnv env(Options());
+  SceneEnv env(SceneOptions());
   int tried = 0, reached = 0, locked_tried = 0, locked_still = 0;
   for (uint64_t seed = 0; seed < 6; ++seed) {
     env.ResetForCollection(seed);
@@ -174,7 +174,7 @@ TEST(SceneOracleTest, HandlePlansOpenAndCloseUnlockedSlides) {
 }
 
 TEST(SceneDatasetTest, EpisodesAreSeededHealthyAndReplay) {
-  SceneEnv env(Options());
+  SceneEnv env(SceneOptions());
   SceneCollectOptions opt;
   opt.episode_length = 200;
   opt.seed = 1;
@@ -198,7 +198,7 @@ TEST(SceneDatasetTest, EpisodesAreSeededHealthyAndReplay) {
 // the tray, close) and the observation reads back as the goal's state.
 TEST(SceneTaskOracleTest, OrdersItsPlansAndSolvesPutInDrawer) {
   using Subtask = SceneTaskOracle::Subtask;
-  SceneEnv env(Options());
+  SceneEnv env(SceneOptions());
   SceneTaskOracle oracle(3);
   env.ResetToTask(2, 3);  // drawer and window open and locked; goal: closed and locked
   EXPECT_EQ(oracle.NextStep(env).subtask, Subtask::kButton);

@@ -7,7 +7,7 @@
 namespace msspr::sim {
 namespace {
 
-std::string Fmt(double v) {
+std::string MjcfNumber(double v) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.6g", v);
   return buf;
@@ -30,8 +30,8 @@ constexpr Leg kLegs[4] = {
 };
 
 void WriteLeg(std::ostringstream& x, const Leg& leg) {
-  const std::string a = Fmt(0.2 * leg.sx) + ' ' + Fmt(0.2 * leg.sy);
-  const std::string f = Fmt(0.4 * leg.sx) + ' ' + Fmt(0.4 * leg.sy);
+  const std::string a = MjcfNumber(0.2 * leg.sx) + ' ' + MjcfNumber(0.2 * leg.sy);
+  const std::string f = MjcfNumber(0.4 * leg.sx) + ' ' + MjcfNumber(0.4 * leg.sy);
   const std::string n = std::to_string(leg.index);
   x << "      <body name=\"" << leg.body << "\" pos=\"0 0 0\">\n"
     << "        <geom name=\"aux_" << n << "_geom\" type=\"capsule\" size=\"0.08\" fromto=\"0 0 0 "
@@ -43,7 +43,8 @@ void WriteLeg(std::ostringstream& x, const Leg& leg) {
     << "_geom\" type=\"capsule\" size=\"0.08\" fromto=\"0 0 0 " << a << " 0\"/>\n"
     << "          <body name=\"foot_" << n << "\" pos=\"" << a << " 0\">\n"
     << "            <joint name=\"ankle_" << n << "\" type=\"hinge\" pos=\"0 0 0\" axis=\""
-    << leg.ankle_axis << "\" range=\"" << Fmt(leg.ankle_lo) << ' ' << Fmt(leg.ankle_hi) << "\"/>\n"
+    << leg.ankle_axis << "\" range=\"" << MjcfNumber(leg.ankle_lo) << ' '
+    << MjcfNumber(leg.ankle_hi) << "\"/>\n"
     << "            <geom name=\"ankle_" << n
     << "_geom\" type=\"capsule\" size=\"0.08\" fromto=\"0 0 0 " << f << " 0\"/>\n"
     << "          </body>\n"
@@ -67,7 +68,7 @@ std::string AntMjcf(const MazeMap* maze, double open_floor_half_size) {
   std::ostringstream x;
   x << "<mujoco model=\"" << (maze ? "antmaze_" + maze->name() : std::string("ant")) << "\">\n"
     << "  <compiler angle=\"degree\" inertiafromgeom=\"true\"/>\n"
-    << "  <option timestep=\"" << Fmt(kAntTimestep) << "\" integrator=\"RK4\"/>\n"
+    << "  <option timestep=\"" << MjcfNumber(kAntTimestep) << "\" integrator=\"RK4\"/>\n"
     << "  <visual>\n"
     << "    <quality shadowsize=\"0\"/>\n"
     << "  </visual>\n"
@@ -84,25 +85,26 @@ std::string AntMjcf(const MazeMap* maze, double open_floor_half_size) {
   if (maze != nullptr) {
     const int w = maze->cols(), h = maze->rows();
     const double half = kCellSize / 2;
-    x << "    <geom name=\"floor\" type=\"plane\" conaffinity=\"1\" pos=\"" << Fmt(half * (w - 3))
-      << ' ' << Fmt(half * (h - 3)) << " 0\" size=\"" << Fmt(half * w) << ' ' << Fmt(half * h)
-      << " 0.1\" rgba=\"0.8 0.9 0.8 1\"/>\n";
+    x << "    <geom name=\"floor\" type=\"plane\" conaffinity=\"1\" pos=\""
+      << MjcfNumber(half * (w - 3)) << ' ' << MjcfNumber(half * (h - 3)) << " 0\" size=\""
+      << MjcfNumber(half * w) << ' ' << MjcfNumber(half * h) << " 0.1\" rgba=\"0.8 0.9 0.8 1\"/>\n";
     for (int i = 0; i < h; ++i) {
       for (int j = 0; j < w; ++j) {
         if (!maze->IsWall({i, j})) continue;
         const Eigen::Vector2d c = maze->CellCenter({i, j});
-        x << "    <geom name=\"block_" << i << '_' << j << "\" type=\"box\" pos=\"" << Fmt(c.x())
-          << ' ' << Fmt(c.y()) << ' ' << Fmt(kWallHeight / 2) << "\" size=\"" << Fmt(half) << ' '
-          << Fmt(half) << ' ' << Fmt(kWallHeight / 2)
+        x << "    <geom name=\"block_" << i << '_' << j << "\" type=\"box\" pos=\""
+          << MjcfNumber(c.x()) << ' ' << MjcfNumber(c.y()) << ' ' << MjcfNumber(kWallHeight / 2)
+          << "\" size=\"" << MjcfNumber(half) << ' ' << MjcfNumber(half) << ' '
+          << MjcfNumber(kWallHeight / 2)
           << "\" contype=\"1\" conaffinity=\"1\" rgba=\"0.7 0.5 0.3 1\"/>\n";
       }
     }
   } else {
     x << "    <geom name=\"floor\" type=\"plane\" conaffinity=\"1\" pos=\"0 0 0\" size=\""
-      << Fmt(open_floor_half_size) << ' ' << Fmt(open_floor_half_size)
+      << MjcfNumber(open_floor_half_size) << ' ' << MjcfNumber(open_floor_half_size)
       << " 40\" rgba=\"0.8 0.9 0.8 1\"/>\n";
   }
-  x << "    <body name=\"torso\" pos=\"0 0 " << Fmt(kAntTorsoHeight) << "\">\n"
+  x << "    <body name=\"torso\" pos=\"0 0 " << MjcfNumber(kAntTorsoHeight) << "\">\n"
     << "      <camera name=\"track\" mode=\"trackcom\" pos=\"0 -3 0.3\" xyaxes=\"1 0 0 0 0 1\"/>\n"
     << "      <geom name=\"torso_geom\" type=\"sphere\" size=\"0.25\" pos=\"0 0 0\"/>\n"
     << "      <joint name=\"root\" type=\"free\" pos=\"0 0 0\" armature=\"0\" damping=\"0\""
@@ -113,7 +115,7 @@ std::string AntMjcf(const MazeMap* maze, double open_floor_half_size) {
     << "  <actuator>\n";
   for (const char* joint : kAntActuatorJoints) {
     x << "    <motor joint=\"" << joint << "\" ctrllimited=\"true\" ctrlrange=\"-1 1\" gear=\""
-      << Fmt(kAntGear) << "\"/>\n";
+      << MjcfNumber(kAntGear) << "\"/>\n";
   }
   x << "  </actuator>\n"
     << "</mujoco>\n";

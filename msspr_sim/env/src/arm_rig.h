@@ -31,6 +31,8 @@ extern const Eigen::Vector3d kObservationCentre;
 
 // ZYX yaw of a quaternion (w, x, y, z); independent of its sign.
 double QuatYaw(double w, double x, double y, double z);
+// The same of the quaternion (w, x, y, z) at q (a free joint's qpos + 3, a mocap_quat).
+inline double QuatYaw(const double* q) { return QuatYaw(q[0], q[1], q[2], q[3]); }
 
 // A free joint's body (qpos at qpos_adr, qvel at qvel_adr) at `position`, turned `yaw` about z,
 // at rest; no mj_forward.

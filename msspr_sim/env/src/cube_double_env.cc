@@ -11,12 +11,11 @@
 #include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
+
+using internal::QuatYaw;
 namespace {
 
 const char* const kColour[2] = {"0.96 0.26 0.33", "0.35 0.55 0.91"};  // red, blue
-
-// ZYX yaw of the quaternion (w, x, y, z) at q.
-double QuatYaw(const mjtNum* q) { return internal::QuatYaw(q[0], q[1], q[2], q[3]); }
 
 void CheckCube(int i) {
   if (i < 0 || i >= CubeDoubleEnv::kCubes)

@@ -46,6 +46,8 @@ Eigen::Matrix3d PinchDownRotation(double yaw) {
       .toRotationMatrix();
 }
 
+Eigen::Quaterniond PinchDown(double yaw) { return Eigen::Quaterniond(PinchDownRotation(yaw)); }
+
 struct CubeEnv::Impl {
   Impl(const std::string& urdf_path, const ArmIkOptions& ik) : rig(urdf_path, ik) {}
   internal::ArmRig rig;

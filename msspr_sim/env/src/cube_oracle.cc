@@ -9,8 +9,6 @@
 namespace msspr::sim {
 namespace {
 
-Eigen::Quaterniond Down(double yaw) { return Eigen::Quaterniond(PinchDownRotation(yaw)); }
-
 double Yaw(const Eigen::Quaterniond& q) {
   return std::atan2(2 * (q.w() * q.z() + q.x() * q.y()), 1 - 2 * (q.y() * q.y() + q.z() * q.z()));
 }
@@ -115,7 +113,7 @@ std::vector<CubePlanSample> PlanPickAndPlace(const PickAndPlace& s,
   const double pick_yaw = NearestSymmetricYaw(s.cube_yaw, s.pinch_yaw);
   const Eigen::Vector3d cube = s.cube;
   const Eigen::Vector3d above_cube = cube + Eigen::Vector3d(0, 0, 0.1 + u(0, 0.1));
-  const Eigen::Quaterniond pick_rot = Down(pick_yaw);
+  const Eigen::Quaterniond pick_rot = PinchDown(pick_yaw);
   k.push_back({0.4, above_cube, pick_rot, 0.0});
   k.push_back({0.6, cube, pick_rot, 0.0});        // pick_start
   k.push_back({0.4, cube, pick_rot, 1.0});        // pick_end: closes in between
@@ -124,7 +122,7 @@ std::vector<CubePlanSample> PlanPickAndPlace(const PickAndPlace& s,
   // pick yaw read back from its rotation, so in [0, 2 pi) too).
   const Eigen::Vector3d target = s.target;
   const Eigen::Vector3d above_target = target + Eigen::Vector3d(0, 0, 0.1 + u(0, 0.1));
-  const Eigen::Quaterniond place_rot = Down(NearestSymmetricYaw(s.target_yaw, pick_yaw));
+  const Eigen::Quaterniond place_rot = PinchDown(NearestSymmetricYaw(s.target_yaw, pick_yaw));
   // clearance: the SE(3) midpoint of postpick and place, at the initial
   // height, jittered (its draws come after place's, as its pose needs place).
   Eigen::Vector3d clearance = (above_cube + above_target) / 2;
@@ -138,7 +136,7 @@ std::vector<CubePlanSample> PlanPickAndPlace(const PickAndPlace& s,
   // final: a random pose in the start box.
   Eigen::Vector3d final_p;
   for (int i = 0; i < 3; ++i) final_p[i] = u(s.final_low[i], s.final_high[i]);
-  k.push_back({0.4, final_p, Down(u(-M_PI, M_PI)), 0.0});
+  k.push_back({0.4, final_p, PinchDown(u(-M_PI, M_PI)), 0.0});
   return SamplePlan(std::move(k), options.time_jitter, options, rng);
 }
 

@@ -28,7 +28,7 @@ Eigen::Vector2d ReadPoint(const YAML::Node& node, const std::string& where) {
   return Eigen::Vector2d(v[0], v[1]);
 }
 
-std::string Fmt(double x) {
+std::string Fixed3(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3f", x);
   return buf;
@@ -84,8 +84,8 @@ std::vector<CustomTask> LoadCustomTasks(const std::string& path, const MazeMap* 
       for (const auto& [name, p] :
            {std::make_pair("start", task.start), std::make_pair("goal", task.goal)})
         if (map->IsWall(map->XYToCell(p)))
-          throw std::runtime_error(where + ": " + name + " (" + Fmt(p.x()) + ", " + Fmt(p.y()) +
-                                   ") is inside a wall of maze " + map->name());
+          throw std::runtime_error(where + ": " + name + " (" + Fixed3(p.x()) + ", " +
+                                   Fixed3(p.y()) + ") is inside a wall of maze " + map->name());
     }
     out.push_back(task);
   }
@@ -97,7 +97,7 @@ std::vector<CustomTask> RandomCustomTasks(const MazeMap& map, int n, uint64_t se
   if (n < 1) throw std::invalid_argument("RandomCustomTasks: n must be at least 1");
   if (min_cells < 1) throw std::invalid_argument("RandomCustomTasks: min_cells must be at least 1");
   if (!(noise >= 0.0) || noise > kCellSize / 2)
-    throw std::invalid_argument("RandomCustomTasks: noise must be in [0, " + Fmt(kCellSize / 2) +
+    throw std::invalid_argument("RandomCustomTasks: noise must be in [0, " + Fixed3(kCellSize / 2) +
                                 "] metres");
   const auto free = map.FreeCells();
   // Ordered pairs of free cells at least min_cells moves apart.
@@ -147,9 +147,10 @@ std::string CustomTasksYaml(const MazeMap& map, const std::vector<CustomTask>& t
   os << "tasks:\n";
   for (const auto& t : tasks) {
     const Cell a = map.XYToCell(t.start), b = map.XYToCell(t.goal);
-    os << "  - {id: " << t.id << ", start: [" << Fmt(t.start.x()) << ", " << Fmt(t.start.y())
-       << "], goal: [" << Fmt(t.goal.x()) << ", " << Fmt(t.goal.y()) << "]}  # cell (" << a.i << ","
-       << a.j << ") -> (" << b.i << "," << b.j << "), " << map.BfsDistance(a, b) << " moves\n";
+    os << "  - {id: " << t.id << ", start: [" << Fixed3(t.start.x()) << ", " << Fixed3(t.start.y())
+       << "], goal: [" << Fixed3(t.goal.x()) << ", " << Fixed3(t.goal.y()) << "]}  # cell (" << a.i
+       << "," << a.j << ") -> (" << b.i << "," << b.j << "), " << map.BfsDistance(a, b)
+       << " moves\n";
   }
   return os.str();
 }

@@ -60,7 +60,7 @@ const std::vector<MapSpec>& Specs() {
 
 constexpr std::array<std::array<int, 2>, 4> kMoves = {{{-1, 0}, {1, 0}, {0, -1}, {0, 1}}};
 
-std::string Fmt(double v) {
+std::string Format4g(double v) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.4g", v);
   return buf;
@@ -231,9 +231,10 @@ std::string MazeMap::ToMjcf(int image_size, bool visuals) const {
           const double ty = c.y() + (di == 0 ? -half_tile : half_tile);
           const double u = std::clamp((tx - x_min) / x_span, 0.0, 1.0);
           const double v = std::clamp((ty - y_min) / y_span, 0.0, 1.0);
-          x << "    <geom class=\"tile\" pos=\"" << Fmt(tx) << ' ' << Fmt(ty) << " -0.05\" size=\""
-            << Fmt(half_tile) << ' ' << Fmt(half_tile) << " 0.05\" rgba=\"" << Fmt(0.15 + 0.8 * u)
-            << ' ' << Fmt(0.15 + 0.8 * v) << ' ' << Fmt(0.55 - 0.3 * u * v) << " 1\"/>\n";
+          x << "    <geom class=\"tile\" pos=\"" << Format4g(tx) << ' ' << Format4g(ty)
+            << " -0.05\" size=\"" << Format4g(half_tile) << ' ' << Format4g(half_tile)
+            << " 0.05\" rgba=\"" << Format4g(0.15 + 0.8 * u) << ' ' << Format4g(0.15 + 0.8 * v)
+            << ' ' << Format4g(0.55 - 0.3 * u * v) << " 1\"/>\n";
         }
       }
     }
@@ -252,18 +253,19 @@ std::string MazeMap::ToMjcf(int image_size, bool visuals) const {
     for (int j = 0; j < cols_; ++j) {
       if (!IsWall({i, j}) || (!visuals && !touches_free(i, j))) continue;
       const Eigen::Vector2d c = CellCenter({i, j});
-      x << "    <geom name=\"wall_" << i << '_' << j << "\" type=\"box\" pos=\"" << Fmt(c.x())
-        << ' ' << Fmt(c.y()) << ' ' << Fmt(kWallHeight / 2) << "\" size=\"" << Fmt(kCellSize / 2)
-        << ' ' << Fmt(kCellSize / 2) << ' ' << Fmt(kWallHeight / 2)
+      x << "    <geom name=\"wall_" << i << '_' << j << "\" type=\"box\" pos=\"" << Format4g(c.x())
+        << ' ' << Format4g(c.y()) << ' ' << Format4g(kWallHeight / 2) << "\" size=\""
+        << Format4g(kCellSize / 2) << ' ' << Format4g(kCellSize / 2) << ' '
+        << Format4g(kWallHeight / 2)
         << "\" rgba=\"0.42 0.42 0.46 1\" contype=\"1\" conaffinity=\"1\"/>\n";
     }
   }
   // Agent: a sphere on two slide joints; qpos = (x, y) in world coordinates.
   // The camera tracks the agent's centre of mass from behind (-y) and above.
-  x << "    <body name=\"agent\" pos=\"0 0 " << Fmt(kAgentRadius) << "\">\n"
+  x << "    <body name=\"agent\" pos=\"0 0 " << Format4g(kAgentRadius) << "\">\n"
     << "      <joint name=\"agent_x\" type=\"slide\" axis=\"1 0 0\"/>\n"
     << "      <joint name=\"agent_y\" type=\"slide\" axis=\"0 1 0\"/>\n"
-    << "      <geom name=\"agent_geom\" type=\"sphere\" size=\"" << Fmt(kAgentRadius)
+    << "      <geom name=\"agent_geom\" type=\"sphere\" size=\"" << Format4g(kAgentRadius)
     << "\" rgba=\"0.1 0.2 1 1\" contype=\"1\" conaffinity=\"1\"/>\n"
     << "      <camera name=\"track\" mode=\"trackcom\" pos=\"0 -5 9\" fovy=\"50\""
     << " xyaxes=\"1 0 0 0 0.874157 0.485643\"/>\n"

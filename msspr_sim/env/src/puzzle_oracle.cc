@@ -9,8 +9,6 @@
 namespace msspr::sim {
 namespace {
 
-Eigen::Quaterniond Down(double yaw) { return Eigen::Quaterniond(PinchDownRotation(yaw)); }
-
 PuzzleEnv::Action Toward(const PuzzleEnv& env, const CubePlanSample& x,
                          const PuzzleOracleOptions& options) {
   return ActionTowardSample(x, env.PinchPosition(), env.PinchYaw(), env.Opening(),
@@ -24,7 +22,7 @@ std::vector<CubePlanSample> PlanButtonPress(const ArmEnv& env, const Eigen::Vect
                                             std::mt19937_64& rng) {
   const ArmEnvOptions& eo = env.arm_options();
   const Eigen::Vector3d p0 = env.PinchPosition();
-  const Eigen::Quaterniond press_rot = Down(top.x());  // OGBench's yaw slip
+  const Eigen::Quaterniond press_rot = PinchDown(top.x());  // OGBench's yaw slip
   const Eigen::Vector3d above = top + Eigen::Vector3d(0, 0, options.hover);
   const Eigen::Vector3d below = top - Eigen::Vector3d(0, 0, options.depth);
   const double d = (above - p0).norm();
@@ -35,7 +33,7 @@ std::vector<CubePlanSample> PlanButtonPress(const ArmEnv& env, const Eigen::Vect
   kf.push_back({0.32, above, press_rot, 1.0});                 // press_end
   Eigen::Vector3d final_p;
   for (int i = 0; i < 3; ++i) final_p[i] = Uniform(rng, eo.init_low[i], eo.init_high[i]);
-  kf.push_back({0.5, final_p, Down(Uniform(rng, -M_PI, M_PI)), grip});
+  kf.push_back({0.5, final_p, PinchDown(Uniform(rng, -M_PI, M_PI)), grip});
   return SamplePlan(std::move(kf), options.plan.time_jitter, options.plan, rng);
 }
 

@@ -13,14 +13,13 @@
 #include "msspr_sim/random_util.h"
 
 namespace msspr::sim {
+
+using internal::QuatYaw;
 namespace {
 
 constexpr double kLocked = 1e6, kFree = 2.0;  // slide damping (N s / m)
 // Cap colours: red in state 0, white in state 1; handles red when locked, white when free.
 const float kRed[4] = {0.96f, 0.26f, 0.33f, 1.f}, kWhite[4] = {0.9f, 0.9f, 0.9f, 1.f};
-
-// ZYX yaw of the quaternion (w, x, y, z) at q.
-double QuatYaw(const mjtNum* q) { return internal::QuatYaw(q[0], q[1], q[2], q[3]); }
 
 }  // namespace
 

@@ -12,8 +12,6 @@
 namespace msspr::sim {
 namespace {
 
-Eigen::Quaterniond Down(double yaw) { return Eigen::Quaterniond(PinchDownRotation(yaw)); }
-
 // handle_yaw + k pi (k = -2..2) nearest the effector's yaw taken in [0, 2 pi) (OGBench's).
 double NearestHalfTurnYaw(double handle_yaw, double effector_yaw) {
   const double near = YawIn0To2Pi(effector_yaw);
@@ -69,7 +67,7 @@ std::vector<CubePlanSample> PlanHandleMove(const ArmEnv& env, const Eigen::Vecto
                                            double above, const CubePlayOracleOptions& options,
                                            std::mt19937_64& rng) {
   const ArmEnvOptions& eo = env.arm_options();
-  const Eigen::Quaterniond rot = Down(NearestHalfTurnYaw(handle_yaw, env.PinchYaw()));
+  const Eigen::Quaterniond rot = PinchDown(NearestHalfTurnYaw(handle_yaw, env.PinchYaw()));
   const Eigen::Vector3d up(0, 0, above);
   std::vector<PlanKeyframe> kf;
   kf.push_back({0.0, env.PinchPosition(), Eigen::Quaterniond(env.PinchRotation()), 0.0});
@@ -81,7 +79,7 @@ std::vector<CubePlanSample> PlanHandleMove(const ArmEnv& env, const Eigen::Vecto
   kf.push_back({0.2, target + up, rot, 0.0});  // clearance
   Eigen::Vector3d final_p;
   for (int i = 0; i < 3; ++i) final_p[i] = Uniform(rng, eo.init_low[i], eo.init_high[i]);
-  kf.push_back({0.4, final_p, Down(Uniform(rng, -M_PI, M_PI)), 0.0});
+  kf.push_back({0.4, final_p, PinchDown(Uniform(rng, -M_PI, M_PI)), 0.0});
   return SamplePlan(std::move(kf), options.time_jitter, options, rng);
 }
 

@@ -174,5 +174,7 @@ class CubeEnv {
 // The target orientation of OGBench's cube tasks: Rz(yaw) Rx(pi), the tool
 // pointing straight down.
 Eigen::Matrix3d PinchDownRotation(double yaw);
+// The same as a quaternion: the oracles' grasp orientation at `yaw`.
+Eigen::Quaterniond PinchDown(double yaw);
 
 }  // namespace msspr::sim

@@ -17,8 +17,6 @@ namespace msspr::ros_bridge {
 
 namespace {
 
-Eigen::Vector3d ToEigen(const urdf::Vector3& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
-
 bool IsUnrotated(const urdf::Rotation& r) {
   return std::abs(r.w) > 1 - 1e-9 && std::abs(r.x) < 1e-9 && std::abs(r.y) < 1e-9 &&
          std::abs(r.z) < 1e-9;

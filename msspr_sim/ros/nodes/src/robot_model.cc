@@ -10,9 +10,9 @@
 
 namespace msspr::ros_bridge {
 
-namespace {
-
 Eigen::Vector3d ToEigen(const urdf::Vector3& v) { return Eigen::Vector3d(v.x, v.y, v.z); }
+
+namespace {
 
 // The sphere radii of a link's visual and collision shapes; throws when a shape is not a sphere.
 std::vector<double> SphereRadii(const urdf::Link& link, const std::string& where) {

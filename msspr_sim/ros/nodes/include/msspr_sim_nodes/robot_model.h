@@ -12,7 +12,14 @@
 
 #include "msspr_sim/point_maze.h"
 
+namespace urdf {
+class Vector3;
+}
+
 namespace msspr::ros_bridge {
+
+// A URDF vector (an origin, an axis) as Eigen.
+Eigen::Vector3d ToEigen(const urdf::Vector3& v);
 
 // One joint of the chain from the world frame to the agent's link.
 struct RobotChainJoint {
