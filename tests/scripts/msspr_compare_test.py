@@ -52,6 +52,14 @@ tasks:
 """
 
 
+def cpu_model_number():
+    with open("/proc/cpuinfo") as f:
+        for line in f:
+            if line.startswith("model") and line.split(":")[0].strip() == "model":
+                return line.split(":", 1)[1].strip()
+    return "?"
+
+
 def read_json(path):
     with open(path) as f:
         return json.load(f)
@@ -216,6 +224,8 @@ class MssprCompareTest(unittest.TestCase):
             self.assertEqual(cells[4], f"{STEPS}")
             self.assertGreater(float(cells[5]), 0.0)  # steps/s
             self.assertEqual(cells[8], f"{cells[2]} at {STEPS}")  # both agents at equal steps
+            # What the runs trained in, read from their logs: the precision and this CPU's model.
+            self.assertRegex(cells[10], rf"^(fp32|bf16), model {cpu_model_number()}$")
         with open(os.path.join(self.out, "report.csv")) as f:
             recs = list(csv.DictReader(f))
         self.assertEqual(len(recs), 4)
@@ -224,6 +234,8 @@ class MssprCompareTest(unittest.TestCase):
             evals = [float(x.split(":")[1]) for x in r["evaluations"].split()]
             self.assertEqual(len(evals), STEPS // EVERY)
             self.assertAlmostEqual(float(r["last3_mean_success"]), sum(evals[-3:]) / 3, places=4)
+            self.assertIn(r["precision"], ("fp32", "bf16"))
+            self.assertIn(f"model {cpu_model_number()}", r["cpu"])
         # The statistic in the table is the mean and sample sd of the two seeds' figures.
         for agent, row in zip(["mspr", "gcivl"], rows):
             figs = [float(r["last3_mean_success"]) * 100 for r in recs if r["agent"] == agent]
