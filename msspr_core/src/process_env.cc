@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 namespace msspr {
 namespace core {
@@ -28,6 +29,8 @@ std::string LoadedOpenBlasCore() {
 }
 
 void ReexecWithToolEnvironment(char** argv) {
+  for (char** arg = argv + 1; *arg != nullptr; ++arg)
+    if (std::strcmp(*arg, "--print-options") == 0) return;  // prints, computes nothing
   bool changed = false;
   if (std::getenv("OMP_WAIT_POLICY") == nullptr && setenv("OMP_WAIT_POLICY", "PASSIVE", 0) == 0)
     changed = true;

@@ -36,7 +36,10 @@ std::string LoadedOpenBlasCore();
 // libgomp and OpenBLAS read these once at load time, so when either is set
 // here the program re-executes itself (/proc/self/exe) with the same
 // arguments. Returns only when nothing was re-executed (both variables
-// already set or nothing to change, or exec failed).
+// already set or nothing to change, or exec failed). A run asked only to
+// print its resolved options (--print-options: msspr_train, called by
+// msspr_compare for every run of a grid) computes nothing and is not
+// re-executed, which halves its time.
 void ReexecWithToolEnvironment(char** argv);
 
 }  // namespace core

@@ -188,6 +188,16 @@ TEST(Cli, ToolsRunTheCpusOpenBlasKernelsNotTheGenericFallback) {
   EXPECT_EQ(OpenBlasCores(chosen.text), std::vector<std::string>{"Haswell"}) << chosen.text;
 }
 
+// msspr_train --print-options (msspr_compare's call for every run of a grid) only prints the
+// resolved options: it runs once, never re-executed for the OpenMP and OpenBLAS settings.
+TEST(Cli, TrainPrintOptionsRunsOnceWithoutReexecuting) {
+  const Result r = ::Run("env -u OPENBLAS_CORETYPE -u OMP_WAIT_POLICY OPENBLAS_VERBOSE=2",
+                         std::string(MSSPR_TRAIN_EXE) + " --print-options");
+  ASSERT_EQ(r.status, 0) << r.text;
+  EXPECT_EQ(OpenBlasCores(r.text).size(), 1u) << "re-executed?\n" << r.text;
+  EXPECT_NE(r.text.find("precision: "), std::string::npos) << r.text;
+}
+
 // The remaining tools: --help prints the usage and exits 0; an unknown flag and a bad or
 // missing value exit 2 naming them.
 TEST(Cli, TheOtherToolsAnswerHelpAndRejectBadFlags) {
