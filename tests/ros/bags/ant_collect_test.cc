@@ -15,7 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "../eval/ant_test_policy.h"
+#include "../../eval/ant_test_policy.h"
+#include "cli_test_util.h"
 #include "msspr_bags/dataset_bag.h"
 #include "msspr_eval/ant_dataset.h"
 #include "msspr_sim/ant_maze.h"
@@ -24,19 +25,11 @@
 namespace msspr::ros_bridge {
 namespace {
 
-int RunCommand(const std::string& cmd, std::string* output) {
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  if (p == nullptr) return -1;
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  if (output != nullptr) *output = out;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+// msspr_collect ARGS to its end (test::RunTool): the exit status, and its output into *output.
 int RunCollect(const std::string& args, std::string* output) {
-  return RunCommand(std::string(MSSPR_COLLECT_EXE) + " " + args, output);
+  const test::ToolOutput r = test::RunTool(std::string(MSSPR_COLLECT_EXE) + " " + args, 280);
+  if (output != nullptr) *output = r.text;
+  return r.status;
 }
 
 class AntCollect : public ::testing::Test {
@@ -124,7 +117,9 @@ TEST_F(AntCollect, NavigateBagHasTheLayoutAndTheSeededEpisodes) {
   }
 
   // msspr_bag_info shows the 29-D observation.
-  ASSERT_EQ(RunCommand(std::string(MSSPR_BAG_INFO_EXE) + " " + bag, &out), 0) << out;
+  const test::ToolOutput info = test::RunTool(std::string(MSSPR_BAG_INFO_EXE) + " " + bag, 280);
+  out = info.text;
+  ASSERT_EQ(info.status, 0) << out;
   EXPECT_NE(out.find("observation:  dim 29 float32"), std::string::npos) << out;
   EXPECT_NE(out.find("action:       dim 8 float32"), std::string::npos) << out;
 }

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_test_util.h"
 #include "msspr_bags/dataset_bag.h"
 #include "msspr_sim/cube_double_env.h"
 #include "msspr_sim/cube_env.h"
@@ -26,17 +27,11 @@ std::string TempPath(const std::string& name) {
   return "/tmp/msspr_cube_test_" + std::to_string(getpid()) + "_" + name;
 }
 
+// msspr_collect ARGS to its end (test::RunTool): the exit status, and its output into *output.
 int RunCollect(const std::string& args, std::string* output = nullptr) {
-  const std::string cmd = std::string(MSSPR_COLLECT_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (p == nullptr) return -1;
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  if (output != nullptr) *output = out;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const test::ToolOutput r = test::RunTool(std::string(MSSPR_COLLECT_EXE) + " " + args, 280);
+  if (output != nullptr) *output = r.text;
+  return r.status;
 }
 
 TEST(CubeCollect, WritesPlayDatasetThatReplays) {
