@@ -141,10 +141,13 @@ class MssprCompareTest(unittest.TestCase):
             if d in interrupted and len(rec["segments"]) == 2:
                 seg0, seg1 = rec["segments"]
                 self.assertEqual(seg0["exit"], "lost (msspr_compare was killed)")
-                self.assertIn("--resume", seg1["command"])
                 self.assertEqual(seg1["step_end"], STEPS)
+                if "--resume" not in seg1["command"]:
+                    # Killed before msspr_train wrote its run.yaml: the run starts anew, at 0.
+                    self.assertEqual(seg1["step_start"], 0, d)
+                    self.assertIn("--data", seg1["command"])
                 # From its last checkpoint (a run killed before its first starts at 0).
-                if seg1["step_start"] > 0:
+                elif seg1["step_start"] > 0:
                     resumed += 1
                     # The lost segment's time reaches at least its training's time at the step
                     # the next one resumed from (metrics.csv keeps the rows up to it).
