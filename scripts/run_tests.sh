@@ -9,6 +9,19 @@ export ROS_HOME=${ROS_HOME:-$PWD/ros_home}
 export ROS_LOG_DIR=${ROS_LOG_DIR:-$ROS_HOME/log}
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
 mkdir -p "$ROS_LOG_DIR"
+# Every process of the run gets the environment msspr's tools give themselves
+# (msspr_core/process_env.h): OMP_WAIT_POLICY=PASSIVE, and OpenBLAS's kernels for this CPU
+# where it would pick its generic ones. Set once here, so that no LibTorch-linked test
+# re-executes itself to get them (tests/core/tool_env_gtest_main.cc). OPENBLAS_VERBOSE=2
+# makes OpenBLAS name the kernels a tool runs with ("Core: SkylakeX").
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY-PASSIVE}
+if [ -z "${OPENBLAS_CORETYPE+x}" ] && [ -x devel/lib/msspr/msspr_bench_core ]; then
+  core=$(OPENBLAS_VERBOSE=2 devel/lib/msspr/msspr_bench_core --help 2>&1 | sed -n 's/^Core: //p' | tail -1)
+  if [ -n "$core" ]; then
+    export OPENBLAS_CORETYPE=$core
+    echo "run_tests: OPENBLAS_CORETYPE=$core (the OpenBLAS kernels msspr's tools use on this CPU)"
+  fi
+fi
 log=$PWD/ctest.log
 # One test per core (MSSPR_TEST_JOBS=N to change it); the tests that start ROS masters,
 # real-time sims or launch files are marked RUN_SERIAL and run alone.
