@@ -32,12 +32,10 @@ test: deps
 	@scripts/run_tests.sh $(BUILD)
 
 # What `make demo` runs (launch/demo.launch, expert_demo.launch): the sim, the
-# expert, the policy node and the evaluator; the other tools and the tests
-# come with `make build`.
-DEMO_TARGETS := msspr_sim_node msspr_expert_node msspr_policy_node msspr_eval
-
+# expert, the policy node and the evaluator, one CMake target (msspr_demo_targets);
+# the other tools and the tests come with `make build`.
 build-demo: configure
-	cmake --build $(BUILD) -j$(JOBS) --target $(DEMO_TARGETS)
+	cmake --build $(BUILD) -j$(JOBS) --target msspr_demo_targets
 
 demo: deps
 	@$(MAKE) --no-print-directory build-demo
