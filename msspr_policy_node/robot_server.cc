@@ -46,6 +46,15 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
       nh_(nh),
       pnh_(pnh),
       policy_(std::move(policy)) {
+  CheckPolicyAgainstSpec();
+  Subscribe();
+  AdvertiseAndStartTimers();
+  LogServing();
+}
+
+// The checkpoint's observation mode, image size and sizes against the spec; throws
+// std::invalid_argument naming both.
+void RobotServer::CheckPolicyAgainstSpec() {
   pixels_ = policy_->pixels();
   const auto& net = policy_->options().network;
   if (pixels_ && spec_.images.empty())
@@ -77,6 +86,10 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
         kPolicyLog, options_.checkpoint << " stores no robot spec (trained on msspr's own topics): "
                                         << "serving it through " << spec_.source
                                         << " on the sizes alone");
+}
+
+// The observation topics of the spec, its goal and, for a pixels policy, its camera.
+void RobotServer::Subscribe() {
   histories_.resize(layout_.topics.size());
   last_receipt_.resize(layout_.topics.size());
   rejected_since_accepted_.assign(layout_.topics.size(), 0);
@@ -132,6 +145,10 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
           [this](const sensor_msgs::CompressedImage::ConstPtr& m) { OnImageMessage(*m); },
           ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
+}
+
+// The command topics, /diagnostics, the control-rate timer (real time), the watchdog.
+void RobotServer::AdvertiseAndStartTimers() {
   cmd_topics_ = spec_.CommandTopics();
   for (const auto& c : cmd_topics_) {
     if (c.type == kTwistType)
@@ -151,6 +168,9 @@ RobotServer::RobotServer(ros::NodeHandle nh, ros::NodeHandle pnh, const PolicyNo
                                         &RobotServer::OnWatchdog, this);
   diag_timer_ = nh_.createWallTimer(ros::WallDuration(options_.diagnostics_period),
                                     &RobotServer::OnDiagnostics, this);
+}
+
+void RobotServer::LogServing() const {
   std::ostringstream s;
   for (const auto& t : layout_.topics) s << " " << t.name << " (" << t.type << ")";
   if (pixels_)

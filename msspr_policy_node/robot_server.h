@@ -56,6 +56,10 @@ class RobotServer {
   };
 
  private:
+  void CheckPolicyAgainstSpec();
+  void Subscribe();
+  void AdvertiseAndStartTimers();
+  void LogServing() const;
   template <class M>
   void SubscribeObservation(int k);
   template <class M>
