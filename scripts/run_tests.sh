@@ -27,8 +27,8 @@ fi
 log=$PWD/ctest.log
 # One test more than there are cores (MSSPR_TEST_JOBS=N to change it): many tests wait for a
 # while (ROS masters and nodes starting, lockstep round trips, child processes), and at one
-# test per core the suite used 1.42 of 2 cores (734 CPU-seconds in 517 s; 2-core Intel Xeon,
-# family 6, model 207). The tests that step a sim in real time are RUN_SERIAL and run alone.
+# test per core the suite used about 1.42 of 2 cores (734 CPU-seconds; 517 s; 2-core Intel
+# Xeon, family 6, model 207). The tests that step a sim in real time are RUN_SERIAL and run alone.
 JOBS=${MSSPR_TEST_JOBS:-$(($(nproc 2>/dev/null || echo 1) + 1))}
 ctest --output-on-failure --timeout 900 -j "$JOBS" "${@:2}" 2>&1 | tee "$log"
 rc=${PIPESTATUS[0]}
