@@ -1,4 +1,4 @@
-# Sourced by the bench scripts (from the repository root): shared shell helpers.
+# Sourced by the bench scripts and run_tests.sh: shared shell helpers.
 
 # with_policy SIDE POLICY CMD...: runs CMD under the OpenMP wait policy POLICY;
 # SIDE is ref or msspr. "default" is OpenMP's own policy: OMP_WAIT_POLICY unset
@@ -15,6 +15,12 @@ with_policy() {
   esac
 }
 
+# tool_blas_core TOOL: the OpenBLAS kernels msspr's TOOL runs on this CPU, as OpenBLAS names
+# them ("SkylakeX"; after the tool's re-execution, msspr_core/process_env.h), or nothing.
+tool_blas_core() {
+  OMP_WAIT_POLICY=PASSIVE OPENBLAS_VERBOSE=2 "$1" --help 2>&1 | sed -n 's/^Core: //p' | tail -1
+}
+
 # ref_blas_cores TOOL: the OpenBLAS kernels to time the reference under, one per
 # line: "own" (OpenBLAS's own pick, OPENBLAS_CORETYPE unset) and, when msspr's
 # TOOL runs other kernels on this CPU (it re-executes with the CPU's own kernels
@@ -22,7 +28,7 @@ with_policy() {
 # those too: a setting that helps the reference as much as msspr.
 ref_blas_cores() {
   local ours theirs
-  ours=$(OMP_WAIT_POLICY=PASSIVE OPENBLAS_VERBOSE=2 "$1" --help 2>&1 | sed -n 's/^Core: //p' | tail -1)
+  ours=$(tool_blas_core "$1")
   theirs=$(env -u OPENBLAS_CORETYPE OPENBLAS_VERBOSE=2 /usr/bin/python3 -c 'import torch' 2>&1 |
              sed -n 's/^Core: //p' | tail -1)
   echo own

@@ -3,6 +3,7 @@
 # ends with the line "N passed, N failed".
 set -uo pipefail
 BUILD=${1:-build}
+. "$(dirname "$0")/bench_lib.sh"  # tool_blas_core
 cd "$BUILD" || { echo "no build dir $BUILD (run make build)"; echo "0 passed, 1 failed"; exit 1; }
 export PATH=/usr/bin:/bin:$PATH
 export ROS_HOME=${ROS_HOME:-$PWD/ros_home}
@@ -12,13 +13,12 @@ mkdir -p "$ROS_LOG_DIR"
 # Every process of the run gets the environment msspr's tools give themselves
 # (msspr_core/process_env.h): OMP_WAIT_POLICY=PASSIVE, and OpenBLAS's kernels for this CPU
 # where it would pick its generic ones. Set once here, so that no LibTorch-linked test
-# re-executes itself to get them (tests/core/tool_env_gtest_main.cc). OPENBLAS_VERBOSE=2
-# makes OpenBLAS name the kernels a tool runs with ("Core: SkylakeX").
+# re-executes itself to get them (tests/core/tool_env_gtest_main.cc).
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY-PASSIVE}
 devel=$(sed -n 's/^CATKIN_DEVEL_PREFIX:[A-Z]*=//p' CMakeCache.txt 2>/dev/null)
 tool=${devel:-$PWD/devel}/lib/msspr/msspr_bench_core
 if [ -z "${OPENBLAS_CORETYPE+x}" ] && [ -x "$tool" ]; then
-  core=$(OPENBLAS_VERBOSE=2 "$tool" --help 2>&1 | sed -n 's/^Core: //p' | tail -1)
+  core=$(tool_blas_core "$tool")
   if [ -n "$core" ]; then
     export OPENBLAS_CORETYPE=$core
     echo "run_tests: OPENBLAS_CORETYPE=$core (the OpenBLAS kernels msspr's tools use on this CPU)"
