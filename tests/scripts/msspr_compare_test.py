@@ -290,10 +290,9 @@ class MssprCompareTest(unittest.TestCase):
         for g in grids:
             name = os.path.splitext(os.path.basename(g))[0]
             records = os.path.join(ROOT, "docs", "grids", name)
-            args = ["run", g, "--out", self.out, "--dry-run"]
-            if os.path.isdir(records):
-                args += ["--records", records]
-                with_records += 1
+            has_records = os.path.isdir(records)
+            args = ["run", g, "--out", self.out, "--dry-run"] + (["--records", records] if has_records else [])
+            with_records += has_records
             rc, out = self.compare(*args)
             self.assertEqual(rc, 0, g + ": " + out)
             counts = re.search(r"(\d+) runs: (\d+) finished, (\d+) to run", out)
@@ -302,7 +301,7 @@ class MssprCompareTest(unittest.TestCase):
                 self.assertIn("--eval-every 5000 --eval-episodes 50 --eval-seed 0", out, g)
             self.assertFalse(os.path.exists(self.out), "--dry-run wrote nothing")
             self.assertNotIn("refused", out.replace(" 0 refused", ""), g + ": " + out)
-            if os.path.isdir(records):
+            if has_records:
                 self.assertGreater(int(counts.group(2)), 0, g + ": no record found finished")
         self.assertGreaterEqual(with_records, 2)
 
