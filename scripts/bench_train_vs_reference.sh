@@ -120,6 +120,10 @@ for threads in 1 2; do
              --precision "$precision" --steps "$STEPS" --warmup 20 \
              --out "$OUT/train_${precision}_t$threads.json" 2>/dev/null | ms_of)
       ours_times+="\"$pol\": $ms, "
+      # One core's fp32 FMA and bf16 dot-product peaks, as msspr_bench_core measured them.
+      [ -n "${ISA_PEAKS:-}" ] || ISA_PEAKS=$(/usr/bin/python3 -c \
+        'import json, sys; print(json.dumps(json.load(open(sys.argv[1])).get("isa_peaks", {})))' \
+        "$OUT/train_${precision}_t$threads.json" 2>/dev/null)
       rm -f "$OUT/train_${precision}_t$threads.json"
     done
     ours_times="${ours_times%, }}"
@@ -127,7 +131,7 @@ for threads in 1 2; do
   done
 done
 MSSPR_CPU_JSON=$(/usr/bin/python3 scripts/cpu_json.py) MSSPR_REF_CORES=$REF_CORES \
-/usr/bin/python3 - "$JSON" "$STEPS" "${#spins[@]}" "${spins[@]}" "${rows[@]}" <<'PY'
+MSSPR_ISA_PEAKS=${ISA_PEAKS:-} /usr/bin/python3 - "$JSON" "$STEPS" "${#spins[@]}" "${spins[@]}" "${rows[@]}" <<'PY'
 import json, os, sys
 path, steps, nspin = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 spins = [json.loads(s) for s in sys.argv[4:4 + nspin]]
@@ -150,6 +154,9 @@ for r in rows:
     r['msspr_as_shipped_ms_per_step'] = shipped
     r['ratio_as_shipped'] = round(ref / shipped, 3) if shipped and ref else None
 out = {'cpu': json.loads(os.environ.get('MSSPR_CPU_JSON') or '{}'),
+       # One core's fp32 FMA and AVX512-BF16 dot-product GFLOP/s (-1: the CPU lacks it):
+       # without AMX, bf16 matrix products cannot beat fp32 ones where the second is not above.
+       'isa_peaks': json.loads(os.environ.get('MSSPR_ISA_PEAKS') or '{}'),
        'config': 'config/pointmaze_cpu.yaml (widths 256, batch 256, repr update every step)',
        'reference': 'shared/tools/mspr_ref.py --time_only (python3-torch, same LibTorch)',
        'timed_steps': steps,
@@ -169,6 +176,10 @@ json.dump(out, open(path, 'w'), indent=2)
 c = out['cpu']
 print(f"  CPU: {c.get('model_name', '?')} ({c.get('vendor', '?')} family {c.get('family', '?')} "
       f"model {c.get('model', '?')}; {' '.join(c.get('flags', []))})")
+p = out['isa_peaks']
+if p:
+    print(f"  one core's peaks: fp32 FMA ({p.get('fp32_isa')}) {p.get('fp32_gflops')} GFLOP/s, "
+          f"bf16 dot {p.get('bf16_dot_gflops')} GFLOP/s")
 for s in spins:
     print(f"  {s['side']} under {s['policy']}: GOMP_SPINCOUNT {s['gomp_spincount']}")
 for r in rows:

@@ -18,6 +18,7 @@
 
 #include "msspr_core/cli_args.h"
 #include "msspr_core/cpu_info.h"
+#include "msspr_core/isa_peaks.h"
 #include "msspr_core/process_env.h"
 #include "msspr_core/trainer.h"
 
@@ -43,7 +44,9 @@ const char kUsage[] =
     "point maze's shapes; pixels when network.obs_mode is pixels) and writes\n"
     "{\"ms_per_step\": ...}. Steps default to 200 after 20 warm-up steps.\n"
     "  --profile FILE   also record 5 more steps with LibTorch's autograd profiler\n"
-    "                   (chrome trace; scripts/profile_summary.py sums it per op)\n";
+    "                   (chrome trace; scripts/profile_summary.py sums it per op)\n"
+    "Both JSONs carry the CPU, OpenBLAS's kernels and isa_peaks: one core's fp32 FMA and\n"
+    "bfloat16 dot-product GFLOP/s (0.3 s after the timed work; -1 where the CPU lacks one).\n";
 
 std::shared_ptr<const Dataset> SyntheticDataset(int obs_dim, int action_dim, bool images,
                                                 int episodes, int length) {
@@ -68,6 +71,20 @@ double PeakRssMb() {
   rusage u;
   getrusage(RUSAGE_SELF, &u);
   return u.ru_maxrss / 1024.0;
+}
+
+// One core's fp32 FMA and bfloat16 dot-product peaks, measured once (0.3 s)
+// after the timed work, and printed, so that a figure says what the CPU's
+// arithmetic allows (whether bf16 can beat fp32 without AMX).
+const IsaPeaks& MeasuredIsaPeaks() {
+  static const IsaPeaks peaks = [] {
+    const IsaPeaks p = MeasureIsaPeaks(HostCpu());
+    std::cerr << "msspr_bench_core: one core's peaks: fp32 FMA (" << p.fp32_isa << ") "
+              << p.fp32_gflops << " GFLOP/s, bf16 dot (avx512_bf16) " << p.bf16_dot_gflops
+              << " GFLOP/s (-1: the CPU lacks it)\n";
+    return p;
+  }();
+  return peaks;
 }
 
 struct TrainResult {
@@ -177,7 +194,7 @@ int TimeConfig(const std::vector<std::string>& configs, const std::string& out,
     << ", \"timed_steps\": " << r.steps << ", \"warmup_steps\": " << warmup
     << ", \"ms_per_step\": " << r.ms_per_step << ", \"peak_rss_mb\": " << PeakRssMb()
     << ", \"cpu\": " << HostCpu().ToJson() << ", \"openblas_core\": \"" << LoadedOpenBlasCore()
-    << "\"}\n";
+    << "\", \"isa_peaks\": " << MeasuredIsaPeaks().ToJson() << "}\n";
   return WriteJson(out, j.str());
 }
 
@@ -263,6 +280,7 @@ std::string SuiteJson(const BenchRequest& r, const std::string& precision,
   j << "{\n  \"device\": \"" << r.device << "\",\n  \"precision\": \"" << precision
     << "\",\n  \"threads\": " << torch::get_num_threads() << ",\n  \"cpu\": " << HostCpu().ToJson()
     << ",\n  \"openblas_core\": \"" << LoadedOpenBlasCore() << "\""
+    << ",\n  \"isa_peaks\": " << MeasuredIsaPeaks().ToJson()
     << ",\n  \"state_dataset\": {\"obs_dim\": 29, \"action_dim\": 8},\n"
     << "  \"pixel_dataset\": {\"image\": [64, 64, 3], \"action_dim\": 8},\n  \"train\": [\n";
   for (size_t i = 0; i < train.size(); ++i) {

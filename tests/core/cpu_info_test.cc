@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "msspr_core/isa_peaks.h"
 #include "msspr_core/options.h"
 #include "msspr_core/process_env.h"
 
@@ -136,6 +137,47 @@ TEST(CpuInfoTest, AutoPrecisionIsBf16OnlyWhereBf16ProductsBeatFp32) {
   EXPECT_NE(why.find(reason), std::string::npos) << why;
   EXPECT_EQ(why.find(HostCpu().Summary()), std::string::npos) << why;
   EXPECT_EQ(why.rfind("auto: " + expected, 0), 0u) << why;
+}
+
+TEST(CpuInfoTest, IsaPeaksRunOnlyTheInstructionsTheFlagsAllow) {
+  // Without the flags nothing runs: a CPU without AVX2 must not execute FMAs.
+  CpuInfo bare = HostCpu();
+  bare.flags.clear();
+  const IsaPeaks nothing = MeasureIsaPeaks(bare, 0.03);
+  EXPECT_EQ(nothing.fp32_isa, "");
+  EXPECT_EQ(nothing.fp32_gflops, -1);
+  EXPECT_EQ(nothing.bf16_dot_gflops, -1);
+  EXPECT_EQ(nothing.ToJson(), "{\"fp32_isa\": \"\", \"fp32_gflops\": -1, \"bf16_dot_gflops\": -1}");
+  // AVX2 with FMA but no AVX-512: 8-lane FMAs and no bfloat16 dot products.
+  if (HostCpu().Has("avx2") && HostCpu().Has("fma")) {
+    CpuInfo avx2 = HostCpu();
+    avx2.flags = {"avx2", "fma"};
+    const IsaPeaks p = MeasureIsaPeaks(avx2, 0.03);
+    EXPECT_EQ(p.fp32_isa, "avx2");
+    EXPECT_GT(p.fp32_gflops, 0.5);
+    EXPECT_EQ(p.bf16_dot_gflops, -1);
+  }
+}
+
+TEST(CpuInfoTest, IsaPeaksMeasureThisCpusFmaAndBf16DotRates) {
+  const CpuInfo& cpu = HostCpu();
+  const IsaPeaks p = MeasureIsaPeaks(cpu, 0.06);
+  if (cpu.Has("avx512f")) {
+    EXPECT_EQ(p.fp32_isa, "avx512f");
+  } else if (cpu.Has("avx2") && cpu.Has("fma")) {
+    EXPECT_EQ(p.fp32_isa, "avx2");
+  } else {
+    GTEST_SKIP() << "no AVX2 with FMA on " << cpu.Summary();
+  }
+  // Even a core shared with other work retires more than 1 GFLOP/s of vector
+  // FMAs (an idle AVX-512 core: 100-150).
+  EXPECT_GT(p.fp32_gflops, 1.0) << cpu.Summary();
+  EXPECT_LT(p.fp32_gflops, 1000.0) << cpu.Summary();
+  if (cpu.Has("avx512_bf16")) {
+    EXPECT_GT(p.bf16_dot_gflops, 1.0) << cpu.Summary();
+  } else {
+    EXPECT_EQ(p.bf16_dot_gflops, -1);
+  }
 }
 
 }  // namespace

@@ -29,7 +29,9 @@ struct CpuInfo {
   //   a training step took 82 ms in bf16 against 128 in fp32;
   // - Intel with AVX512-BF16 but no AMX (AMX absent or not exposed to a
   //   virtual machine): oneDNN's AVX512-BF16 kernels ran at 68 GFLOP/s against
-  //   OpenBLAS's AVX-512 fp32 at 97, and a step took 171 ms against 129.
+  //   OpenBLAS's AVX-512 fp32 at 97, and a step took 171 ms against 129; the
+  //   core retires AVX512-BF16 dot products at half its fp32 FMA rate
+  //   (MeasureIsaPeaks, isa_peaks.h: 86 against 174 GFLOP/s, family 6 model 207).
   bool Bf16FasterThanFp32() const {
     return Has("amx_bf16") || (Has("avx512_bf16") && vendor == "AuthenticAMD");
   }
