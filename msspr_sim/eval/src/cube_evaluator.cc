@@ -6,7 +6,9 @@
 #include <chrono>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -64,6 +66,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     sim::CubeEnv::Observation obs;
     bool done = false, success = false;
     int steps = 0;
+    double start_z = 0, lift = 0;              // the cube's height at the reset, its highest rise
     std::optional<core::FrameStacker> frames;  // the episode's last frames (pixels)
     std::vector<uint8_t> goal_frames;          // the goal's image, stacked (pixels)
   };
@@ -88,6 +91,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
         s.frames->Reset(frame.data());
       }
       s.success = s.done = s.env->Success();
+      s.start_z = s.env->CubePosition().z();
       slots.push_back(std::move(s));
     }
 
@@ -101,6 +105,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
     s.success = s.env->Step(u);
     s.obs = s.env->GetObservation();
+    s.lift = std::max(s.lift, s.env->CubePosition().z() - s.start_z);
     ++s.steps;
     s.done = s.success || s.steps >= options.max_steps;
     if (pixels && !s.done) {
@@ -110,11 +115,48 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
   });
 
   std::vector<EpisodeResult> episodes;
-  for (const Slot& s : slots)
+  for (const Slot& s : slots) {
     episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
+    episodes.back().cube_lift = s.lift;
+    episodes.back().cube_goal_distance = (s.env->CubePosition() - s.env->GoalPosition()).norm();
+  }
   CubeEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
+}
+
+CubeFailures CountCubeFailures(const CubeEvalResult& result) {
+  CubeFailures f;
+  std::vector<double> misses;
+  for (const EpisodeResult& e : result.episodes) {
+    ++f.episodes;
+    if (e.success) continue;
+    ++f.failed;
+    if (e.cube_lift * 100.0 < CubeFailures::kLiftedCm) {
+      ++f.never_lifted;
+    } else {
+      ++f.lifted_not_placed;
+      misses.push_back(e.cube_goal_distance * 100.0);
+    }
+  }
+  if (!misses.empty()) {
+    std::sort(misses.begin(), misses.end());
+    const size_t n = misses.size();
+    f.median_miss_cm = n % 2 ? misses[n / 2] : 0.5 * (misses[n / 2 - 1] + misses[n / 2]);
+  }
+  return f;
+}
+
+std::string DescribeCubeFailures(const CubeFailures& f) {
+  std::ostringstream s;
+  s.precision(3);
+  s << "failures: " << f.failed << " of " << f.episodes << " episodes";
+  if (f.failed == 0) return s.str();
+  s << ": " << f.never_lifted << " never lifted the cube " << CubeFailures::kLiftedCm
+    << " cm (no grasp), " << f.lifted_not_placed << " lifted it";
+  if (f.lifted_not_placed > 0)
+    s << " and ended a median " << f.median_miss_cm << " cm from the goal";
+  return s.str();
 }
 
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,

@@ -229,6 +229,52 @@ TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
   EXPECT_THROW(EvaluateOnCube(maze_policy, opt), std::invalid_argument);
 }
 
+// The cube's failures are told apart: never lifted (no grasp) or lifted and left away from the
+// goal, with the median miss of the second kind.
+TEST(CubeEvaluator, FailuresAreCountedAsNoGraspOrMissedPlacement) {
+  core::Policy policy = UntrainedStatePolicy(28, 5);
+  CubeEvalOptions opt;
+  opt.tasks = {2};  // the cube from (0.35, 0) to (0.5, 0): 15 cm
+  opt.episodes = 2;
+  opt.max_steps = 10;
+  const auto r = EvaluateOnCube(policy, opt);
+  ASSERT_EQ(r.episodes.size(), 2u);
+  for (const auto& e : r.episodes) {
+    EXPECT_FALSE(e.success);
+    EXPECT_GE(e.cube_lift, 0.0);
+    EXPECT_LT(e.cube_lift, 0.02);  // 10 steps of an untrained policy lift nothing
+    EXPECT_NEAR(e.cube_goal_distance, 0.15, 0.02);
+  }
+  const CubeFailures f = CountCubeFailures(r);
+  EXPECT_EQ(f.episodes, 2);
+  EXPECT_EQ(f.failed, 2);
+  EXPECT_EQ(f.never_lifted, 2);
+  EXPECT_EQ(f.lifted_not_placed, 0);
+
+  CubeEvalResult made;
+  const auto episode = [](bool success, double lift, double miss) {
+    EpisodeResult e;
+    e.success = success;
+    e.cube_lift = lift;
+    e.cube_goal_distance = miss;
+    return e;
+  };
+  made.episodes = {episode(true, 0.10, 0.01), episode(false, 0.005, 0.15),
+                   episode(false, 0.05, 0.05), episode(false, 0.08, 0.20),
+                   episode(false, 0.03, 0.10)};
+  const CubeFailures g = CountCubeFailures(made);
+  EXPECT_EQ(g.episodes, 5);
+  EXPECT_EQ(g.failed, 4);
+  EXPECT_EQ(g.never_lifted, 1);
+  EXPECT_EQ(g.lifted_not_placed, 3);
+  EXPECT_NEAR(g.median_miss_cm, 10.0, 1e-9);
+  EXPECT_EQ(DescribeCubeFailures(g),
+            "failures: 4 of 5 episodes: 1 never lifted the cube 2 cm (no grasp), 3 lifted it and "
+            "ended a median 10 cm from the goal");
+  made.episodes.resize(1);
+  EXPECT_EQ(DescribeCubeFailures(CountCubeFailures(made)), "failures: 0 of 1 episodes");
+}
+
 // An untrained puzzle-3x3 policy (55-D states, 5-D actions): the evaluator's bookkeeping,
 // determinism, report and errors.
 TEST(PuzzleEvaluator, DeterministicAndChecksThePolicy) {

@@ -36,6 +36,21 @@ using CubeEvalResult = TaskSuccessResult;
 // policy does not fit cube-single (28-D states or square RGB images, 5-D actions).
 CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& options);
 
+// How the failed episodes of a cube-single evaluation failed: the cube never
+// lifted (it rose less than kLiftedCm above its start: no grasp), or lifted and
+// ended away from the goal (a grasp, no placement within 4 cm).
+struct CubeFailures {
+  static constexpr double kLiftedCm = 2.0;
+  int episodes = 0, failed = 0;
+  int never_lifted = 0;
+  int lifted_not_placed = 0;
+  double median_miss_cm = 0;  // final cube-goal distance of the lifted failures (0: none)
+};
+CubeFailures CountCubeFailures(const CubeEvalResult& result);
+// "failures: 62 of 250 episodes: 40 never lifted the cube (no grasp), 22 lifted
+// it and ended a median 7.5 cm from the goal"
+std::string DescribeCubeFailures(const CubeFailures& f);
+
 // The results in msspr_eval's report format (env "cube-single").
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,
                                    const std::string& agent);

@@ -16,6 +16,9 @@ struct EpisodeResult {
   bool success = false;
   int steps = 0;                  // control steps taken
   std::vector<double> final_obs;  // the state observation it ended in
+  // cube-single: the most the cube rose above where it started (m), and how far
+  // its centre ended from the goal's (m); -1 where not tracked (other envs).
+  double cube_lift = -1, cube_goal_distance = -1;
 };
 
 struct TaskSuccessResult {
