@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -118,7 +119,9 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
   for (const Slot& s : slots) {
     episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
     episodes.back().cube_lift = s.lift;
-    episodes.back().cube_goal_distance = (s.env->CubePosition() - s.env->GoalPosition()).norm();
+    const Eigen::Vector3d miss = s.env->CubePosition() - s.env->GoalPosition();
+    episodes.back().cube_goal_distance = miss.norm();
+    episodes.back().cube_above_goal = miss.z();
   }
   CubeEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -127,7 +130,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
 
 CubeFailures CountCubeFailures(const CubeEvalResult& result) {
   CubeFailures f;
-  std::vector<double> misses;
+  std::vector<double> misses, above, across;
   for (const EpisodeResult& e : result.episodes) {
     ++f.episodes;
     if (e.success) continue;
@@ -137,13 +140,20 @@ CubeFailures CountCubeFailures(const CubeEvalResult& result) {
     } else {
       ++f.lifted_not_placed;
       misses.push_back(e.cube_goal_distance * 100.0);
+      above.push_back(e.cube_above_goal * 100.0);
+      const double d = e.cube_goal_distance, z = e.cube_above_goal;
+      across.push_back(std::sqrt(std::max(0.0, d * d - z * z)) * 100.0);
     }
   }
-  if (!misses.empty()) {
-    std::sort(misses.begin(), misses.end());
-    const size_t n = misses.size();
-    f.median_miss_cm = n % 2 ? misses[n / 2] : 0.5 * (misses[n / 2 - 1] + misses[n / 2]);
-  }
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    const size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  };
+  f.median_miss_cm = median(misses);
+  f.median_above_cm = median(above);
+  f.median_across_cm = median(across);
   return f;
 }
 
@@ -155,7 +165,8 @@ std::string DescribeCubeFailures(const CubeFailures& f) {
   s << ": " << f.never_lifted << " never lifted the cube " << CubeFailures::kLiftedCm
     << " cm (no grasp), " << f.lifted_not_placed << " lifted it";
   if (f.lifted_not_placed > 0)
-    s << " and ended a median " << f.median_miss_cm << " cm from the goal";
+    s << " and ended a median " << f.median_miss_cm << " cm from the goal (" << f.median_across_cm
+      << " cm across, " << f.median_above_cm << " cm above)";
   return s.str();
 }
 

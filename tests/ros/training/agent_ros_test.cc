@@ -244,6 +244,7 @@ TEST(CubeEvaluator, FailuresAreCountedAsNoGraspOrMissedPlacement) {
     EXPECT_GE(e.cube_lift, 0.0);
     EXPECT_LT(e.cube_lift, 0.02);  // 10 steps of an untrained policy lift nothing
     EXPECT_NEAR(e.cube_goal_distance, 0.15, 0.02);
+    EXPECT_NEAR(e.cube_above_goal, 0.0, 0.01);  // the cube rests on the table like the goal
   }
   const CubeFailures f = CountCubeFailures(r);
   EXPECT_EQ(f.episodes, 2);
@@ -252,25 +253,28 @@ TEST(CubeEvaluator, FailuresAreCountedAsNoGraspOrMissedPlacement) {
   EXPECT_EQ(f.lifted_not_placed, 0);
 
   CubeEvalResult made;
-  const auto episode = [](bool success, double lift, double miss) {
+  const auto episode = [](bool success, double lift, double miss, double above) {
     EpisodeResult e;
     e.success = success;
     e.cube_lift = lift;
     e.cube_goal_distance = miss;
+    e.cube_above_goal = above;
     return e;
   };
-  made.episodes = {episode(true, 0.10, 0.01), episode(false, 0.005, 0.15),
-                   episode(false, 0.05, 0.05), episode(false, 0.08, 0.20),
-                   episode(false, 0.03, 0.10)};
+  made.episodes = {episode(true, 0.10, 0.01, 0.0), episode(false, 0.005, 0.15, 0.0),
+                   episode(false, 0.05, 0.05, 0.03), episode(false, 0.08, 0.20, 0.12),
+                   episode(false, 0.03, 0.10, 0.0)};
   const CubeFailures g = CountCubeFailures(made);
   EXPECT_EQ(g.episodes, 5);
   EXPECT_EQ(g.failed, 4);
   EXPECT_EQ(g.never_lifted, 1);
   EXPECT_EQ(g.lifted_not_placed, 3);
   EXPECT_NEAR(g.median_miss_cm, 10.0, 1e-9);
+  EXPECT_NEAR(g.median_above_cm, 3.0, 1e-9);    // of 3, 12 and 0 cm
+  EXPECT_NEAR(g.median_across_cm, 10.0, 1e-9);  // of 4, 16 and 10 cm
   EXPECT_EQ(DescribeCubeFailures(g),
             "failures: 4 of 5 episodes: 1 never lifted the cube 2 cm (no grasp), 3 lifted it and "
-            "ended a median 10 cm from the goal");
+            "ended a median 10 cm from the goal (10 cm across, 3 cm above)");
   made.episodes.resize(1);
   EXPECT_EQ(DescribeCubeFailures(CountCubeFailures(made)), "failures: 0 of 1 episodes");
 }

@@ -44,11 +44,13 @@ struct CubeFailures {
   int episodes = 0, failed = 0;
   int never_lifted = 0;
   int lifted_not_placed = 0;
-  double median_miss_cm = 0;  // final cube-goal distance of the lifted failures (0: none)
+  double median_miss_cm = 0;    // final cube-goal distance of the lifted failures (0: none)
+  double median_above_cm = 0;   // of that, the height above the goal (held up, not set down)
+  double median_across_cm = 0;  // and the horizontal distance
 };
 CubeFailures CountCubeFailures(const CubeEvalResult& result);
-// "failures: 62 of 250 episodes: 40 never lifted the cube (no grasp), 22 lifted
-// it and ended a median 7.5 cm from the goal"
+// "failures: 62 of 250 episodes: 40 never lifted the cube 2 cm (no grasp), 22
+// lifted it and ended a median 7.5 cm from the goal (6.1 cm across, 3 cm above)"
 std::string DescribeCubeFailures(const CubeFailures& f);
 
 // The results in msspr_eval's report format (env "cube-single").

@@ -16,9 +16,10 @@ struct EpisodeResult {
   bool success = false;
   int steps = 0;                  // control steps taken
   std::vector<double> final_obs;  // the state observation it ended in
-  // cube-single: the most the cube rose above where it started (m), and how far
-  // its centre ended from the goal's (m); -1 where not tracked (other envs).
-  double cube_lift = -1, cube_goal_distance = -1;
+  // cube-single: the most the cube rose above where it started (m), how far its
+  // centre ended from the goal's (m) and, of that, how far above it (m; the
+  // goal rests on the table); -1 / 0 where not tracked (other envs).
+  double cube_lift = -1, cube_goal_distance = -1, cube_above_goal = 0;
 };
 
 struct TaskSuccessResult {
