@@ -20,70 +20,60 @@ using Clock = std::chrono::steady_clock;
 using Kernel = float (*)(long iters);
 
 #if MSSPR_ISA_PEAKS_X86
-// Twelve named accumulators: an array would be kept in memory at -O2.
+// A kernel NAME compiled for TARGET: twelve named accumulators of type VEC set
+// by SET1 (an array would be kept in memory at -O2), each updated once a round
+// by STEP(a, b, c) with b and c of type OPERAND, then stored by STORE into
+// LANES floats and summed (not _mm512_reduce_add_ps: GCC 12 warns inside it).
+// VEC, SET1, STEP and STORE are defined before each use.
 #define MSSPR_TWELVE(X) X(0) X(1) X(2) X(3) X(4) X(5) X(6) X(7) X(8) X(9) X(10) X(11)
-
-__attribute__((target("avx512f"), noinline)) float Fp32Avx512(long iters) {
-  const __m512 b = _mm512_set1_ps(0.9999999f), c = _mm512_set1_ps(1e-7f);
-#define DECL(i) __m512 a##i = _mm512_set1_ps(static_cast<float>(i));
-  MSSPR_TWELVE(DECL)
-#undef DECL
-  for (long k = 0; k < iters; ++k) {
-#define STEP(i) a##i = _mm512_fmadd_ps(a##i, b, c);
-    MSSPR_TWELVE(STEP)
-#undef STEP
-  }
-  float lanes[16];  // not _mm512_reduce_add_ps: GCC 12 warns inside it
-  float s = 0;
-#define SUM(i)                   \
-  _mm512_storeu_ps(lanes, a##i); \
+#define MSSPR_DECL(i) VEC a##i = SET1(static_cast<float>(i));
+#define MSSPR_STEP(i) a##i = STEP(a##i, b, c);
+#define MSSPR_SUM(i)  \
+  STORE(lanes, a##i); \
   for (float v : lanes) s += v;
-  MSSPR_TWELVE(SUM)
-#undef SUM
-  return s;
-}
-
-__attribute__((target("avx2,fma"), noinline)) float Fp32Avx2(long iters) {
-  const __m256 b = _mm256_set1_ps(0.9999999f), c = _mm256_set1_ps(1e-7f);
-#define DECL(i) __m256 a##i = _mm256_set1_ps(static_cast<float>(i));
-  MSSPR_TWELVE(DECL)
-#undef DECL
-  for (long k = 0; k < iters; ++k) {
-#define STEP(i) a##i = _mm256_fmadd_ps(a##i, b, c);
-    MSSPR_TWELVE(STEP)
-#undef STEP
+#define MSSPR_PEAK_KERNEL(NAME, TARGET, OPERAND, B, C, LANES)        \
+  __attribute__((target(TARGET), noinline)) float NAME(long iters) { \
+    const OPERAND b = B, c = C;                                      \
+    MSSPR_TWELVE(MSSPR_DECL)                                         \
+    for (long k = 0; k < iters; ++k) {                               \
+      MSSPR_TWELVE(MSSPR_STEP)                                       \
+    }                                                                \
+    alignas(64) float lanes[LANES];                                  \
+    float s = 0;                                                     \
+    MSSPR_TWELVE(MSSPR_SUM)                                          \
+    return s;                                                        \
   }
-  alignas(32) float lanes[8];
-  float s = 0;
-#define SUM(i)                  \
-  _mm256_store_ps(lanes, a##i); \
-  for (float v : lanes) s += v;
-  MSSPR_TWELVE(SUM)
-#undef SUM
-  return s;
-}
 
-__attribute__((target("avx512f,avx512bf16"), noinline)) float Bf16Dot(long iters) {
-  // bf16 1.0 (0x3f80) and a small value (0x3280, about 1.5e-8).
-  const __m512bh b = reinterpret_cast<__m512bh>(_mm512_set1_epi16(0x3f80));
-  const __m512bh c = reinterpret_cast<__m512bh>(_mm512_set1_epi16(0x3280));
-#define DECL(i) __m512 a##i = _mm512_set1_ps(static_cast<float>(i));
-  MSSPR_TWELVE(DECL)
-#undef DECL
-  for (long k = 0; k < iters; ++k) {
-#define STEP(i) a##i = _mm512_dpbf16_ps(a##i, b, c);
-    MSSPR_TWELVE(STEP)
+#define VEC __m512
+#define SET1 _mm512_set1_ps
+#define STORE _mm512_store_ps
+#define STEP _mm512_fmadd_ps
+MSSPR_PEAK_KERNEL(Fp32Avx512, "avx512f", __m512, SET1(0.9999999f), SET1(1e-7f), 16)
 #undef STEP
-  }
-  float lanes[16];  // not _mm512_reduce_add_ps: GCC 12 warns inside it
-  float s = 0;
-#define SUM(i)                   \
-  _mm512_storeu_ps(lanes, a##i); \
-  for (float v : lanes) s += v;
-  MSSPR_TWELVE(SUM)
-#undef SUM
-  return s;
-}
+// VDPBF16PS: a += the pairwise products of bf16 1.0 (0x3f80) and about 1.5e-8 (0x3280).
+#define STEP _mm512_dpbf16_ps
+MSSPR_PEAK_KERNEL(Bf16Dot, "avx512f,avx512bf16", __m512bh,
+                  reinterpret_cast<__m512bh>(_mm512_set1_epi16(0x3f80)),
+                  reinterpret_cast<__m512bh>(_mm512_set1_epi16(0x3280)), 16)
+#undef STEP
+#undef STORE
+#undef SET1
+#undef VEC
+
+#define VEC __m256
+#define SET1 _mm256_set1_ps
+#define STORE _mm256_store_ps
+#define STEP _mm256_fmadd_ps
+MSSPR_PEAK_KERNEL(Fp32Avx2, "avx2,fma", __m256, SET1(0.9999999f), SET1(1e-7f), 8)
+#undef STEP
+#undef STORE
+#undef SET1
+#undef VEC
+
+#undef MSSPR_PEAK_KERNEL
+#undef MSSPR_SUM
+#undef MSSPR_STEP
+#undef MSSPR_DECL
 #undef MSSPR_TWELVE
 #endif
 
