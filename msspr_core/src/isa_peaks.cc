@@ -75,7 +75,6 @@ MSSPR_PEAK_KERNEL(Fp32Avx2, "avx2,fma", __m256, SET1(0.9999999f), SET1(1e-7f), 8
 #undef MSSPR_STEP
 #undef MSSPR_DECL
 #undef MSSPR_TWELVE
-#endif
 
 // GFLOP/s of a kernel doing flop_per_round per round: the best of 3 timed runs
 // of about seconds / 3 each, after sizing a run on a short one.
@@ -101,6 +100,7 @@ double Peak(Kernel kernel, double flop_per_round, double seconds) {
   }
   return best;
 }
+#endif  // MSSPR_ISA_PEAKS_X86
 
 }  // namespace
 
