@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cube_test_util.h"
+#include "msspr_sim/cube_failures.h"
 
 namespace msspr::sim {
 namespace {
@@ -150,6 +151,62 @@ TEST(CubeEnvTest, GraspsAndLiftsTheCube) {
   // A 4 cm cube between the pads: travel (85 - 40) / 2 mm of 42.5 mm.
   EXPECT_NEAR(held_opening, 22.5 / 42.5, 0.05);
   EXPECT_GT(o[18], 0.5f);
+}
+
+// The tracker reads the cube from the observations: its rise while held, and where it ends
+// against the goal, as the env's own positions give them.
+TEST(CubeEnvTest, CubeEpisodeTrackerFollowsTheCubeFromObservations) {
+  CubeEnv env(testing_util::CubeOptions());
+  env.ResetToTask(2, 7);
+  const CubeEnv::Observation goal = env.goal_observation();
+  const Eigen::Vector3d cube = env.CubePosition();
+  ASSERT_TRUE(env.PlacePinch(cube + Eigen::Vector3d(0, 0, 0.12), 0.0));
+  CubeEpisodeTracker tracker;
+  tracker.Start(env.GetObservation().data(), goal.data());
+  const auto step = [&](const CubeEnv::Action& a) {
+    env.Step(a);
+    tracker.Observe(env.GetObservation().data());
+  };
+  for (int t = 0; t < 20; ++t) step(Toward(env, cube, -1));
+  for (int t = 0; t < 8; ++t) step(Toward(env, cube, 1));
+  for (int t = 0; t < 25; ++t) step(Toward(env, cube + Eigen::Vector3d(0, 0, 0.2), 1));
+  const CubeOutcome held = tracker.Finish(false);
+  EXPECT_GT(held.lift, 0.13);
+  EXPECT_NEAR(held.lift, env.CubePosition().z() - cube.z(), 0.01);
+  EXPECT_NEAR(held.goal_distance, (env.CubePosition() - env.GoalPosition()).norm(), 1e-3);
+  EXPECT_NEAR(held.above_goal, env.CubePosition().z() - env.GoalPosition().z(), 1e-3);
+  EXPECT_FALSE(held.success);
+  EXPECT_TRUE(tracker.Finish(true).success);
+}
+
+// Failures are no grasp (a rise under 2 cm) or a missed placement, with medians of the second.
+TEST(CubeEnvTest, CubeFailuresTellNoGraspFromAMissedPlacement) {
+  const auto episode = [](bool success, double lift, double miss, double above) {
+    CubeOutcome e;
+    e.success = success;
+    e.lift = lift;
+    e.goal_distance = miss;
+    e.above_goal = above;
+    return e;
+  };
+  std::vector<CubeOutcome> made = {episode(true, 0.10, 0.01, 0.0), episode(false, 0.005, 0.15, 0.0),
+                                   episode(false, 0.05, 0.05, 0.03),
+                                   episode(false, 0.08, 0.20, 0.12),
+                                   episode(false, 0.03, 0.10, 0.0)};
+  const CubeFailures g = CountCubeFailures(made);
+  EXPECT_EQ(g.episodes, 5);
+  EXPECT_EQ(g.failed, 4);
+  EXPECT_EQ(g.never_lifted, 1);
+  EXPECT_EQ(g.lifted_not_placed, 3);
+  EXPECT_NEAR(g.median_miss_cm, 10.0, 1e-9);    // of 5, 20 and 10 cm
+  EXPECT_NEAR(g.median_above_cm, 3.0, 1e-9);    // of 3, 12 and 0 cm
+  EXPECT_NEAR(g.median_across_cm, 10.0, 1e-9);  // of 4, 16 and 10 cm
+  EXPECT_EQ(DescribeCubeFailures(g),
+            "failures: 4 of 5 episodes: 1 never lifted the cube 2.0 cm (no grasp), 3 lifted it and "
+            "ended a median 10.0 cm from the goal (10.0 cm across, 3.0 cm above)");
+  made.resize(1);
+  EXPECT_EQ(DescribeCubeFailures(CountCubeFailures(made)), "failures: 0 of 1 episodes");
+  EXPECT_EQ(CountCubeFailures({}).episodes, 0);
 }
 
 TEST(CubeEnvTest, TaskResetsAreSeededAndFollowTheTasks) {

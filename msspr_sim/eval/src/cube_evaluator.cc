@@ -4,10 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <memory>
 #include <optional>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -67,7 +65,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     sim::CubeEnv::Observation obs;
     bool done = false, success = false;
     int steps = 0;
-    double start_z = 0, lift = 0;              // the cube's height at the reset, its highest rise
+    sim::CubeEpisodeTracker cube;              // the cube's rise and where it ends
     std::optional<core::FrameStacker> frames;  // the episode's last frames (pixels)
     std::vector<uint8_t> goal_frames;          // the goal's image, stacked (pixels)
   };
@@ -92,7 +90,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
         s.frames->Reset(frame.data());
       }
       s.success = s.done = s.env->Success();
-      s.start_z = s.env->CubePosition().z();
+      s.cube.Start(s.obs.data(), s.env->goal_observation().data());
       slots.push_back(std::move(s));
     }
 
@@ -106,7 +104,7 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
     s.success = s.env->Step(u);
     s.obs = s.env->GetObservation();
-    s.lift = std::max(s.lift, s.env->CubePosition().z() - s.start_z);
+    s.cube.Observe(s.obs.data());
     ++s.steps;
     s.done = s.success || s.steps >= options.max_steps;
     if (pixels && !s.done) {
@@ -118,56 +116,18 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
   std::vector<EpisodeResult> episodes;
   for (const Slot& s : slots) {
     episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
-    episodes.back().cube_lift = s.lift;
-    const Eigen::Vector3d miss = s.env->CubePosition() - s.env->GoalPosition();
-    episodes.back().cube_goal_distance = miss.norm();
-    episodes.back().cube_above_goal = miss.z();
+    episodes.back().cube = s.cube.Finish(s.success);
   }
   CubeEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }
 
-CubeFailures CountCubeFailures(const CubeEvalResult& result) {
-  CubeFailures f;
-  std::vector<double> misses, above, across;
-  for (const EpisodeResult& e : result.episodes) {
-    ++f.episodes;
-    if (e.success) continue;
-    ++f.failed;
-    if (e.cube_lift * 100.0 < CubeFailures::kLiftedCm) {
-      ++f.never_lifted;
-    } else {
-      ++f.lifted_not_placed;
-      misses.push_back(e.cube_goal_distance * 100.0);
-      above.push_back(e.cube_above_goal * 100.0);
-      const double d = e.cube_goal_distance, z = e.cube_above_goal;
-      across.push_back(std::sqrt(std::max(0.0, d * d - z * z)) * 100.0);
-    }
-  }
-  const auto median = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    const size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-  };
-  f.median_miss_cm = median(misses);
-  f.median_above_cm = median(above);
-  f.median_across_cm = median(across);
-  return f;
-}
-
-std::string DescribeCubeFailures(const CubeFailures& f) {
-  std::ostringstream s;
-  s.precision(3);
-  s << "failures: " << f.failed << " of " << f.episodes << " episodes";
-  if (f.failed == 0) return s.str();
-  s << ": " << f.never_lifted << " never lifted the cube " << CubeFailures::kLiftedCm
-    << " cm (no grasp), " << f.lifted_not_placed << " lifted it";
-  if (f.lifted_not_placed > 0)
-    s << " and ended a median " << f.median_miss_cm << " cm from the goal (" << f.median_across_cm
-      << " cm across, " << f.median_above_cm << " cm above)";
-  return s.str();
+std::vector<sim::CubeOutcome> CubeOutcomes(const CubeEvalResult& result) {
+  std::vector<sim::CubeOutcome> out;
+  for (const EpisodeResult& e : result.episodes)
+    if (e.cube) out.push_back(*e.cube);
+  return out;
 }
 
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,

@@ -172,7 +172,8 @@ void RunCube(msspr::core::Policy& policy, Request q) {
   const sim::EvalReport report = msspr::agent::MakeCubeEvalReport(result, q.cube, q.agent);
   std::cout << sim::EvalReportTable(report);
   if (!q.out.empty()) msspr::agent::WriteCubeResultsJson(result, q.cube, q.agent, q.out);
-  std::cout << "  " << msspr::agent::DescribeCubeFailures(msspr::agent::CountCubeFailures(result))
+  std::cout << "  "
+            << sim::DescribeCubeFailures(sim::CountCubeFailures(msspr::agent::CubeOutcomes(result)))
             << "\n";
   PrintMean(report.mean_success, result.seconds);
 }

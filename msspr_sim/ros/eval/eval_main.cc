@@ -22,6 +22,7 @@
 #include <iostream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -29,6 +30,7 @@
 #include "msspr/Reset.h"
 #include "msspr_bridge/cli_args.h"
 #include "msspr_sim/cube_env.h"
+#include "msspr_sim/cube_failures.h"
 #include "msspr_sim/custom_tasks.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
@@ -84,6 +86,7 @@ struct EpisodeResult {
   int steps = 0;
   std::vector<Eigen::Vector2d> path;
   Eigen::Vector2d start, goal;
+  std::optional<msspr::sim::CubeOutcome> cube = std::nullopt;  // cube-single: how the cube ended
 };
 
 // One sim + agent pair: the reset service and observation topic in namespace `ns`
@@ -121,10 +124,11 @@ class SimClient {
   int episodes_run() const { return episodes_run_; }
 
   // Runs one episode: reset with `req`, then follows the observations until success,
-  // the last step, max_steps or step_timeout s without progress (stalled). False
-  // with *error when the reset fails; stops early (true) when `stop` is set.
+  // the last step, max_steps or step_timeout s without progress (stalled). With
+  // `cube`, follows the cube too (r->cube). False with *error when the reset
+  // fails; stops early (true) when `stop` is set.
   bool RunEpisode(const msspr::Reset::Request& req, int episode, int max_steps, double step_timeout,
-                  const std::atomic<bool>& stop, EpisodeResult* r, std::string* error) {
+                  bool cube, const std::atomic<bool>& stop, EpisodeResult* r, std::string* error) {
     msspr::Reset srv;
     srv.request = req;
     const bool answered = reset_.call(srv);
@@ -139,6 +143,10 @@ class SimClient {
     r->start = {first.state[0], first.state[1]};
     r->goal = {srv.response.goal[0], srv.response.goal[1]};
     r->path.push_back(r->start);
+    constexpr size_t kCubeObs = msspr::sim::CubeEnv::kObservationSize;
+    msspr::sim::CubeEpisodeTracker tracker;
+    cube = cube && first.state.size() == kCubeObs && srv.response.goal.size() == kCubeObs;
+    if (cube) tracker.Start(first.state.data(), srv.response.goal.data());
     const uint32_t id = first.episode_id;
     uint32_t last_step = 0;
     auto last_progress = ros::WallTime::now();
@@ -161,6 +169,7 @@ class SimClient {
         if (o->episode_id != id || o->step <= last_step) continue;  // older episode or re-send
         last_step = o->step;
         r->path.emplace_back(o->state[0], o->state[1]);
+        if (cube && o->state.size() == kCubeObs) tracker.Observe(o->state.data());
         last_progress = ros::WallTime::now();
         if (o->success) {
           r->success = true;
@@ -171,6 +180,7 @@ class SimClient {
       }
     }
     r->steps = static_cast<int>(last_step);
+    if (cube) r->cube = tracker.Finish(r->success);
     return true;
   }
 
@@ -326,7 +336,8 @@ bool RunAllEpisodes(const EvalRequest& q, std::vector<std::unique_ptr<SimClient>
       }
       EpisodeResult r;
       std::string why;
-      if (!client->RunEpisode(req, e, q.max_steps, q.step_timeout, failed, &r, &why)) {
+      const bool cube = q.env == msspr::sim::EnvId::kCubeSingle;
+      if (!client->RunEpisode(req, e, q.max_steps, q.step_timeout, cube, failed, &r, &why)) {
         std::lock_guard<std::mutex> lock(mu);
         if (!failed.exchange(true)) *error = why;
         return;
@@ -463,6 +474,14 @@ int main(int argc, char** argv) {
   const msspr::sim::EvalReport report = MakeReport(q, *args, results, wall);
   std::cout << (q.maze_tasks() ? msspr::sim::EvalReportTable(*q.map, report)
                                : msspr::sim::EvalReportTable(report));
+  if (q.env == msspr::sim::EnvId::kCubeSingle) {  // how the failed episodes failed
+    std::vector<msspr::sim::CubeOutcome> cubes;
+    for (const auto& task_results : results)
+      for (const auto& r : task_results)
+        if (r.cube) cubes.push_back(*r.cube);
+    std::cout << "  " << msspr::sim::DescribeCubeFailures(msspr::sim::CountCubeFailures(cubes))
+              << "\n";
+  }
   if (parallel) {
     std::cout << "  episodes per sim:";
     for (auto& c : clients) std::cout << " " << c->Namespace() << " " << c->episodes_run();

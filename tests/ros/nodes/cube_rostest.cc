@@ -18,7 +18,9 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <regex>
 #include <set>
+#include <string>
 
 #include "cli_test_util.h"
 #include "msspr/Pause.h"
@@ -208,8 +210,10 @@ TEST(CubeSimOracle, ServicesAndBadInput) {
 }
 
 // Runs msspr_eval in this node's namespace with ARGS and --out JSON (removed
-// first), prints its output, asserts it exits 0 and reads the results JSON into *j.
-void RunEval(const std::string& args, const std::string& json, std::string* j) {
+// first), prints its output (kept in *output if given), asserts it exits 0 and
+// reads the results JSON into *j.
+void RunEval(const std::string& args, const std::string& json, std::string* j,
+             std::string* output = nullptr) {
   std::remove(json.c_str());
   const std::string cmd = std::string(MSSPR_EVAL_EXE) + " __ns:=" + ros::this_node::getNamespace() +
                           " " + args + " --out " + json + " 2>&1";
@@ -221,6 +225,7 @@ void RunEval(const std::string& args, const std::string& json, std::string* j) {
   while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
   const int status = pclose(p);
   std::printf("%s\n", out.c_str());
+  if (output) *output = out;
   ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << out;
   std::ifstream in(json);
   j->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
@@ -232,10 +237,10 @@ TEST(CubeEvalOracle, FiveTasks) {
   ros::NodeHandle pnh("~");
   const int episodes = pnh.param("episodes", 5);
   const std::string json = "/tmp/msspr_cube_eval_" + std::to_string(getpid()) + ".json";
-  std::string j;
+  std::string j, out;
   ASSERT_NO_FATAL_FAILURE(RunEval(
       "--env cube-single --episodes " + std::to_string(episodes) + " --seed 3 --agent cube-oracle",
-      json, &j));
+      json, &j, &out));
   EXPECT_NE(j.find("\"env\": \"cube-single\""), std::string::npos) << j;
   EXPECT_NE(j.find("\"max_steps\": 200"), std::string::npos) << j;
   EXPECT_NE(j.find("\"stalled_episodes\": 0"), std::string::npos) << j;
@@ -247,6 +252,11 @@ TEST(CubeEvalOracle, FiveTasks) {
     ++tasks;
   }
   EXPECT_EQ(tasks, 5) << j;
+  // How the failed episodes failed, counted over every episode from the sim's observations.
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex(R"(failures: (\d+) of (\d+) episodes)"))) << out;
+  EXPECT_EQ(std::stoi(m[2]), 5 * episodes) << out;
+  EXPECT_LE(std::stoi(m[1]), 5 * episodes / 10) << out;  // the oracle succeeds in >= 90%
   std::remove(json.c_str());
 }
 

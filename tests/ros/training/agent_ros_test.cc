@@ -229,54 +229,29 @@ TEST(CubeEvaluator, DeterministicAndChecksThePolicy) {
   EXPECT_THROW(EvaluateOnCube(maze_policy, opt), std::invalid_argument);
 }
 
-// The cube's failures are told apart: never lifted (no grasp) or lifted and left away from the
-// goal, with the median miss of the second kind.
-TEST(CubeEvaluator, FailuresAreCountedAsNoGraspOrMissedPlacement) {
+// The evaluator records each episode's cube (sim::CubeEpisodeTracker), so that its failures
+// are told apart: 10 steps of an untrained policy lift nothing, and the cube stays 15 cm away.
+TEST(CubeEvaluator, RecordsHowEachEpisodesCubeEnded) {
   core::Policy policy = UntrainedStatePolicy(28, 5);
   CubeEvalOptions opt;
   opt.tasks = {2};  // the cube from (0.35, 0) to (0.5, 0): 15 cm
   opt.episodes = 2;
   opt.max_steps = 10;
   const auto r = EvaluateOnCube(policy, opt);
-  ASSERT_EQ(r.episodes.size(), 2u);
-  for (const auto& e : r.episodes) {
-    EXPECT_FALSE(e.success);
-    EXPECT_GE(e.cube_lift, 0.0);
-    EXPECT_LT(e.cube_lift, 0.02);  // 10 steps of an untrained policy lift nothing
-    EXPECT_NEAR(e.cube_goal_distance, 0.15, 0.02);
-    EXPECT_NEAR(e.cube_above_goal, 0.0, 0.01);  // the cube rests on the table like the goal
+  const std::vector<sim::CubeOutcome> cubes = CubeOutcomes(r);
+  ASSERT_EQ(cubes.size(), 2u);
+  for (const auto& c : cubes) {
+    EXPECT_FALSE(c.success);
+    EXPECT_GE(c.lift, 0.0);
+    EXPECT_LT(c.lift, 0.02);
+    EXPECT_NEAR(c.goal_distance, 0.15, 0.02);
+    EXPECT_NEAR(c.above_goal, 0.0, 0.01);  // the cube rests on the table like the goal
   }
-  const CubeFailures f = CountCubeFailures(r);
+  const sim::CubeFailures f = sim::CountCubeFailures(cubes);
   EXPECT_EQ(f.episodes, 2);
   EXPECT_EQ(f.failed, 2);
   EXPECT_EQ(f.never_lifted, 2);
   EXPECT_EQ(f.lifted_not_placed, 0);
-
-  CubeEvalResult made;
-  const auto episode = [](bool success, double lift, double miss, double above) {
-    EpisodeResult e;
-    e.success = success;
-    e.cube_lift = lift;
-    e.cube_goal_distance = miss;
-    e.cube_above_goal = above;
-    return e;
-  };
-  made.episodes = {episode(true, 0.10, 0.01, 0.0), episode(false, 0.005, 0.15, 0.0),
-                   episode(false, 0.05, 0.05, 0.03), episode(false, 0.08, 0.20, 0.12),
-                   episode(false, 0.03, 0.10, 0.0)};
-  const CubeFailures g = CountCubeFailures(made);
-  EXPECT_EQ(g.episodes, 5);
-  EXPECT_EQ(g.failed, 4);
-  EXPECT_EQ(g.never_lifted, 1);
-  EXPECT_EQ(g.lifted_not_placed, 3);
-  EXPECT_NEAR(g.median_miss_cm, 10.0, 1e-9);
-  EXPECT_NEAR(g.median_above_cm, 3.0, 1e-9);    // of 3, 12 and 0 cm
-  EXPECT_NEAR(g.median_across_cm, 10.0, 1e-9);  // of 4, 16 and 10 cm
-  EXPECT_EQ(DescribeCubeFailures(g),
-            "failures: 4 of 5 episodes: 1 never lifted the cube 2 cm (no grasp), 3 lifted it and "
-            "ended a median 10 cm from the goal (10 cm across, 3 cm above)");
-  made.episodes.resize(1);
-  EXPECT_EQ(DescribeCubeFailures(CountCubeFailures(made)), "failures: 0 of 1 episodes");
 }
 
 // An untrained puzzle-3x3 policy (55-D states, 5-D actions): the evaluator's bookkeeping,

@@ -36,22 +36,9 @@ using CubeEvalResult = TaskSuccessResult;
 // policy does not fit cube-single (28-D states or square RGB images, 5-D actions).
 CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& options);
 
-// How the failed episodes of a cube-single evaluation failed: the cube never
-// lifted (it rose less than kLiftedCm above its start: no grasp), or lifted and
-// ended away from the goal (a grasp, no placement within 4 cm).
-struct CubeFailures {
-  static constexpr double kLiftedCm = 2.0;
-  int episodes = 0, failed = 0;
-  int never_lifted = 0;
-  int lifted_not_placed = 0;
-  double median_miss_cm = 0;    // final cube-goal distance of the lifted failures (0: none)
-  double median_above_cm = 0;   // of that, the height above the goal (held up, not set down)
-  double median_across_cm = 0;  // and the horizontal distance
-};
-CubeFailures CountCubeFailures(const CubeEvalResult& result);
-// "failures: 62 of 250 episodes: 40 never lifted the cube 2 cm (no grasp), 22
-// lifted it and ended a median 7.5 cm from the goal (6.1 cm across, 3 cm above)"
-std::string DescribeCubeFailures(const CubeFailures& f);
+// The cube's outcome of each episode (how the failed ones failed:
+// sim::CountCubeFailures, sim::DescribeCubeFailures).
+std::vector<sim::CubeOutcome> CubeOutcomes(const CubeEvalResult& result);
 
 // The results in msspr_eval's report format (env "cube-single").
 sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalOptions& options,

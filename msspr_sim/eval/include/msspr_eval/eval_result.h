@@ -3,10 +3,12 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "msspr_sim/cube_failures.h"
 #include "msspr_sim/eval_protocol.h"
 
 namespace msspr::agent {
@@ -16,10 +18,9 @@ struct EpisodeResult {
   bool success = false;
   int steps = 0;                  // control steps taken
   std::vector<double> final_obs;  // the state observation it ended in
-  // cube-single: the most the cube rose above where it started (m), how far its
-  // centre ended from the goal's (m) and, of that, how far above it (m; the
-  // goal rests on the table); -1 / 0 where not tracked (other envs).
-  double cube_lift = -1, cube_goal_distance = -1, cube_above_goal = 0;
+  // cube-single: the cube's rise and where it ended against the goal (how the
+  // episode failed, sim::CountCubeFailures); empty in other envs.
+  std::optional<sim::CubeOutcome> cube = std::nullopt;
 };
 
 struct TaskSuccessResult {

@@ -1,0 +1,50 @@
+// How a cube-single episode failed, from its observations: the cube never
+// lifted (no grasp), or it was lifted and ended away from the goal (a grasp
+// without a placement within 4 cm), with how far across and above. The same
+// counts in process (msspr_eval_inprocess) and over ROS (msspr_eval), so a
+// weak policy shows whether it cannot grasp or cannot place. No ROS, no torch.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace msspr::sim {
+
+// One episode's cube, in metres.
+struct CubeOutcome {
+  bool success = false;
+  double lift = 0;           // the most the cube rose above where it started
+  double goal_distance = 0;  // its centre's final distance to the goal's
+  double above_goal = 0;     // of that, the height above the goal (which rests on the table)
+};
+
+// Follows one episode's 28-D cube-single observations (CubeEnv::GetObservation).
+class CubeEpisodeTracker {
+ public:
+  // The episode's first observation and its goal observation.
+  void Start(const float* obs, const float* goal_obs);
+  // Each later observation, in order.
+  void Observe(const float* obs);
+  // The outcome, from the last observation seen.
+  CubeOutcome Finish(bool success) const;
+
+ private:
+  double start_z_ = 0, lift_ = 0;
+  double last_[3] = {0, 0, 0}, goal_[3] = {0, 0, 0};
+};
+
+struct CubeFailures {
+  static constexpr double kLiftedCm = 2.0;  // a rise below this is no grasp
+  int episodes = 0, failed = 0;
+  int never_lifted = 0;
+  int lifted_not_placed = 0;
+  // Medians over the lifted failures (0 when there are none): the final
+  // distance to the goal, and its horizontal and vertical parts.
+  double median_miss_cm = 0, median_across_cm = 0, median_above_cm = 0;
+};
+CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes);
+// "failures: 62 of 250 episodes: 40 never lifted the cube 2.0 cm (no grasp), 22
+// lifted it and ended a median 7.5 cm from the goal (6.1 cm across, 3.0 cm above)"
+std::string DescribeCubeFailures(const CubeFailures& f);
+
+}  // namespace msspr::sim

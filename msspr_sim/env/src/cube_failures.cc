@@ -1,0 +1,85 @@
+#include "msspr_sim/cube_failures.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "msspr_sim/cube_env.h"
+
+namespace msspr::sim {
+namespace {
+
+void CubeCentre(const float* obs, double out[3]) {
+  const Eigen::Vector3d p = CubePositionFromObservation(obs);
+  for (int i = 0; i < 3; ++i) out[i] = p[i];
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+}  // namespace
+
+void CubeEpisodeTracker::Start(const float* obs, const float* goal_obs) {
+  CubeCentre(obs, last_);
+  CubeCentre(goal_obs, goal_);
+  start_z_ = last_[2];
+  lift_ = 0;
+}
+
+void CubeEpisodeTracker::Observe(const float* obs) {
+  CubeCentre(obs, last_);
+  lift_ = std::max(lift_, last_[2] - start_z_);
+}
+
+CubeOutcome CubeEpisodeTracker::Finish(bool success) const {
+  CubeOutcome o;
+  o.success = success;
+  o.lift = lift_;
+  const double dx = last_[0] - goal_[0], dy = last_[1] - goal_[1], dz = last_[2] - goal_[2];
+  o.goal_distance = std::sqrt(dx * dx + dy * dy + dz * dz);
+  o.above_goal = dz;
+  return o;
+}
+
+CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes) {
+  CubeFailures f;
+  std::vector<double> misses, across, above;
+  for (const CubeOutcome& e : outcomes) {
+    ++f.episodes;
+    if (e.success) continue;
+    ++f.failed;
+    if (e.lift * 100.0 < CubeFailures::kLiftedCm) {
+      ++f.never_lifted;
+      continue;
+    }
+    ++f.lifted_not_placed;
+    const double d = e.goal_distance, z = e.above_goal;
+    misses.push_back(d * 100.0);
+    above.push_back(z * 100.0);
+    across.push_back(std::sqrt(std::max(0.0, d * d - z * z)) * 100.0);
+  }
+  f.median_miss_cm = Median(misses);
+  f.median_across_cm = Median(across);
+  f.median_above_cm = Median(above);
+  return f;
+}
+
+std::string DescribeCubeFailures(const CubeFailures& f) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(1);  // centimetres to the millimetre
+  s << "failures: " << f.failed << " of " << f.episodes << " episodes";
+  if (f.failed == 0) return s.str();
+  s << ": " << f.never_lifted << " never lifted the cube " << CubeFailures::kLiftedCm
+    << " cm (no grasp), " << f.lifted_not_placed << " lifted it";
+  if (f.lifted_not_placed > 0)
+    s << " and ended a median " << f.median_miss_cm << " cm from the goal (" << f.median_across_cm
+      << " cm across, " << f.median_above_cm << " cm above)";
+  return s.str();
+}
+
+}  // namespace msspr::sim
