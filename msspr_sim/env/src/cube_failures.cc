@@ -10,11 +10,6 @@
 namespace msspr::sim {
 namespace {
 
-void CubeCentre(const float* obs, double out[3]) {
-  const Eigen::Vector3d p = CubePositionFromObservation(obs);
-  for (int i = 0; i < 3; ++i) out[i] = p[i];
-}
-
 double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -25,24 +20,23 @@ double Median(std::vector<double> v) {
 }  // namespace
 
 void CubeEpisodeTracker::Start(const float* obs, const float* goal_obs) {
-  CubeCentre(obs, last_);
-  CubeCentre(goal_obs, goal_);
-  start_z_ = last_[2];
+  last_ = CubePositionFromObservation(obs);
+  goal_ = CubePositionFromObservation(goal_obs);
+  start_z_ = last_.z();
   lift_ = 0;
 }
 
 void CubeEpisodeTracker::Observe(const float* obs) {
-  CubeCentre(obs, last_);
-  lift_ = std::max(lift_, last_[2] - start_z_);
+  last_ = CubePositionFromObservation(obs);
+  lift_ = std::max(lift_, last_.z() - start_z_);
 }
 
 CubeOutcome CubeEpisodeTracker::Finish(bool success) const {
   CubeOutcome o;
   o.success = success;
   o.lift = lift_;
-  const double dx = last_[0] - goal_[0], dy = last_[1] - goal_[1], dz = last_[2] - goal_[2];
-  o.goal_distance = std::sqrt(dx * dx + dy * dy + dz * dz);
-  o.above_goal = dz;
+  o.goal_distance = (last_ - goal_).norm();
+  o.above_goal = last_.z() - goal_.z();
   return o;
 }
 

@@ -5,6 +5,7 @@
 // weak policy shows whether it cannot grasp or cannot place. No ROS, no torch.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
 
@@ -30,7 +31,7 @@ class CubeEpisodeTracker {
 
  private:
   double start_z_ = 0, lift_ = 0;
-  double last_[3] = {0, 0, 0}, goal_[3] = {0, 0, 0};
+  Eigen::Vector3d last_ = Eigen::Vector3d::Zero(), goal_ = Eigen::Vector3d::Zero();
 };
 
 struct CubeFailures {
