@@ -10,6 +10,7 @@ import fcntl
 import glob
 import json
 import os
+import random
 import re
 import shutil
 import signal
@@ -246,6 +247,44 @@ class MssprCompareTest(unittest.TestCase):
             m = sum(figs) / 2
             sd = abs(figs[0] - figs[1]) / 2 ** 0.5
             self.assertIn(f"{m:.1f} ± {sd:.1f}", row)
+        # --per-task: each evaluation task's last-3 success (mean over seeds) and the mean |change|
+        # of a task's success between consecutive evaluations from the third on, from eval.csv.
+        # Tiny runs succeed nowhere, so a copy of the runs gets seeded per-task successes.
+        varied = os.path.join(self.tmp, "varied")
+        shutil.copytree(self.out, varied)
+        rng = random.Random(7)
+        for d in glob.glob(os.path.join(varied, "runs", "tiny-maze", "*-s*")):
+            path = os.path.join(d, "eval.csv")
+            with open(path) as f:
+                recs = list(csv.reader(f))
+            for rec in recs:
+                if len(rec) == 3 and rec[1].startswith("success_task"):
+                    rec[2] = f"{rng.randrange(0, 51) / 50:.6f}"
+            with open(path, "w", newline="") as f:
+                csv.writer(f).writerows(recs)
+        per_task = os.path.join(self.tmp, "tasks.md")
+        rc, out = self.compare("report", varied, "--per-task", per_task)
+        self.assertEqual(rc, 0, out)
+        with open(per_task) as f:
+            task_rows = [l for l in f.read().splitlines() if l.startswith("| tiny-maze |")]
+        self.assertEqual(len(task_rows), 2, task_rows)
+        for row, agent in zip(task_rows, ["mspr", "gcivl"]):
+            cells = [c.strip() for c in row.strip("|").split("|")]
+            self.assertEqual(cells[1], agent)
+            per_seed = []
+            for seed in (0, 1):
+                ev = {}
+                with open(os.path.join(varied, "runs", "tiny-maze", f"{agent}-s{seed}", "eval.csv")) as f:
+                    for rec in csv.reader(f):
+                        if len(rec) == 3 and rec[1].startswith("success_task"):
+                            ev.setdefault(int(rec[1][len("success_task"):]), []).append((int(rec[0]), float(rec[2])))
+                per_seed.append({k: [v for s, v in sorted(c) if s % EVERY == 0] for k, c in ev.items()})
+            self.assertEqual(sorted(per_seed[0]), [1, 2, 3, 4, 5])
+            for k in range(1, 6):
+                want = sum(sum(p[k][-3:]) / 3 for p in per_seed) / 2
+                self.assertAlmostEqual(float(cells[1 + k]), 100 * want, delta=0.051, msg=row)
+            changes = [abs(c[i + 1] - c[i]) for p in per_seed for c in p.values() for i in range(2, len(c) - 1)]
+            self.assertAlmostEqual(float(cells[7]), 100 * sum(changes) / len(changes), delta=0.051, msg=row)
         # --grid reports a grid file's runs from the directory (grids may share one --out); the
         # mspr runs, of another config than this grid's, are left out of it, named.
         with open(os.path.join(self.tmp, "tiny_mspr2.yaml"), "w") as f:
