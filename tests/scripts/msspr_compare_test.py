@@ -128,6 +128,19 @@ class MssprCompareTest(unittest.TestCase):
         statuses = [read_json(os.path.join(d, "compare.json"))["status"] for d in self.run_dirs()]
         self.assertIn("running", statuses, "the killed runs are left marked running until the next run")
         interrupted = [d for d in self.run_dirs()]
+        # status: a line per run; a run cut off part way says the step its training reached.
+        rc, out = self.compare("status", self.out)
+        self.assertEqual(rc, 0, out)
+        for d in interrupted:
+            name = "tiny-maze/" + os.path.basename(d)
+            line = next((l for l in out.splitlines() if l.startswith(name + ": ")), None)
+            self.assertIsNotNone(line, out)
+            if read_json(os.path.join(d, "compare.json"))["status"] != "finished" and \
+                    os.path.exists(os.path.join(d, "metrics.csv")):
+                with open(os.path.join(d, "metrics.csv")) as f:
+                    step = list(csv.DictReader(f))[-1]["step"]
+                self.assertIn(f"trained to step {int(step):,} of {STEPS:,}", line)
+        self.assertTrue(out.splitlines()[-1].endswith(" of 4 runs"), out)
 
         # 2. The same command finishes the grid; killed runs resume from their checkpoints.
         rc, out = self.compare("run", self.grid, "--out", self.out, "--jobs", "2")
@@ -169,6 +182,10 @@ class MssprCompareTest(unittest.TestCase):
         self.assertEqual(rc, 0, out)
         self.assertIn("4 finished, 0 to run, 0 refused", out)
         self.assertNotIn("msspr_compare: started", out)
+        rc, out = self.compare("status", self.out)
+        self.assertEqual(rc, 0, out)
+        self.assertEqual(out.splitlines()[-1], "4 finished of 4 runs", out)
+        self.assertIn(f"tiny-maze/mspr-s0: finished, evaluated to step {STEPS:,} of {STEPS:,}", out)
 
         # 3b. --records keeps each finished run's record (no checkpoint, no data); a fresh
         # directory given the records runs nothing, and the records report as the runs do.
