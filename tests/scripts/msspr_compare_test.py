@@ -207,6 +207,9 @@ class MssprCompareTest(unittest.TestCase):
         self.assertIn("4 finished run(s) taken from the records", out)
         self.assertIn("4 finished, 0 to run, 0 refused", out)
         self.assertFalse(glob.glob(os.path.join(fresh, "runs", "*", "*", "checkpoint.ckpt")))
+        rc, out = self.compare("status", fresh, "--grid", self.grid, "--records", rec_dir)
+        self.assertEqual(rc, 0, out)
+        self.assertEqual(out.splitlines()[-1], "4 finished of 4 runs", out)
         for where in (self.out, rec_dir):
             rc, out = self.compare("report", where, "--md", os.path.join(self.tmp, "r.md"),
                                    "--csv", os.path.join(self.tmp, os.path.basename(where) + ".csv"),
