@@ -1,5 +1,5 @@
 // msspr_policy_node: serves a trained Ms.PR policy (msspr_core::Policy) over
-// ROS (README "msspr_policy_node"). Takes observations (state, or camera
+// ROS (docs/nodes.md "msspr_policy_node"). Takes observations (state, or camera
 // images), a goal (the observation's goal field, a goal topic, or the
 // ~set_goal service), and publishes actions, in lockstep (one action per
 // observation) or at a fixed rate. This header does not include torch.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages msspr needs (docs: README "Install").
+# Installs the Debian 12 packages msspr needs (README "Install").
 # Idempotent: a no-op when every package is present.
 set -euo pipefail
 PKGS=(

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Data-parallel msspr_train on this machine: starts N ranks (torch.distributed
-# c10d, Gloo on loopback; see README "Data-parallel training") with the same
+# c10d, Gloo on loopback; see docs/training.md "Data-parallel training") with the same
 # arguments, rank 0 in the foreground of the log, and stops the others if
 # one fails.
 #

@@ -119,11 +119,10 @@ std::string Usage(const TrainCliExtensions& ext) {
 }
 
 // Flags that may differ from the saved run on --resume; any other flag given
-// with --resume must repeat the saved value (README "Resuming").
-// Neither changes what is learned: the run's length and schedule of side
-// work, threads, output, the in-simulator evaluation (ROS msspr_train), and
-// the precision of the update's matrix products (its objective stays; the
-// weights and optimiser state are fp32 either way).
+// with --resume must repeat the saved value (docs/training.md "Checkpoints, resuming and
+// stopping"). Neither changes what is learned: the run's length and schedule of side work, threads,
+// output, the in-simulator evaluation (ROS msspr_train), and the precision of the update's matrix
+// products (its objective stays; the weights and optimiser state are fp32 either way).
 const std::set<std::string> kResumeMayChange = {
     "steps",     "time-limit",     "eval-every", "checkpoint-every", "export-every", "log-every",
     "threads",   "precision",      "quiet",      "eval-episodes",    "eval-tasks",   "eval-seed",

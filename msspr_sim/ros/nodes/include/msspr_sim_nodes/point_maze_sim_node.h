@@ -1,4 +1,4 @@
-// msspr_sim_node: serves a PointMaze over ROS (README "msspr_sim_node").
+// msspr_sim_node: serves a PointMaze over ROS (docs/nodes.md "msspr_sim_node").
 // Publishes observations, camera/goal images, tf2 and /clock; takes actions in
 // lockstep (one step per action) or real time (fixed rate, last action held).
 #pragma once

@@ -26,7 +26,7 @@
 
 namespace msspr::ros_bridge {
 
-// The parameters every sim node takes (README "msspr_sim_node").
+// The parameters every sim node takes (docs/nodes.md "msspr_sim_node").
 struct SimNodeCommonOptions {
   std::string observation_mode = "state";  // state | pixels | both
   int image_size = 64;
