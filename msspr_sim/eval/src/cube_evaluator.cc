@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -17,6 +19,7 @@
 #include "msspr_sim/cube_env.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/package_files.h"
+#include "msspr_sim/random_util.h"
 
 namespace msspr::agent {
 
@@ -146,6 +149,82 @@ sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalO
 void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options,
                           const std::string& agent, const std::string& path) {
   sim::WriteTextFile(path, sim::EvalReportJson(MakeCubeEvalReport(result, options, agent)));
+}
+
+CubeGoalShiftResult ProbeCubeGoalShifts(core::Policy& policy, const CubeGoalShiftOptions& options) {
+  constexpr int kObs = sim::CubeEnv::kObservationSize, kAct = sim::CubeEnv::kActionSize;
+  if (!policy.has_value())
+    throw std::invalid_argument("ProbeCubeGoalShifts: the " + policy.agent_name() +
+                                " agent has no value to probe");
+  if (policy.pixels() || policy.obs_dim() != kObs || policy.action_dim() != kAct)
+    throw std::invalid_argument(
+        "ProbeCubeGoalShifts: needs a state policy of cube-single (28-D states, 5-D actions); "
+        "this one reads " +
+        (policy.pixels() ? std::string("pixels") : std::to_string(policy.obs_dim()) + "-D states") +
+        " and gives " + std::to_string(policy.action_dim()) + "-D actions");
+  if (options.shifts_cm.empty() || options.pairs_per_task < 1 || options.directions < 1)
+    throw std::invalid_argument(
+        "ProbeCubeGoalShifts: give at least one shift, pair per task and direction");
+  for (double d : options.shifts_cm)
+    if (!(d >= 0.0 && d <= 100.0))
+      throw std::invalid_argument("ProbeCubeGoalShifts: a shift must be 0 to 100 cm, got " +
+                                  std::to_string(d));
+
+  sim::CubeEnvOptions eo;
+  eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
+  sim::CubeEnv env(eo);
+  const int n_tasks = static_cast<int>(sim::CubeSingleTasks().size());
+  // Each pair: a state of another arm and the goal, the goal observations of two resets.
+  std::vector<std::pair<sim::CubeEnv::Observation, sim::CubeEnv::Observation>> pairs;
+  for (int t = 1; t <= n_tasks; ++t)
+    for (int j = 0; j < options.pairs_per_task; ++j) {
+      const uint64_t base = sim::Mix64(options.seed * 1000003ULL + static_cast<uint64_t>(t)) +
+                            2 * static_cast<uint64_t>(j);
+      env.ResetToTask(t, base);
+      const sim::CubeEnv::Observation state = env.goal_observation();
+      env.ResetToTask(t, base + 1);
+      pairs.emplace_back(state, env.goal_observation());
+    }
+
+  CubeGoalShiftResult r;
+  r.shifts_cm = options.shifts_cm;
+  r.gamma = policy.options().agent.gamma;
+  r.samples = static_cast<int>(pairs.size()) * options.directions;
+  torch::NoGradGuard no_grad;
+  for (const bool same_arm : {true, false}) {
+    CubeGoalShiftValues& out = same_arm ? r.same_arm : r.other_arm;
+    for (double shift : options.shifts_cm) {
+      auto obs = torch::empty({r.samples, kObs}, torch::kFloat32);
+      auto goal = torch::empty({r.samples, kObs}, torch::kFloat32);
+      float* po = obs.data_ptr<float>();
+      float* pg = goal.data_ptr<float>();
+      for (const auto& [other, g] : pairs)
+        for (int k = 0; k < options.directions; ++k) {
+          const double angle = 2.0 * M_PI * k / options.directions;
+          const auto& state = same_arm ? g : other;
+          std::copy(state.begin(), state.end(), po);
+          std::copy(g.begin(), g.end(), pg);
+          sim::ShiftCubeInObservation(
+              pg, Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.0) * (shift / 100.0));
+          po += kObs;
+          pg += kObs;
+        }
+      const auto v = std::get<0>(policy.Q(obs, policy.Act(obs, goal), goal).min(-1))
+                         .to(torch::kCPU, torch::kFloat64)
+                         .contiguous();
+      const double* pv = v.data_ptr<double>();
+      double sum = 0.0, sq = 0.0;
+      for (int i = 0; i < r.samples; ++i) sum += pv[i];
+      const double m = sum / r.samples;
+      for (int i = 0; i < r.samples; ++i) sq += (pv[i] - m) * (pv[i] - m);
+      out.mean.push_back(m);
+      out.sd.push_back(r.samples > 1 ? std::sqrt(sq / (r.samples - 1)) : 0.0);
+      const double x = 1.0 + (1.0 - r.gamma) * std::min(m, 0.0);
+      out.steps.push_back(x > 0.0 ? std::max(0.0, std::log(x) / std::log(r.gamma))
+                                  : std::numeric_limits<double>::infinity());
+    }
+  }
+  return r;
 }
 
 }  // namespace msspr::agent

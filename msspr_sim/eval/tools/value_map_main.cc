@@ -4,9 +4,15 @@
 // return and the success rate; the critic's estimate V(s, g) = min_k Q_k(s,
 // pi(s, g), g) is compared with it. Writes three heatmaps (predicted, true,
 // error) and a JSON with the mean absolute error and the correlation.
+// --env cube-single: the critic's value of a state whose cube rests at a
+// task's goal, against goals whose cube is moved 0-10 cm away (whether it
+// tells a placement within the 4 cm of success from a miss).
 #include <torch/torch.h>
 
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -16,6 +22,7 @@
 #include "msspr_core/cli_args.h"
 #include "msspr_core/policy.h"
 #include "msspr_core/process_env.h"
+#include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
 #include "msspr_sim/maze_map.h"
 
@@ -37,8 +44,95 @@ frozen policy, for one goal, over a grid of starts covering the free cells.
   --agent NAME       label in the pictures and the JSON (default: the policy's file name)
   --out DIR          output directory (default value_map): value_predicted.png, value_true.png,
                      value_error.png (predicted - true), value_map.json
+  --env cube-single  instead: the critic's value V(s, g) of a state whose cube rests at a task's
+                     goal, for goals whose cube is moved SHIFT cm away in the table's plane
+                     (success needs 4 cm); prints a table, writes DIR/value_goal_shifts.json
+  --shifts LIST      cube-single: the shifts in cm (default 0,1,2,3,4,5,6,8,10)
+  --pairs N          cube-single: state and goal pairs per task (default 20)
+  --directions N     cube-single: directions of each shift (default 8)
 Example: rosrun msspr msspr_value_map --policy $(rospack find msspr)/msspr_policy_node/checkpoints/pointmaze-medium-state.pt --out value_map
+         rosrun msspr msspr_value_map --env cube-single --policy $(rospack find msspr)/msspr_policy_node/checkpoints/cube-single-state.pt
 )";
+
+// The point maze's flags.
+void ParseMazeFlags(const msspr::cli::CliArgs& args, msspr::agent::ValueMapOptions* vo_out) {
+  using msspr::cli::CliError;
+  msspr::agent::ValueMapOptions& vo = *vo_out;
+  const auto names = msspr::sim::MazeMap::Names();
+  vo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
+  const auto map = msspr::sim::MazeMap::FromName(vo.maze);
+  if (args.Has("goal") && args.Has("goal-task"))
+    throw CliError("give --goal or --goal-task, not both");
+  if (args.Has("goal")) {
+    const std::string g = args.Get("goal", "");
+    const auto comma = g.find(',');
+    if (comma == std::string::npos) throw CliError("--goal expects X,Y in metres, got '" + g + "'");
+    vo.goal = {msspr::cli::ParseDouble("goal", g.substr(0, comma)),
+               msspr::cli::ParseDouble("goal", g.substr(comma + 1))};
+    if (map.IsWall(map.XYToCell(vo.goal)))
+      throw CliError("--goal " + g + " is inside a wall of maze " + vo.maze);
+  } else {
+    const int task =
+        static_cast<int>(args.GetInt("goal-task", 1, 1, static_cast<long>(map.Tasks().size())));
+    vo.goal = map.CellCenter(map.Tasks()[static_cast<size_t>(task - 1)].goal);
+  }
+  vo.per_cell = static_cast<int>(args.GetInt("per-cell", 3, 1, 20));
+  vo.rollouts = static_cast<int>(args.GetInt("rollouts", 10, 1, 10000));
+  vo.start_noise =
+      args.GetDouble("start-noise", 0.1, 0.0, msspr::sim::kCellSize / 2 - msspr::sim::kAgentRadius);
+  vo.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
+  vo.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
+}
+
+// --env cube-single: the probe, its table and its JSON.
+int RunCubeGoalShifts(const std::string& policy_path, const msspr::agent::CubeGoalShiftOptions& co,
+                      const std::string& agent, const std::string& out) {
+  auto policy = msspr::core::Policy::Load(policy_path);
+  std::cerr << "msspr_value_map: " << policy_path << " (" << policy.agent_name() << "), "
+            << co.pairs_per_task << " state and goal pairs per task x " << co.directions
+            << " directions per shift ...\n";
+  const auto r = msspr::agent::ProbeCubeGoalShifts(policy, co);
+  std::printf(
+      "%s: V(s, g) of a state whose cube rests at the goal, the goal's cube moved SHIFT cm "
+      "(%d values a shift; gamma %.4g; steps: the steps to go V stands for)\n",
+      agent.c_str(), r.samples, r.gamma);
+  std::printf("%10s | %-30s | %-30s\n", "", "the state's arm as the goal's", "another arm");
+  std::printf("%10s | %9s %9s %10s | %9s %9s %10s\n", "shift (cm)", "V mean", "V sd", "steps",
+              "V mean", "V sd", "steps");
+  for (size_t i = 0; i < r.shifts_cm.size(); ++i)
+    std::printf("%10.1f | %9.2f %9.2f %10.1f | %9.2f %9.2f %10.1f\n", r.shifts_cm[i],
+                r.same_arm.mean[i], r.same_arm.sd[i], r.same_arm.steps[i], r.other_arm.mean[i],
+                r.other_arm.sd[i], r.other_arm.steps[i]);
+  std::filesystem::create_directories(out);
+  const std::string path = out + "/value_goal_shifts.json";
+  std::ofstream f(path + ".tmp");
+  auto list = [&f](const std::vector<double>& xs) {
+    f << "[";
+    for (size_t i = 0; i < xs.size(); ++i)
+      f << (i ? ", " : "") << (std::isfinite(xs[i]) ? std::to_string(xs[i]) : "null");
+    f << "]";
+  };
+  f << "{\"agent\": \"" << agent << "\", \"policy\": \"" << policy_path
+    << "\", \"env\": \"cube-single\", \"samples_per_shift\": " << r.samples
+    << ", \"gamma\": " << r.gamma << ", \"shifts_cm\": ";
+  list(r.shifts_cm);
+  for (const auto& [name, v] :
+       {std::pair{"same_arm", &r.same_arm}, std::pair{"other_arm", &r.other_arm}}) {
+    f << ", \"" << name << "\": {\"mean_value\": ";
+    list(v->mean);
+    f << ", \"sd_value\": ";
+    list(v->sd);
+    f << ", \"steps\": ";
+    list(v->steps);
+    f << "}";
+  }
+  f << "}\n";
+  f.close();
+  if (!f) throw std::runtime_error("cannot write " + path);
+  std::filesystem::rename(path + ".tmp", path);
+  std::cerr << "msspr_value_map: wrote " << path << "\n";
+  return 0;
+}
 
 }  // namespace
 
@@ -46,11 +140,13 @@ int main(int argc, char** argv) {
   msspr::core::ReexecWithToolEnvironment(argv);
   using msspr::cli::CliError;
   msspr::agent::ValueMapOptions vo;
-  std::string policy_path, out, agent;
+  msspr::agent::CubeGoalShiftOptions co;
+  std::string policy_path, out, agent, env;
   try {
-    msspr::cli::CliArgs args(argc, argv, {"help"},
-                             {"policy", "maze", "goal-task", "goal", "per-cell", "rollouts",
-                              "start-noise", "max-steps", "seed", "threads", "agent", "out"});
+    msspr::cli::CliArgs args(
+        argc, argv, {"help"},
+        {"policy", "maze", "goal-task", "goal", "per-cell", "rollouts", "start-noise", "max-steps",
+         "seed", "threads", "agent", "out", "env", "shifts", "pairs", "directions"});
     if (args.Has("help")) {
       std::cout << kUsage;
       return 0;
@@ -59,41 +155,45 @@ int main(int argc, char** argv) {
       throw CliError("unexpected argument '" + args.positional()[0] + "'");
     policy_path = args.Get("policy", "");
     if (policy_path.empty()) throw CliError("--policy is required");
-    const auto names = msspr::sim::MazeMap::Names();
-    vo.maze = args.GetChoice("maze", "medium", std::set<std::string>(names.begin(), names.end()));
-    const auto map = msspr::sim::MazeMap::FromName(vo.maze);
-    if (args.Has("goal") && args.Has("goal-task"))
-      throw CliError("give --goal or --goal-task, not both");
-    if (args.Has("goal")) {
-      const std::string g = args.Get("goal", "");
-      const auto comma = g.find(',');
-      if (comma == std::string::npos)
-        throw CliError("--goal expects X,Y in metres, got '" + g + "'");
-      vo.goal = {msspr::cli::ParseDouble("goal", g.substr(0, comma)),
-                 msspr::cli::ParseDouble("goal", g.substr(comma + 1))};
-      if (map.IsWall(map.XYToCell(vo.goal)))
-        throw CliError("--goal " + g + " is inside a wall of maze " + vo.maze);
+    env = args.GetChoice("env", "pointmaze", {"pointmaze", "cube-single"});
+    const bool cube = env == "cube-single";
+    for (const char* flag :
+         {"maze", "goal-task", "goal", "per-cell", "rollouts", "start-noise", "max-steps"})
+      if (cube && args.Has(flag))
+        throw CliError(std::string("--") + flag + " is for the point maze, not --env cube-single");
+    for (const char* flag : {"shifts", "pairs", "directions"})
+      if (!cube && args.Has(flag))
+        throw CliError(std::string("--") + flag + " is for --env cube-single");
+    if (cube) {
+      if (args.Has("shifts")) {
+        co.shifts_cm.clear();
+        std::stringstream list(args.Get("shifts", ""));
+        for (std::string item; std::getline(list, item, ',');)
+          co.shifts_cm.push_back(msspr::cli::ParseDouble("shifts", item, 0.0, 100.0));
+        if (co.shifts_cm.empty()) throw CliError("--shifts expects cm values, e.g. 0,2,4,6");
+      }
+      co.pairs_per_task = static_cast<int>(args.GetInt("pairs", 20, 1, 10000));
+      co.directions = static_cast<int>(args.GetInt("directions", 8, 1, 360));
+      co.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     } else {
-      const int task =
-          static_cast<int>(args.GetInt("goal-task", 1, 1, static_cast<long>(map.Tasks().size())));
-      vo.goal = map.CellCenter(map.Tasks()[static_cast<size_t>(task - 1)].goal);
+      ParseMazeFlags(args, &vo);
     }
-    vo.per_cell = static_cast<int>(args.GetInt("per-cell", 3, 1, 20));
-    vo.rollouts = static_cast<int>(args.GetInt("rollouts", 10, 1, 10000));
-    vo.start_noise = args.GetDouble("start-noise", 0.1, 0.0,
-                                    msspr::sim::kCellSize / 2 - msspr::sim::kAgentRadius);
-    vo.max_steps = static_cast<int>(args.GetInt("max-steps", 1000, 1, 100000000));
-    vo.seed = static_cast<uint64_t>(args.GetInt("seed", 0, 0));
     const int threads = static_cast<int>(args.GetInt("threads", 0, 0, 4096));
     if (threads > 0) torch::set_num_threads(threads);
     out = args.Get("out", "value_map");
     agent = args.Get("agent", "");
-    if (agent.empty()) {
-      agent = policy_path.substr(policy_path.find_last_of('/') + 1);
-    }
+    if (agent.empty()) agent = policy_path.substr(policy_path.find_last_of('/') + 1);
   } catch (const std::exception& e) {
     std::cerr << "msspr_value_map: " << e.what() << "\n" << kUsage;
     return 2;
+  }
+  if (env == "cube-single") {
+    try {
+      return RunCubeGoalShifts(policy_path, co, agent, out);
+    } catch (const std::exception& e) {
+      std::cerr << "msspr_value_map: " << e.what() << "\n";
+      return 1;
+    }
   }
   try {
     torch::manual_seed(static_cast<uint64_t>(vo.seed));

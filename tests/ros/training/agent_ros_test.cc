@@ -254,6 +254,46 @@ TEST(CubeEvaluator, RecordsHowEachEpisodesCubeEnded) {
   EXPECT_EQ(f.lifted_not_placed, 0);
 }
 
+// The goal-shift probe: a value per shift and variant, each the mean of the critic over the
+// pairs and directions (a shift of 0 is the same in every direction), steps that stand for
+// that value, the same values on a second call, and the policies it cannot probe.
+TEST(CubeEvaluator, GoalShiftProbeValuesEachShiftAndChecksThePolicy) {
+  core::Policy policy = UntrainedStatePolicy(28, 5);
+  CubeGoalShiftOptions opt;
+  opt.shifts_cm = {0.0, 5.0};
+  opt.pairs_per_task = 2;
+  opt.directions = 4;
+  const auto a = ProbeCubeGoalShifts(policy, opt);
+  EXPECT_EQ(a.samples, 5 * 2 * 4);
+  EXPECT_EQ(a.gamma, policy.options().agent.gamma);
+  for (const auto* v : {&a.same_arm, &a.other_arm}) {
+    ASSERT_EQ(v->mean.size(), 2u);
+    ASSERT_EQ(v->sd.size(), 2u);
+    ASSERT_EQ(v->steps.size(), 2u);
+    EXPECT_NE(v->mean[0], v->mean[1]) << "moving the goal's cube changes the critic's input";
+    for (size_t i = 0; i < 2; ++i) {
+      ASSERT_TRUE(std::isfinite(v->mean[i]));
+      EXPECT_GE(v->sd[i], 0.0);
+      if (v->mean[i] < 0)  // V = -(1 - gamma^n) / (1 - gamma)
+        EXPECT_NEAR(-(1 - std::pow(a.gamma, v->steps[i])) / (1 - a.gamma), v->mean[i], 1e-6);
+      else
+        EXPECT_EQ(v->steps[i], 0.0);
+    }
+  }
+  const auto b = ProbeCubeGoalShifts(policy, opt);
+  EXPECT_EQ(a.same_arm.mean, b.same_arm.mean);
+  EXPECT_EQ(a.other_arm.mean, b.other_arm.mean);
+  opt.directions = 1;  // unshifted goals are the same whatever the directions
+  const auto c = ProbeCubeGoalShifts(policy, opt);
+  EXPECT_NEAR(c.same_arm.mean[0], a.same_arm.mean[0], 1e-5);
+  EXPECT_NEAR(c.other_arm.mean[0], a.other_arm.mean[0], 1e-5);
+  opt.shifts_cm = {-1.0};
+  EXPECT_THROW(ProbeCubeGoalShifts(policy, opt), std::invalid_argument);
+  opt.shifts_cm = {0.0};
+  auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D states
+  EXPECT_THROW(ProbeCubeGoalShifts(maze_policy, opt), std::invalid_argument);
+}
+
 // An untrained puzzle-3x3 policy (55-D states, 5-D actions): the evaluator's bookkeeping,
 // determinism, report and errors.
 TEST(PuzzleEvaluator, DeterministicAndChecksThePolicy) {

@@ -105,16 +105,46 @@ TEST(Cli, TrainReadsTheObservationModeUnderBothSpellings) {
 }
 
 TEST(Cli, ValueMapAndMakeTasksRejectBadFlags) {
-  ExpectUsageErrors(MSSPR_VALUE_MAP_EXE,
-                    {{"--maze medium", "--policy is required"},
-                     {"--policy p.pt --goal 1", "--goal expects X,Y"},
-                     {"--policy p.pt --goal -4,0", "is inside a wall"},
-                     {"--policy p.pt --goal-task 6", "--goal-task 6 is out of range"},
-                     {"--policy p.pt --goal 0,0 --goal-task 1", "not both"},
-                     {"--policy p.pt --rollouts 0", "--rollouts 0 is out of range"}});
+  ExpectUsageErrors(
+      MSSPR_VALUE_MAP_EXE,
+      {{"--maze medium", "--policy is required"},
+       {"--policy p.pt --goal 1", "--goal expects X,Y"},
+       {"--policy p.pt --goal -4,0", "is inside a wall"},
+       {"--policy p.pt --goal-task 6", "--goal-task 6 is out of range"},
+       {"--policy p.pt --goal 0,0 --goal-task 1", "not both"},
+       {"--policy p.pt --rollouts 0", "--rollouts 0 is out of range"},
+       {"--policy p.pt --env cube-single --goal-task 1",
+        "--goal-task is for the point maze, not --env cube-single"},
+       {"--policy p.pt --shifts 0,4", "--shifts is for --env cube-single"},
+       {"--policy p.pt --env cube-single --shifts 0,-4", "--shifts -4 is out of range"},
+       {"--policy p.pt --env cube-double", "--env 'cube-double' is not one of"}});
   ExpectUsageErrors(MSSPR_MAKE_TASKS_EXE, {{"--maze nowhere", "--maze 'nowhere' is not one of"},
                                            {"--n 0", "--n 0 is out of range"},
                                            {"--noise 3", "--noise 3 is out of range"}});
+}
+
+// msspr_value_map --env cube-single on the shipped cube checkpoint: its table and JSON; a
+// trained critic values a goal whose cube sits 8 cm off below one it sits on (the arm alike).
+TEST(Cli, ValueMapCubeGoalShiftsWritesTheTableAndJson) {
+  const std::string dir = ::testing::TempDir() + "/value_goal_shifts_cli";
+  const Result r =
+      msspr::test::RunTool(std::string(MSSPR_VALUE_MAP_EXE) +
+                               " --env cube-single --policy " MSSPR_SOURCE_DIR
+                               "/msspr_policy_node/checkpoints/cube-single-state.pt"
+                               " --shifts 0,8 --pairs 2 --directions 2 --threads 1 --out " +
+                               dir,
+                           120);
+  ASSERT_EQ(r.status, 0) << r.text;
+  EXPECT_NE(r.text.find("(20 values a shift; gamma 0.99;"), std::string::npos) << r.text;
+  std::ifstream f(dir + "/value_goal_shifts.json");
+  const std::string js((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  for (const char* key : {"\"shifts_cm\": [0.000000, 8.000000]", "\"same_arm\": {\"mean_value\": [",
+                          "\"other_arm\": {\"mean_value\": [", "\"samples_per_shift\": 20"})
+    EXPECT_NE(js.find(key), std::string::npos) << key << " in " << js;
+  const size_t at = js.find("\"same_arm\": {\"mean_value\": [") + 29;
+  const double v0 = std::stod(js.substr(at)), v8 = std::stod(js.substr(js.find(", ", at) + 2));
+  EXPECT_GT(v0, -5.0) << js;
+  EXPECT_LT(v8, v0 - 20.0) << js;
 }
 
 TEST(Cli, EvalInprocessRejectsBadFlagsAndWritesResults) {

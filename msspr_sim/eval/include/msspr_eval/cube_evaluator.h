@@ -47,4 +47,41 @@ sim::EvalReport MakeCubeEvalReport(const CubeEvalResult& result, const CubeEvalO
 void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& options,
                           const std::string& agent, const std::string& path);
 
+// What the critic believes about a placement: its value V(s, g) (Ms.PR: the
+// lower twin Q of the policy's action; gcivl, gciql, hiql: their values, in the
+// same return units) of a state s whose cube rests at a task's goal, for goals
+// whose cube is moved `shift` cm away in the table's plane, in `directions`
+// directions. The goal is the goal observation of a reset to the task (a
+// random arm, the cube at rest at the goal); the state is that observation
+// itself ("same arm": only the cube's shift differs) or the goal observation
+// of another reset ("another arm", as at the end of an episode). Success needs
+// the cube within 4 cm; the goal observation also holds an arm, which the
+// agents' hindsight goals teach them to reach too.
+struct CubeGoalShiftOptions {
+  std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf()
+  std::vector<double> shifts_cm = {0, 1, 2, 3, 4, 5, 6, 8, 10};
+  int pairs_per_task = 20;  // goals (and states of another arm) per task, tasks 1-5
+  int directions = 8;       // evenly spaced in the table's plane
+  uint64_t seed = 0;
+};
+
+struct CubeGoalShiftValues {
+  std::vector<double> mean;  // V over the goals and directions, per shift
+  std::vector<double> sd;
+  // The steps to go that `mean` stands for with the agent's discount
+  // (V = -(1 - gamma^n) / (1 - gamma)); infinity at or below -1/(1-gamma).
+  std::vector<double> steps;
+};
+
+struct CubeGoalShiftResult {
+  std::vector<double> shifts_cm;
+  CubeGoalShiftValues same_arm, other_arm;
+  int samples = 0;  // values per shift and variant: 5 x pairs_per_task x directions
+  double gamma = 0.99;
+};
+
+// Throws std::invalid_argument when the policy has no value (gcbc), reads
+// pixels, or does not fit cube-single's 28-D states and 5-D actions.
+CubeGoalShiftResult ProbeCubeGoalShifts(core::Policy& policy, const CubeGoalShiftOptions& options);
+
 }  // namespace msspr::agent
