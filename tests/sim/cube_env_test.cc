@@ -175,35 +175,42 @@ TEST(CubeEnvTest, CubeEpisodeTrackerFollowsTheCubeFromObservations) {
   EXPECT_NEAR(held.lift, env.CubePosition().z() - cube.z(), 0.01);
   EXPECT_NEAR(held.goal_distance, (env.CubePosition() - env.GoalPosition()).norm(), 1e-3);
   EXPECT_NEAR(held.above_goal, env.CubePosition().z() - env.GoalPosition().z(), 1e-3);
+  // The gripper against the goal observation's gripper, as PinchPosition gives both.
+  const Eigen::Vector3d goal_pinch = PinchPositionFromObservation(goal.data());
+  EXPECT_NEAR(held.gripper_to_goal_gripper, (env.PinchPosition() - goal_pinch).norm(), 1e-3);
+  EXPECT_GT(held.gripper_to_goal_gripper, 0.05);  // lifted 20 cm: far from the goal's arm
   EXPECT_FALSE(held.success);
   EXPECT_TRUE(tracker.Finish(true).success);
 }
 
 // Failures are no grasp (a rise under 2 cm) or a missed placement, with medians of the second.
 TEST(CubeEnvTest, CubeFailuresTellNoGraspFromAMissedPlacement) {
-  const auto episode = [](bool success, double lift, double miss, double above) {
+  const auto episode = [](bool success, double lift, double miss, double above, double gripper) {
     CubeOutcome e;
     e.success = success;
     e.lift = lift;
     e.goal_distance = miss;
     e.above_goal = above;
+    e.gripper_to_goal_gripper = gripper;
     return e;
   };
-  std::vector<CubeOutcome> made = {episode(true, 0.10, 0.01, 0.0), episode(false, 0.005, 0.15, 0.0),
-                                   episode(false, 0.05, 0.05, 0.03),
-                                   episode(false, 0.08, 0.20, 0.12),
-                                   episode(false, 0.03, 0.10, 0.0)};
+  std::vector<CubeOutcome> made = {
+      episode(true, 0.10, 0.01, 0.0, 0.30), episode(false, 0.005, 0.15, 0.0, 0.40),
+      episode(false, 0.05, 0.05, 0.03, 0.02), episode(false, 0.08, 0.20, 0.12, 0.25),
+      episode(false, 0.03, 0.10, 0.0, 0.12)};
   const CubeFailures g = CountCubeFailures(made);
   EXPECT_EQ(g.episodes, 5);
   EXPECT_EQ(g.failed, 4);
   EXPECT_EQ(g.never_lifted, 1);
   EXPECT_EQ(g.lifted_not_placed, 3);
-  EXPECT_NEAR(g.median_miss_cm, 10.0, 1e-9);    // of 5, 20 and 10 cm
-  EXPECT_NEAR(g.median_above_cm, 3.0, 1e-9);    // of 3, 12 and 0 cm
-  EXPECT_NEAR(g.median_across_cm, 10.0, 1e-9);  // of 4, 16 and 10 cm
+  EXPECT_NEAR(g.median_miss_cm, 10.0, 1e-9);     // of 5, 20 and 10 cm
+  EXPECT_NEAR(g.median_above_cm, 3.0, 1e-9);     // of 3, 12 and 0 cm
+  EXPECT_NEAR(g.median_across_cm, 10.0, 1e-9);   // of 4, 16 and 10 cm
+  EXPECT_NEAR(g.median_gripper_cm, 12.0, 1e-9);  // of 2, 25 and 12 cm
   EXPECT_EQ(DescribeCubeFailures(g),
             "failures: 4 of 5 episodes: 1 never lifted the cube 2.0 cm (no grasp), 3 lifted it and "
-            "ended a median 10.0 cm from the goal (10.0 cm across, 3.0 cm above)");
+            "ended a median 10.0 cm from the goal (10.0 cm across, 3.0 cm above; the gripper a "
+            "median 12.0 cm from the goal's)");
   made.resize(1);
   EXPECT_EQ(DescribeCubeFailures(CountCubeFailures(made)), "failures: 0 of 1 episodes");
   EXPECT_EQ(CountCubeFailures({}).episodes, 0);

@@ -38,6 +38,9 @@ const std::array<CubeTask, 5>& CubeSingleTasks() {
 Eigen::Vector3d CubePositionFromObservation(const float* obs) {
   return kObservationCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
 }
+Eigen::Vector3d PinchPositionFromObservation(const float* obs) {
+  return kObservationCentre + Eigen::Vector3d(obs[12], obs[13], obs[14]) / 10.0;
+}
 void ShiftCubeInObservation(float* obs, const Eigen::Vector3d& delta) {
   for (int i = 0; i < 3; ++i) obs[19 + i] += static_cast<float>(10.0 * delta[i]);
 }

@@ -22,12 +22,15 @@ double Median(std::vector<double> v) {
 void CubeEpisodeTracker::Start(const float* obs, const float* goal_obs) {
   last_ = CubePositionFromObservation(obs);
   goal_ = CubePositionFromObservation(goal_obs);
+  last_pinch_ = PinchPositionFromObservation(obs);
+  goal_pinch_ = PinchPositionFromObservation(goal_obs);
   start_z_ = last_.z();
   lift_ = 0;
 }
 
 void CubeEpisodeTracker::Observe(const float* obs) {
   last_ = CubePositionFromObservation(obs);
+  last_pinch_ = PinchPositionFromObservation(obs);
   lift_ = std::max(lift_, last_.z() - start_z_);
 }
 
@@ -37,12 +40,13 @@ CubeOutcome CubeEpisodeTracker::Finish(bool success) const {
   o.lift = lift_;
   o.goal_distance = (last_ - goal_).norm();
   o.above_goal = last_.z() - goal_.z();
+  o.gripper_to_goal_gripper = (last_pinch_ - goal_pinch_).norm();
   return o;
 }
 
 CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes) {
   CubeFailures f;
-  std::vector<double> misses, across, above;
+  std::vector<double> misses, across, above, gripper;
   for (const CubeOutcome& e : outcomes) {
     ++f.episodes;
     if (e.success) continue;
@@ -56,10 +60,12 @@ CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes) {
     misses.push_back(d * 100.0);
     above.push_back(z * 100.0);
     across.push_back(std::sqrt(std::max(0.0, d * d - z * z)) * 100.0);
+    gripper.push_back(e.gripper_to_goal_gripper * 100.0);
   }
   f.median_miss_cm = Median(misses);
   f.median_across_cm = Median(across);
   f.median_above_cm = Median(above);
+  f.median_gripper_cm = Median(gripper);
   return f;
 }
 
@@ -72,7 +78,8 @@ std::string DescribeCubeFailures(const CubeFailures& f) {
     << " cm (no grasp), " << f.lifted_not_placed << " lifted it";
   if (f.lifted_not_placed > 0)
     s << " and ended a median " << f.median_miss_cm << " cm from the goal (" << f.median_across_cm
-      << " cm across, " << f.median_above_cm << " cm above)";
+      << " cm across, " << f.median_above_cm << " cm above; the gripper a median "
+      << f.median_gripper_cm << " cm from the goal's)";
   return s.str();
 }
 

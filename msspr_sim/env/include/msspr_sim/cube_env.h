@@ -44,6 +44,9 @@ const std::array<CubeTask, 5>& CubeSingleTasks();
 // Decodes a 28-D cube-single observation (CubeEnv::GetObservation): the cube
 // centre (m) and its yaw (rad).
 Eigen::Vector3d CubePositionFromObservation(const float* obs);
+// The gripper's pinch point (m) of a 28-D observation (also of cube-double's and the
+// scene's, which share the arm's first 19 numbers).
+Eigen::Vector3d PinchPositionFromObservation(const float* obs);
 // Moves the cube of a 28-D observation by `delta` (m), the rest unchanged.
 void ShiftCubeInObservation(float* obs, const Eigen::Vector3d& delta);
 double CubeYawFromObservation(const float* obs);

@@ -17,6 +17,9 @@ struct CubeOutcome {
   double lift = 0;           // the most the cube rose above where it started
   double goal_distance = 0;  // its centre's final distance to the goal's
   double above_goal = 0;     // of that, the height above the goal (which rests on the table)
+  // The gripper's final distance to the goal observation's gripper (the goal is a whole
+  // observation: a cube and an arm; only the cube decides success).
+  double gripper_to_goal_gripper = 0;
 };
 
 // Follows one episode's 28-D cube-single observations (CubeEnv::GetObservation).
@@ -32,6 +35,7 @@ class CubeEpisodeTracker {
  private:
   double start_z_ = 0, lift_ = 0;
   Eigen::Vector3d last_ = Eigen::Vector3d::Zero(), goal_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d last_pinch_ = Eigen::Vector3d::Zero(), goal_pinch_ = Eigen::Vector3d::Zero();
 };
 
 struct CubeFailures {
@@ -40,12 +44,15 @@ struct CubeFailures {
   int never_lifted = 0;
   int lifted_not_placed = 0;
   // Medians over the lifted failures (0 when there are none): the final
-  // distance to the goal, and its horizontal and vertical parts.
+  // distance to the goal, and its horizontal and vertical parts; the gripper's
+  // final distance to the goal observation's gripper.
   double median_miss_cm = 0, median_across_cm = 0, median_above_cm = 0;
+  double median_gripper_cm = 0;
 };
 CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes);
 // "failures: 62 of 250 episodes: 40 never lifted the cube 2.0 cm (no grasp), 22
-// lifted it and ended a median 7.5 cm from the goal (6.1 cm across, 3.0 cm above)"
+// lifted it and ended a median 7.5 cm from the goal (6.1 cm across, 3.0 cm above; the
+// gripper a median 12.0 cm from the goal's)"
 std::string DescribeCubeFailures(const CubeFailures& f);
 
 }  // namespace msspr::sim
