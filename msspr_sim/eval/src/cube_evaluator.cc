@@ -151,6 +151,26 @@ void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& o
   sim::WriteTextFile(path, sim::EvalReportJson(MakeCubeEvalReport(result, options, agent)));
 }
 
+sim::CubeEnv::Observation CarryOverGoal(sim::CubeEnv& env, int task, uint64_t seed, double height) {
+  env.ResetToTask(task, seed);
+  const Eigen::Vector3d cube = env.GoalPosition();
+  env.SetCube(cube, 0.0);
+  env.PlacePinch(cube + Eigen::Vector3d(0, 0, 0.12), 0.0);
+  // A move toward `target` at most one action's reach per step, yaw held at 0.
+  const auto toward = [&env](const Eigen::Vector3d& target, double grip) {
+    sim::CubeEnv::Action a{};
+    const Eigen::Vector3d d = (target - env.PinchPosition()) / 0.05;
+    for (int i = 0; i < 3; ++i) a[i] = std::clamp(d[i], -1.0, 1.0);
+    a[3] = std::clamp(-env.PinchYaw() / 0.3, -1.0, 1.0);
+    a[4] = grip;
+    env.Step(a);
+  };
+  for (int t = 0; t < 20; ++t) toward(cube, -1.0);
+  for (int t = 0; t < 8; ++t) toward(cube, 1.0);
+  for (int t = 0; t < 15; ++t) toward(cube + Eigen::Vector3d(0, 0, height), 1.0);
+  return env.GetObservation();
+}
+
 CubeGoalShiftResult ProbeCubeGoalShifts(core::Policy& policy, const CubeGoalShiftOptions& options) {
   constexpr int kObs = sim::CubeEnv::kObservationSize, kAct = sim::CubeEnv::kActionSize;
   if (!policy.has_value())
@@ -174,16 +194,23 @@ CubeGoalShiftResult ProbeCubeGoalShifts(core::Policy& policy, const CubeGoalShif
   eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
   sim::CubeEnv env(eo);
   const int n_tasks = static_cast<int>(sim::CubeSingleTasks().size());
-  // Each pair: a state of another arm and the goal, the goal observations of two resets.
-  std::vector<std::pair<sim::CubeEnv::Observation, sim::CubeEnv::Observation>> pairs;
+  // Each goal (the goal observation of a reset) with a state of another arm (that of
+  // another reset) and a state carrying the cube above it.
+  struct Case {
+    sim::CubeEnv::Observation goal, other, carrying;
+  };
+  std::vector<Case> pairs;
   for (int t = 1; t <= n_tasks; ++t)
     for (int j = 0; j < options.pairs_per_task; ++j) {
       const uint64_t base = sim::Mix64(options.seed * 1000003ULL + static_cast<uint64_t>(t)) +
-                            2 * static_cast<uint64_t>(j);
+                            3 * static_cast<uint64_t>(j);
+      Case c;
       env.ResetToTask(t, base);
-      const sim::CubeEnv::Observation state = env.goal_observation();
+      c.other = env.goal_observation();
       env.ResetToTask(t, base + 1);
-      pairs.emplace_back(state, env.goal_observation());
+      c.goal = env.goal_observation();
+      c.carrying = CarryOverGoal(env, t, base + 2);
+      pairs.push_back(c);
     }
 
   CubeGoalShiftResult r;
@@ -191,27 +218,42 @@ CubeGoalShiftResult ProbeCubeGoalShifts(core::Policy& policy, const CubeGoalShif
   r.gamma = policy.options().agent.gamma;
   r.samples = static_cast<int>(pairs.size()) * options.directions;
   torch::NoGradGuard no_grad;
-  for (const bool same_arm : {true, false}) {
-    CubeGoalShiftValues& out = same_arm ? r.same_arm : r.other_arm;
+  for (int variant = 0; variant < 3; ++variant) {
+    CubeGoalShiftValues& out = variant == 0 ? r.same_arm : variant == 1 ? r.other_arm : r.carrying;
     for (double shift : options.shifts_cm) {
       auto obs = torch::empty({r.samples, kObs}, torch::kFloat32);
       auto goal = torch::empty({r.samples, kObs}, torch::kFloat32);
+      std::vector<double> cos_dir, sin_dir;
       float* po = obs.data_ptr<float>();
       float* pg = goal.data_ptr<float>();
-      for (const auto& [other, g] : pairs)
+      for (const Case& c : pairs)
         for (int k = 0; k < options.directions; ++k) {
           const double angle = 2.0 * M_PI * k / options.directions;
-          const auto& state = same_arm ? g : other;
+          const auto& state = variant == 0 ? c.goal : variant == 1 ? c.other : c.carrying;
           std::copy(state.begin(), state.end(), po);
-          std::copy(g.begin(), g.end(), pg);
+          std::copy(c.goal.begin(), c.goal.end(), pg);
           sim::ShiftCubeInObservation(
               pg, Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.0) * (shift / 100.0));
+          cos_dir.push_back(std::cos(angle));
+          sin_dir.push_back(std::sin(angle));
           po += kObs;
           pg += kObs;
         }
-      const auto v = std::get<0>(policy.Q(obs, policy.Act(obs, goal), goal).min(-1))
+      const auto actions = policy.Act(obs, goal);
+      const auto v = std::get<0>(policy.Q(obs, actions, goal).min(-1))
                          .to(torch::kCPU, torch::kFloat64)
                          .contiguous();
+      if (variant == 2) {
+        const auto a = actions.to(torch::kCPU, torch::kFloat64).contiguous();
+        const double* pa = a.data_ptr<double>();
+        double steer = 0.0;
+        for (int i = 0; i < r.samples; ++i) {
+          const double ax = pa[i * kAct], ay = pa[i * kAct + 1], n = std::hypot(ax, ay);
+          steer += n > 0.0 ? (ax * cos_dir[i] + ay * sin_dir[i]) / n : 0.0;
+        }
+        out.steer.push_back(shift > 0.0 ? steer / r.samples
+                                        : std::numeric_limits<double>::quiet_NaN());
+      }
       const double* pv = v.data_ptr<double>();
       double sum = 0.0, sq = 0.0;
       for (int i = 0; i < r.samples; ++i) sum += pv[i];

@@ -93,16 +93,18 @@ int RunCubeGoalShifts(const std::string& policy_path, const msspr::agent::CubeGo
             << " directions per shift ...\n";
   const auto r = msspr::agent::ProbeCubeGoalShifts(policy, co);
   std::printf(
-      "%s: V(s, g) of a state whose cube rests at the goal, the goal's cube moved SHIFT cm "
-      "(%d values a shift; gamma %.4g; steps: the steps to go V stands for)\n",
+      "%s: V(s, g) of a state with the cube at the goal, the goal's cube moved SHIFT cm (%d "
+      "values a shift; gamma %.4g; steps: the steps to go V stands for; steer: the cosine "
+      "between the action's horizontal move and the shift)\n",
       agent.c_str(), r.samples, r.gamma);
-  std::printf("%10s | %-30s | %-30s\n", "", "the state's arm as the goal's", "another arm");
-  std::printf("%10s | %9s %9s %10s | %9s %9s %10s\n", "shift (cm)", "V mean", "V sd", "steps",
-              "V mean", "V sd", "steps");
+  std::printf("%10s | %-20s | %-20s | %-24s\n", "", "arm as the goal's", "another arm",
+              "carrying it 5 cm above");
+  std::printf("%10s | %9s %10s | %9s %10s | %9s %14s\n", "shift (cm)", "V", "steps", "V", "steps",
+              "V", "steer (cos)");
   for (size_t i = 0; i < r.shifts_cm.size(); ++i)
-    std::printf("%10.1f | %9.2f %9.2f %10.1f | %9.2f %9.2f %10.1f\n", r.shifts_cm[i],
-                r.same_arm.mean[i], r.same_arm.sd[i], r.same_arm.steps[i], r.other_arm.mean[i],
-                r.other_arm.sd[i], r.other_arm.steps[i]);
+    std::printf("%10.1f | %9.2f %10.1f | %9.2f %10.1f | %9.2f %14.2f\n", r.shifts_cm[i],
+                r.same_arm.mean[i], r.same_arm.steps[i], r.other_arm.mean[i], r.other_arm.steps[i],
+                r.carrying.mean[i], r.carrying.steer[i]);
   std::filesystem::create_directories(out);
   const std::string path = out + "/value_goal_shifts.json";
   std::ofstream f(path + ".tmp");
@@ -117,13 +119,18 @@ int RunCubeGoalShifts(const std::string& policy_path, const msspr::agent::CubeGo
     << ", \"gamma\": " << r.gamma << ", \"shifts_cm\": ";
   list(r.shifts_cm);
   for (const auto& [name, v] :
-       {std::pair{"same_arm", &r.same_arm}, std::pair{"other_arm", &r.other_arm}}) {
+       {std::pair{"same_arm", &r.same_arm}, std::pair{"other_arm", &r.other_arm},
+        std::pair{"carrying", &r.carrying}}) {
     f << ", \"" << name << "\": {\"mean_value\": ";
     list(v->mean);
     f << ", \"sd_value\": ";
     list(v->sd);
     f << ", \"steps\": ";
     list(v->steps);
+    if (!v->steer.empty()) {
+      f << ", \"steer\": ";
+      list(v->steer);
+    }
     f << "}";
   }
   f << "}\n";

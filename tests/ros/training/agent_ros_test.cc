@@ -39,6 +39,7 @@
 #include "msspr_eval/arm_task_evaluator.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
+#include "msspr_sim/package_files.h"
 #include "test_util.h"
 #include "torch_test_util.h"
 
@@ -266,7 +267,7 @@ TEST(CubeEvaluator, GoalShiftProbeValuesEachShiftAndChecksThePolicy) {
   const auto a = ProbeCubeGoalShifts(policy, opt);
   EXPECT_EQ(a.samples, 5 * 2 * 4);
   EXPECT_EQ(a.gamma, policy.options().agent.gamma);
-  for (const auto* v : {&a.same_arm, &a.other_arm}) {
+  for (const auto* v : {&a.same_arm, &a.other_arm, &a.carrying}) {
     ASSERT_EQ(v->mean.size(), 2u);
     ASSERT_EQ(v->sd.size(), 2u);
     ASSERT_EQ(v->steps.size(), 2u);
@@ -280,8 +281,14 @@ TEST(CubeEvaluator, GoalShiftProbeValuesEachShiftAndChecksThePolicy) {
         EXPECT_EQ(v->steps[i], 0.0);
     }
   }
+  EXPECT_TRUE(a.same_arm.steer.empty());
+  ASSERT_EQ(a.carrying.steer.size(), 2u);  // carrying: the actor's steer toward the moved goal
+  EXPECT_TRUE(std::isnan(a.carrying.steer[0]));
+  EXPECT_GE(a.carrying.steer[1], -1.0);
+  EXPECT_LE(a.carrying.steer[1], 1.0);
   const auto b = ProbeCubeGoalShifts(policy, opt);
   EXPECT_EQ(a.same_arm.mean, b.same_arm.mean);
+  EXPECT_EQ(a.carrying.mean, b.carrying.mean);
   EXPECT_EQ(a.other_arm.mean, b.other_arm.mean);
   opt.directions = 1;  // unshifted goals are the same whatever the directions
   const auto c = ProbeCubeGoalShifts(policy, opt);
@@ -292,6 +299,22 @@ TEST(CubeEvaluator, GoalShiftProbeValuesEachShiftAndChecksThePolicy) {
   opt.shifts_cm = {0.0};
   auto maze_policy = core::Policy::Load(MSSPR_TEST_CHECKPOINT);  // 2-D states
   EXPECT_THROW(ProbeCubeGoalShifts(maze_policy, opt), std::invalid_argument);
+}
+
+// The probe's carrying state: the cube grasped and held 5 cm above the goal it rested on.
+TEST(CubeEvaluator, CarryOverGoalHoldsTheCubeAboveTheGoal) {
+  sim::CubeEnvOptions eo;
+  eo.urdf_path = sim::DefaultArmUrdf();
+  sim::CubeEnv env(eo);
+  for (int task = 1; task <= 5; ++task) {
+    const sim::CubeEnv::Observation o = CarryOverGoal(env, task, 11);
+    const Eigen::Vector3d cube = sim::CubePositionFromObservation(o.data());
+    const Eigen::Vector3d goal = env.GoalPosition();
+    EXPECT_NEAR(cube.z() - goal.z(), 0.05, 0.015) << "task " << task;
+    EXPECT_LT((cube - goal).head<2>().norm(), 0.01) << "task " << task;
+    EXPECT_LT((sim::PinchPositionFromObservation(o.data()) - cube).norm(), 0.02) << "held";
+    EXPECT_FALSE(env.Success());  // 5 cm above is more than the 4 cm of success
+  }
 }
 
 // An untrained puzzle-3x3 policy (55-D states, 5-D actions): the evaluator's bookkeeping,

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "msspr_eval/eval_result.h"
+#include "msspr_sim/cube_env.h"
 
 namespace msspr::core {
 class Policy;
@@ -54,9 +55,11 @@ void WriteCubeResultsJson(const CubeEvalResult& result, const CubeEvalOptions& o
 // directions. The goal is the goal observation of a reset to the task (a
 // random arm, the cube at rest at the goal); the state is that observation
 // itself ("same arm": only the cube's shift differs) or the goal observation
-// of another reset ("another arm", as at the end of an episode). Success needs
-// the cube within 4 cm; the goal observation also holds an arm, which the
-// agents' hindsight goals teach them to reach too.
+// of another reset ("another arm", as at the end of an episode), or the cube
+// held by the gripper 5 cm above the goal ("carrying", CarryOverGoal), where
+// the probe also asks whether the actor steers toward the moved goal. Success
+// needs the cube within 4 cm; the goal observation also holds an arm, which
+// the agents' hindsight goals teach them to reach too.
 struct CubeGoalShiftOptions {
   std::string urdf_path;  // the arm; empty: sim::DefaultArmUrdf()
   std::vector<double> shifts_cm = {0, 1, 2, 3, 4, 5, 6, 8, 10};
@@ -71,14 +74,24 @@ struct CubeGoalShiftValues {
   // The steps to go that `mean` stands for with the agent's discount
   // (V = -(1 - gamma^n) / (1 - gamma)); infinity at or below -1/(1-gamma).
   std::vector<double> steps;
+  // Carrying only: the mean cosine between the action's horizontal move
+  // (actions 0 and 1) and the direction the goal's cube was moved: 1 steers
+  // straight to it, 0 ignores it (NaN at shift 0).
+  std::vector<double> steer;
 };
 
 struct CubeGoalShiftResult {
   std::vector<double> shifts_cm;
-  CubeGoalShiftValues same_arm, other_arm;
+  CubeGoalShiftValues same_arm, other_arm, carrying;
   int samples = 0;  // values per shift and variant: 5 x pairs_per_task x directions
   double gamma = 0.99;
 };
+
+// Resets env to `task` with `seed`, puts the cube at rest at the goal and grasps
+// it with the scripted moves of the play oracle (down open, close, up), ending
+// with the cube held `height` m above where it rested; returns the observation.
+sim::CubeEnv::Observation CarryOverGoal(sim::CubeEnv& env, int task, uint64_t seed,
+                                        double height = 0.05);
 
 // Throws std::invalid_argument when the policy has no value (gcbc), reads
 // pixels, or does not fit cube-single's 28-D states and 5-D actions.
