@@ -179,14 +179,19 @@ TEST(CubeEnvTest, CubeEpisodeTrackerFollowsTheCubeFromObservations) {
   const Eigen::Vector3d goal_pinch = PinchPositionFromObservation(goal.data());
   EXPECT_NEAR(held.gripper_to_goal_gripper, (env.PinchPosition() - goal_pinch).norm(), 1e-3);
   EXPECT_GT(held.gripper_to_goal_gripper, 0.05);  // lifted 20 cm: far from the goal's arm
+  // Lifted straight up where it started: short of the goal by the whole way there.
+  const Eigen::Vector2d way = (env.GoalPosition() - cube).head<2>();
+  EXPECT_NEAR(held.along_start_to_goal, -way.norm(), 0.01);
   EXPECT_FALSE(held.success);
   EXPECT_TRUE(tracker.Finish(true).success);
 }
 
 // Failures are no grasp (a rise under 2 cm) or a missed placement, with medians of the second.
 TEST(CubeEnvTest, CubeFailuresTellNoGraspFromAMissedPlacement) {
-  const auto episode = [](bool success, double lift, double miss, double above, double gripper) {
+  const auto episode = [](bool success, double lift, double miss, double above, double gripper,
+                          double along = -0.04) {
     CubeOutcome e;
+    e.along_start_to_goal = along;
     e.success = success;
     e.lift = lift;
     e.goal_distance = miss;
@@ -196,8 +201,8 @@ TEST(CubeEnvTest, CubeFailuresTellNoGraspFromAMissedPlacement) {
   };
   std::vector<CubeOutcome> made = {
       episode(true, 0.10, 0.01, 0.0, 0.30), episode(false, 0.005, 0.15, 0.0, 0.40),
-      episode(false, 0.05, 0.05, 0.03, 0.02), episode(false, 0.08, 0.20, 0.12, 0.25),
-      episode(false, 0.03, 0.10, 0.0, 0.12)};
+      episode(false, 0.05, 0.05, 0.03, 0.02, -0.05), episode(false, 0.08, 0.20, 0.12, 0.25, 0.03),
+      episode(false, 0.03, 0.10, 0.0, 0.12, -0.02)};
   const CubeFailures g = CountCubeFailures(made);
   EXPECT_EQ(g.episodes, 5);
   EXPECT_EQ(g.failed, 4);
@@ -207,10 +212,11 @@ TEST(CubeEnvTest, CubeFailuresTellNoGraspFromAMissedPlacement) {
   EXPECT_NEAR(g.median_above_cm, 3.0, 1e-9);     // of 3, 12 and 0 cm
   EXPECT_NEAR(g.median_across_cm, 10.0, 1e-9);   // of 4, 16 and 10 cm
   EXPECT_NEAR(g.median_gripper_cm, 12.0, 1e-9);  // of 2, 25 and 12 cm
+  EXPECT_NEAR(g.median_along_cm, -2.0, 1e-9);    // of -5, 3 and -2 cm
   EXPECT_EQ(DescribeCubeFailures(g),
             "failures: 4 of 5 episodes: 1 never lifted the cube 2.0 cm (no grasp), 3 lifted it and "
-            "ended a median 10.0 cm from the goal (10.0 cm across, 3.0 cm above; the gripper a "
-            "median 12.0 cm from the goal's)");
+            "ended a median 10.0 cm from the goal (10.0 cm across, 3.0 cm above, 2.0 cm short of "
+            "it on the way from its start; the gripper a median 12.0 cm from the goal's)");
   made.resize(1);
   EXPECT_EQ(DescribeCubeFailures(CountCubeFailures(made)), "failures: 0 of 1 episodes");
   EXPECT_EQ(CountCubeFailures({}).episodes, 0);

@@ -24,6 +24,7 @@ void CubeEpisodeTracker::Start(const float* obs, const float* goal_obs) {
   goal_ = CubePositionFromObservation(goal_obs);
   last_pinch_ = PinchPositionFromObservation(obs);
   goal_pinch_ = PinchPositionFromObservation(goal_obs);
+  start_ = last_;
   start_z_ = last_.z();
   lift_ = 0;
 }
@@ -41,12 +42,14 @@ CubeOutcome CubeEpisodeTracker::Finish(bool success) const {
   o.goal_distance = (last_ - goal_).norm();
   o.above_goal = last_.z() - goal_.z();
   o.gripper_to_goal_gripper = (last_pinch_ - goal_pinch_).norm();
+  const Eigen::Vector2d way = (goal_ - start_).head<2>();
+  if (way.norm() > 1e-6) o.along_start_to_goal = (last_ - goal_).head<2>().dot(way.normalized());
   return o;
 }
 
 CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes) {
   CubeFailures f;
-  std::vector<double> misses, across, above, gripper;
+  std::vector<double> misses, across, above, gripper, along;
   for (const CubeOutcome& e : outcomes) {
     ++f.episodes;
     if (e.success) continue;
@@ -61,11 +64,13 @@ CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes) {
     above.push_back(z * 100.0);
     across.push_back(std::sqrt(std::max(0.0, d * d - z * z)) * 100.0);
     gripper.push_back(e.gripper_to_goal_gripper * 100.0);
+    along.push_back(e.along_start_to_goal * 100.0);
   }
   f.median_miss_cm = Median(misses);
   f.median_across_cm = Median(across);
   f.median_above_cm = Median(above);
   f.median_gripper_cm = Median(gripper);
+  f.median_along_cm = Median(along);
   return f;
 }
 
@@ -78,8 +83,10 @@ std::string DescribeCubeFailures(const CubeFailures& f) {
     << " cm (no grasp), " << f.lifted_not_placed << " lifted it";
   if (f.lifted_not_placed > 0)
     s << " and ended a median " << f.median_miss_cm << " cm from the goal (" << f.median_across_cm
-      << " cm across, " << f.median_above_cm << " cm above; the gripper a median "
-      << f.median_gripper_cm << " cm from the goal's)";
+      << " cm across, " << f.median_above_cm << " cm above, " << std::abs(f.median_along_cm)
+      << " cm " << (f.median_along_cm < 0 ? "short of" : "past")
+      << " it on the way from its start; the gripper a median " << f.median_gripper_cm
+      << " cm from the goal's)";
   return s.str();
 }
 

@@ -20,6 +20,9 @@ struct CubeOutcome {
   // The gripper's final distance to the goal observation's gripper (the goal is a whole
   // observation: a cube and an arm; only the cube decides success).
   double gripper_to_goal_gripper = 0;
+  // The cube's final offset from the goal along the table's line from where it started to
+  // the goal: negative stopped short of the goal, positive went past it.
+  double along_start_to_goal = 0;
 };
 
 // Follows one episode's 28-D cube-single observations (CubeEnv::GetObservation).
@@ -36,6 +39,7 @@ class CubeEpisodeTracker {
   double start_z_ = 0, lift_ = 0;
   Eigen::Vector3d last_ = Eigen::Vector3d::Zero(), goal_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d last_pinch_ = Eigen::Vector3d::Zero(), goal_pinch_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d start_ = Eigen::Vector3d::Zero();
 };
 
 struct CubeFailures {
@@ -48,11 +52,12 @@ struct CubeFailures {
   // final distance to the goal observation's gripper.
   double median_miss_cm = 0, median_across_cm = 0, median_above_cm = 0;
   double median_gripper_cm = 0;
+  double median_along_cm = 0;  // signed: negative stopped short of the goal
 };
 CubeFailures CountCubeFailures(const std::vector<CubeOutcome>& outcomes);
 // "failures: 62 of 250 episodes: 40 never lifted the cube 2.0 cm (no grasp), 22
-// lifted it and ended a median 7.5 cm from the goal (6.1 cm across, 3.0 cm above; the
-// gripper a median 12.0 cm from the goal's)"
+// lifted it and ended a median 7.5 cm from the goal (6.1 cm across, 3.0 cm above, 4.0 cm
+// short of it on the way from its start; the gripper a median 12.0 cm from the goal's)"
 std::string DescribeCubeFailures(const CubeFailures& f);
 
 }  // namespace msspr::sim
