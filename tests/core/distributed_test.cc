@@ -24,6 +24,10 @@ void RunTwoRanks(const std::function<void(int, std::shared_ptr<Distributed>)>& b
   const int port = testing_util::FreePort();
   std::exception_ptr errors[2];
   std::thread threads[2];
+  // Each rank's process group lives until both bodies are done: a rank whose body ends
+  // at once (a refused option) must not close its connections while the other is still
+  // connecting ("Connection closed by peer" in the other's rendezvous).
+  std::shared_ptr<Distributed> groups[2];
   for (int r = 0; r < 2; ++r) {
     threads[r] = std::thread([&, r] {
       try {
@@ -32,7 +36,8 @@ void RunTwoRanks(const std::function<void(int, std::shared_ptr<Distributed>)>& b
         o.rank = r;
         o.master_port = port;
         o.timeout_s = 60;
-        body(r, std::make_shared<Distributed>(o, torch::kCPU));
+        groups[r] = std::make_shared<Distributed>(o, torch::kCPU);
+        body(r, groups[r]);
       } catch (...) {
         errors[r] = std::current_exception();
       }
