@@ -305,6 +305,37 @@ class MssprCompareTest(unittest.TestCase):
                 self.assertAlmostEqual(float(cells[1 + k]), 100 * want, delta=0.051, msg=row)
             changes = [abs(c[i + 1] - c[i]) for p in per_seed for c in p.values() for i in range(2, len(c) - 1)]
             self.assertAlmostEqual(float(cells[7]), 100 * sum(changes) / len(changes), delta=0.051, msg=row)
+        # A run resumed after a lost segment, its new segment still running (its lock held):
+        # the time so far is the lost segment's plus the running one's, not the running
+        # segment's evaluations counted again into the lost one; its step is its metrics'.
+        live = os.path.join(self.tmp, "live")
+        shutil.copytree(self.out, live)
+        run = os.path.join(live, "runs", "tiny-maze", "mspr-s0")
+        rec = read_json(os.path.join(run, "compare.json"))
+        now = time.time()
+        seg0 = dict(rec["segments"][0], start=now - 1000.0, end=now - 990.0, wall_s=10.0, step_start=0,
+                    step_end=None, exit="lost (msspr_compare was killed)", log="segment_00.log")
+        seg1 = {"start": now - 60.0, "end": None, "log": "segment_01.log", "load_sum": 0.0, "load_n": 0,
+                "load_max": 0.0, "command": seg0["command"]}
+        rec["segments"], rec["status"] = [seg0, seg1], "running"
+        with open(os.path.join(run, "compare.json"), "w") as f:
+            json.dump(rec, f)
+        with open(os.path.join(run, "segment_01.log"), "w") as f:
+            f.write(f"msspr_train: resumed from {run}/checkpoint.ckpt at step {EVERY}\n")
+        with open(os.path.join(run, "eval.csv")) as f:  # the evaluations after it: far into a process
+            recs = [r if len(r) != 3 or r[1] != "wall_s" or int(r[0]) <= EVERY else [r[0], r[1], "5000"]
+                    for r in csv.reader(f)]
+        with open(os.path.join(run, "eval.csv"), "w", newline="") as f:
+            csv.writer(f).writerows(recs)
+        with open(os.path.join(run, ".compare.lock"), "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            rc, out = self.compare("status", live)
+            fcntl.flock(lock, fcntl.LOCK_UN)
+        self.assertEqual(rc, 0, out)
+        line = next(l for l in out.splitlines() if l.startswith("tiny-maze/mspr-s0: "))
+        self.assertIn(f"running, trained to step {STEPS:,} of {STEPS:,}", line)
+        minutes = float(re.search(r", ([\d.]+) min so far", line).group(1))
+        self.assertAlmostEqual(minutes, 70.0 / 60.0, delta=0.15, msg=line)
         # --grid reports a grid file's runs from the directory (grids may share one --out); the
         # mspr runs, of another config than this grid's, are left out of it, named.
         with open(os.path.join(self.tmp, "tiny_mspr2.yaml"), "w") as f:
