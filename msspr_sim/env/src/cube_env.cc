@@ -22,6 +22,16 @@ using internal::kArmHome;
 using internal::kObservationCentre;
 using internal::QuatYaw;
 
+// Where the 28-D observation holds a position (m), as 10 x (position - kObservationCentre):
+// the pinch at 12-14 (ArmRig::WriteProprio), the cube at 19-21.
+constexpr int kPinchIndex = 12, kCubeIndex = 19;
+constexpr double kPositionScale = 10.0;
+
+Eigen::Vector3d PositionAt(const float* obs, int index) {
+  return kObservationCentre +
+         Eigen::Vector3d(obs[index], obs[index + 1], obs[index + 2]) / kPositionScale;
+}
+
 }  // namespace
 
 const std::array<CubeTask, 5>& CubeSingleTasks() {
@@ -36,13 +46,13 @@ const std::array<CubeTask, 5>& CubeSingleTasks() {
 }
 
 Eigen::Vector3d CubePositionFromObservation(const float* obs) {
-  return kObservationCentre + Eigen::Vector3d(obs[19], obs[20], obs[21]) / 10.0;
+  return PositionAt(obs, kCubeIndex);
 }
 Eigen::Vector3d PinchPositionFromObservation(const float* obs) {
-  return kObservationCentre + Eigen::Vector3d(obs[12], obs[13], obs[14]) / 10.0;
+  return PositionAt(obs, kPinchIndex);
 }
 void ShiftCubeInObservation(float* obs, const Eigen::Vector3d& delta) {
-  for (int i = 0; i < 3; ++i) obs[19 + i] += static_cast<float>(10.0 * delta[i]);
+  for (int i = 0; i < 3; ++i) obs[kCubeIndex + i] += static_cast<float>(kPositionScale * delta[i]);
 }
 double CubeYawFromObservation(const float* obs) { return std::atan2(obs[27], obs[26]); }
 
@@ -235,8 +245,8 @@ CubeEnv::Observation CubeEnv::GetObservation() const {
   const mjData* d = impl_->data.get();
   Observation o{};
   impl_->rig.WriteProprio(d, o.data());
-  const Eigen::Vector3d cube = 10 * (CubePosition() - kObservationCentre);
-  for (int i = 0; i < 3; ++i) o[19 + i] = static_cast<float>(cube[i]);
+  const Eigen::Vector3d cube = kPositionScale * (CubePosition() - kObservationCentre);
+  for (int i = 0; i < 3; ++i) o[kCubeIndex + i] = static_cast<float>(cube[i]);
   const mjtNum* q = d->qpos + impl_->cube_qpos + 3;
   for (int i = 0; i < 4; ++i) o[22 + i] = static_cast<float>(q[i]);
   const double cube_yaw = QuatYaw(q[0], q[1], q[2], q[3]);

@@ -17,6 +17,7 @@
 #include "msspr_core/policy.h"
 #include "msspr_eval/batched_episodes.h"
 #include "msspr_sim/cube_env.h"
+#include "msspr_sim/cube_oracle.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/package_files.h"
 #include "msspr_sim/random_util.h"
@@ -156,16 +157,14 @@ sim::CubeEnv::Observation CarryOverGoal(sim::CubeEnv& env, int task, uint64_t se
   const Eigen::Vector3d cube = env.GoalPosition();
   env.SetCube(cube, 0.0);
   env.PlacePinch(cube + Eigen::Vector3d(0, 0, 0.12), 0.0);
-  // A move toward `target` at most one action's reach per step, yaw held at 0.
+  // The oracle's step toward a pinch pose (yaw 0) and grip (0 open, 1 closed).
   const auto toward = [&env](const Eigen::Vector3d& target, double grip) {
-    sim::CubeEnv::Action a{};
-    const Eigen::Vector3d d = (target - env.PinchPosition()) / 0.05;
-    for (int i = 0; i < 3; ++i) a[i] = std::clamp(d[i], -1.0, 1.0);
-    a[3] = std::clamp(-env.PinchYaw() / 0.3, -1.0, 1.0);
-    a[4] = grip;
-    env.Step(a);
+    sim::CubePlanSample x;
+    x << target, 0.0, grip;
+    env.Step(sim::ActionTowardSample(x, env.PinchPosition(), env.PinchYaw(), env.Opening(),
+                                     env.options().action_scale));
   };
-  for (int t = 0; t < 20; ++t) toward(cube, -1.0);
+  for (int t = 0; t < 20; ++t) toward(cube, 0.0);
   for (int t = 0; t < 8; ++t) toward(cube, 1.0);
   for (int t = 0; t < 15; ++t) toward(cube + Eigen::Vector3d(0, 0, height), 1.0);
   return env.GetObservation();
@@ -217,25 +216,29 @@ CubeGoalShiftResult ProbeCubeGoalShifts(core::Policy& policy, const CubeGoalShif
   r.shifts_cm = options.shifts_cm;
   r.gamma = policy.options().agent.gamma;
   r.samples = static_cast<int>(pairs.size()) * options.directions;
+  std::vector<Eigen::Vector3d> directions;  // unit vectors in the table's plane
+  for (int k = 0; k < options.directions; ++k) {
+    const double angle = 2.0 * M_PI * k / options.directions;
+    directions.emplace_back(std::cos(angle), std::sin(angle), 0.0);
+  }
+  // The variants: the state each takes from a case, and where its values go.
+  const sim::CubeEnv::Observation Case::*const states[] = {&Case::goal, &Case::other,
+                                                           &Case::carrying};
+  CubeGoalShiftValues* const outs[] = {&r.same_arm, &r.other_arm, &r.carrying};
   torch::NoGradGuard no_grad;
   for (int variant = 0; variant < 3; ++variant) {
-    CubeGoalShiftValues& out = variant == 0 ? r.same_arm : variant == 1 ? r.other_arm : r.carrying;
+    CubeGoalShiftValues& out = *outs[variant];
     for (double shift : options.shifts_cm) {
       auto obs = torch::empty({r.samples, kObs}, torch::kFloat32);
       auto goal = torch::empty({r.samples, kObs}, torch::kFloat32);
-      std::vector<double> cos_dir, sin_dir;
       float* po = obs.data_ptr<float>();
       float* pg = goal.data_ptr<float>();
       for (const Case& c : pairs)
-        for (int k = 0; k < options.directions; ++k) {
-          const double angle = 2.0 * M_PI * k / options.directions;
-          const auto& state = variant == 0 ? c.goal : variant == 1 ? c.other : c.carrying;
+        for (const Eigen::Vector3d& dir : directions) {
+          const sim::CubeEnv::Observation& state = c.*states[variant];
           std::copy(state.begin(), state.end(), po);
           std::copy(c.goal.begin(), c.goal.end(), pg);
-          sim::ShiftCubeInObservation(
-              pg, Eigen::Vector3d(std::cos(angle), std::sin(angle), 0.0) * (shift / 100.0));
-          cos_dir.push_back(std::cos(angle));
-          sin_dir.push_back(std::sin(angle));
+          sim::ShiftCubeInObservation(pg, dir * (shift / 100.0));
           po += kObs;
           pg += kObs;
         }
@@ -247,9 +250,10 @@ CubeGoalShiftResult ProbeCubeGoalShifts(core::Policy& policy, const CubeGoalShif
         const auto a = actions.to(torch::kCPU, torch::kFloat64).contiguous();
         const double* pa = a.data_ptr<double>();
         double steer = 0.0;
-        for (int i = 0; i < r.samples; ++i) {
+        for (int i = 0; i < r.samples; ++i) {  // sample i: direction i % directions
+          const Eigen::Vector3d& dir = directions[static_cast<size_t>(i % options.directions)];
           const double ax = pa[i * kAct], ay = pa[i * kAct + 1], n = std::hypot(ax, ay);
-          steer += n > 0.0 ? (ax * cos_dir[i] + ay * sin_dir[i]) / n : 0.0;
+          steer += n > 0.0 ? (ax * dir.x() + ay * dir.y()) / n : 0.0;
         }
         out.steer.push_back(shift > 0.0 ? steer / r.samples
                                         : std::numeric_limits<double>::quiet_NaN());
