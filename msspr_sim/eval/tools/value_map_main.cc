@@ -11,8 +11,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -24,6 +22,7 @@
 #include "msspr_core/process_env.h"
 #include "msspr_eval/cube_evaluator.h"
 #include "msspr_eval/maze_evaluator.h"
+#include "msspr_sim/eval_protocol.h"
 #include "msspr_sim/maze_map.h"
 
 namespace {
@@ -105,9 +104,8 @@ int RunCubeGoalShifts(const std::string& policy_path, const msspr::agent::CubeGo
     std::printf("%10.1f | %9.2f %10.1f | %9.2f %10.1f | %9.2f %14.2f\n", r.shifts_cm[i],
                 r.same_arm.mean[i], r.same_arm.steps[i], r.other_arm.mean[i], r.other_arm.steps[i],
                 r.carrying.mean[i], r.carrying.steer[i]);
-  std::filesystem::create_directories(out);
   const std::string path = out + "/value_goal_shifts.json";
-  std::ofstream f(path + ".tmp");
+  std::ostringstream f;  // the JSON, written as value_map.json is (sim::WriteTextFile)
   auto list = [&f](const std::vector<double>& xs) {
     f << "[";
     for (size_t i = 0; i < xs.size(); ++i)
@@ -134,9 +132,7 @@ int RunCubeGoalShifts(const std::string& policy_path, const msspr::agent::CubeGo
     f << "}";
   }
   f << "}\n";
-  f.close();
-  if (!f) throw std::runtime_error("cannot write " + path);
-  std::filesystem::rename(path + ".tmp", path);
+  msspr::sim::WriteTextFile(path, f.str());
   std::cerr << "msspr_value_map: wrote " << path << "\n";
   return 0;
 }
