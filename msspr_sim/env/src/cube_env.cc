@@ -23,8 +23,9 @@ using internal::kObservationCentre;
 using internal::QuatYaw;
 
 // Where the 28-D observation holds a position (m), as 10 x (position - kObservationCentre):
-// the pinch at 12-14 (ArmRig::WriteProprio), the cube at 19-21.
-constexpr int kPinchIndex = 12, kCubeIndex = 19;
+// the pinch at 12-14 (ArmRig::WriteProprio), the cube at 19-21; then the cube's quaternion
+// (w, x, y, z) at 22-25 and its yaw's cosine and sine at 26-27.
+constexpr int kPinchIndex = 12, kCubeIndex = 19, kCubeQuatIndex = 22, kCubeYawIndex = 26;
 constexpr double kPositionScale = 10.0;
 
 Eigen::Vector3d PositionAt(const float* obs, int index) {
@@ -54,7 +55,9 @@ Eigen::Vector3d PinchPositionFromObservation(const float* obs) {
 void ShiftCubeInObservation(float* obs, const Eigen::Vector3d& delta) {
   for (int i = 0; i < 3; ++i) obs[kCubeIndex + i] += static_cast<float>(kPositionScale * delta[i]);
 }
-double CubeYawFromObservation(const float* obs) { return std::atan2(obs[27], obs[26]); }
+double CubeYawFromObservation(const float* obs) {
+  return std::atan2(obs[kCubeYawIndex + 1], obs[kCubeYawIndex]);
+}
 
 Eigen::Matrix3d PinchDownRotation(double yaw) {
   return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
@@ -248,10 +251,10 @@ CubeEnv::Observation CubeEnv::GetObservation() const {
   const Eigen::Vector3d cube = kPositionScale * (CubePosition() - kObservationCentre);
   for (int i = 0; i < 3; ++i) o[kCubeIndex + i] = static_cast<float>(cube[i]);
   const mjtNum* q = d->qpos + impl_->cube_qpos + 3;
-  for (int i = 0; i < 4; ++i) o[22 + i] = static_cast<float>(q[i]);
+  for (int i = 0; i < 4; ++i) o[kCubeQuatIndex + i] = static_cast<float>(q[i]);
   const double cube_yaw = QuatYaw(q[0], q[1], q[2], q[3]);
-  o[26] = static_cast<float>(std::cos(cube_yaw));
-  o[27] = static_cast<float>(std::sin(cube_yaw));
+  o[kCubeYawIndex] = static_cast<float>(std::cos(cube_yaw));
+  o[kCubeYawIndex + 1] = static_cast<float>(std::sin(cube_yaw));
   return o;
 }
 
