@@ -355,6 +355,29 @@ class MssprCompareTest(unittest.TestCase):
         self.assertEqual(other_rows[1], rows[1])
         self.assertIn("| tiny-maze | mspr | not run | 0 |", other_rows[0])
         self.assertIn("Left out: 2 run(s) whose options differ", text)
+        # Published figures in the grid add a column beside the runs' own and its source; they
+        # are not part of a run's identity, so the same runs are reported, none left out.
+        grid3 = os.path.join(self.tmp, "grid3.yaml")
+        with open(grid3, "w") as f:
+            f.write("published_source: the paper's Table 3\n" + grid_text(self.tmp)
+                    .replace("{name: mspr,", "{name: mspr, published: '64 ± 9',")
+                    .replace("{name: gcivl,", "{name: gcivl, published: 63,"))
+        pub = os.path.join(self.tmp, "published.md")
+        rc, out = self.compare("report", self.out, "--grid", grid3, "--md", pub)
+        self.assertEqual(rc, 0, out)
+        with open(pub) as f:
+            text = f.read()
+        self.assertIn("| success (%) | published (%) | seeds |", text)
+        self.assertIn("published success on the task: the paper's Table 3.", text)
+        self.assertNotIn("Left out", text)
+        for row, published in zip(rows, ["64 ± 9", "63"]):
+            cells = [c.strip() for c in row.strip("|").split("|")]
+            self.assertIn("| " + " | ".join(cells[:3] + [published] + cells[3:]) + " |", text)
+        with open(grid3, "w") as f:
+            f.write("published_source: x\n" + grid_text(self.tmp).replace("{name: mspr,", "{name: mspr, published: 120,"))
+        rc, out = self.compare("report", self.out, "--grid", grid3, "--md", pub)
+        self.assertEqual(rc, 2, out)
+        self.assertIn("agent mspr: published must be a success rate in % (0 to 100)", out)
         # --insert puts the same table into a document between its markers, again and again.
         doc = os.path.join(self.tmp, "results.md")
         with open(doc, "w") as f:
