@@ -113,5 +113,22 @@ TEST(ReproducibleEvaluation, CubeEpisodeIsTheSameAloneAsAmongOthers) {
   ExpectSameAloneAsAmongOthers<CubeEvalOptions>(EvaluateOnCube, policy, 20, {1, 4}, 2);
 }
 
+// The episodes run in groups (episodes_at_once, to bound the envs held at once): 50 episodes
+// in groups of 7 (the last of 1) give what they give all side by side, episode by episode.
+TEST(ReproducibleEvaluation, CubeEpisodesAreTheSameInGroupsOfAnySize) {
+  auto policy = ShippedPolicy("cube-single-state.pt");
+  CubeEvalOptions all;
+  all.episodes = 10;
+  all.max_steps = 20;
+  all.episodes_at_once = 50;
+  CubeEvalOptions groups = all;
+  groups.episodes_at_once = 7;
+  const auto a = EvaluateOnCube(policy, all), b = EvaluateOnCube(policy, groups);
+  ExpectSameEpisodes(a, 0, b, 0, 50, "groups of 7 against 50 at once");
+  EXPECT_EQ(a.success, b.success);
+  groups.episodes_at_once = 0;
+  EXPECT_THROW(EvaluateOnCube(policy, groups), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace msspr::agent

@@ -46,11 +46,13 @@ void CheckStatePolicy(const core::Policy& policy, const Options& options,
     if (t < 1 || t > 5)
       throw std::invalid_argument(w + "task " + std::to_string(t) + " is not a task of " +
                                   env_name + " (1 to 5)");
-  if (options.episodes < 1 || options.max_steps < 0)
-    throw std::invalid_argument(w + "episodes must be at least 1 and max_steps at least 0");
+  if (options.episodes < 1 || options.max_steps < 0 || options.episodes_at_once < 1)
+    throw std::invalid_argument(
+        w + "episodes and episodes_at_once must be at least 1 and max_steps at least 0");
 }
 
-// Every (task, episode) of `options` in an env of its own (make_env()), side by side.
+// Every (task, episode) of `options` in an env of its own (make_env()), options.episodes_at_once
+// side by side.
 template <class Env, class Options, class MakeEnv>
 TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, int obs_dim,
                                  int max_steps, MakeEnv make_env) {
@@ -61,29 +63,34 @@ TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, i
     bool done = false, success = false;
     int steps = 0;
   };
-  std::vector<Slot> slots;
-  slots.reserve(options.tasks.size() * static_cast<size_t>(options.episodes));
-  for (int t : options.tasks)
-    for (int e = 0; e < options.episodes; ++e) {
-      Slot s;
-      s.env = make_env();
-      s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
-      s.success = s.done = s.env->Success();
-      slots.push_back(std::move(s));
-    }
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) { StateInputs(active, obs_dim, obs, goal); };
-  StepEpisodesBatched(policy, slots, max_steps, inputs, [&](Slot& s, const auto& a) {
-    typename Env::Action u;
-    for (int k = 0; k < sim::ArmEnv::kActionSize; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
-    s.success = s.env->Step(u);
-    s.obs = s.env->GetObservation();
-    ++s.steps;
-    s.done = s.success || s.steps >= max_steps;
-  });
+  const size_t per_task = static_cast<size_t>(options.episodes);
   std::vector<EpisodeResult> episodes;
-  for (const Slot& s : slots)
-    episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
+  RunEpisodesInGroups<Slot>(
+      policy, options.tasks.size() * per_task, static_cast<size_t>(options.episodes_at_once),
+      max_steps,
+      [&](size_t k) {
+        const int t = options.tasks[k / per_task], e = static_cast<int>(k % per_task);
+        Slot s;
+        s.env = make_env();
+        s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
+        s.success = s.done = s.env->Success();
+        return s;
+      },
+      inputs,
+      [&](Slot& s, const auto& a) {
+        typename Env::Action u;
+        for (int k = 0; k < sim::ArmEnv::kActionSize; ++k)
+          u[k] = std::clamp<double>(a[k], -1.0, 1.0);
+        s.success = s.env->Step(u);
+        s.obs = s.env->GetObservation();
+        ++s.steps;
+        s.done = s.success || s.steps >= max_steps;
+      },
+      [&](const Slot& s) {
+        episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
+      });
   TaskSuccessResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;

@@ -45,8 +45,9 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
       throw std::invalid_argument("EvaluateOnCube: task " + std::to_string(t) +
                                   " is not a task of cube-single (1 to " + std::to_string(n_tasks) +
                                   ")");
-  if (options.episodes < 1 || options.max_steps < 1)
-    throw std::invalid_argument("EvaluateOnCube: episodes and max_steps must be at least 1");
+  if (options.episodes < 1 || options.max_steps < 1 || options.episodes_at_once < 1)
+    throw std::invalid_argument(
+        "EvaluateOnCube: episodes, max_steps and episodes_at_once must be at least 1");
 
   sim::CubeEnvOptions eo;
   eo.urdf_path = options.urdf_path.empty() ? sim::DefaultArmUrdf() : options.urdf_path;
@@ -74,54 +75,54 @@ CubeEvalResult EvaluateOnCube(core::Policy& policy, const CubeEvalOptions& optio
     std::vector<uint8_t> goal_frames;          // the goal's image, stacked (pixels)
   };
   std::vector<uint8_t> frame(pixels ? stacker->frame_bytes() : 0);
-  std::vector<Slot> slots;
-  const size_t nt = options.tasks.size();
-  slots.reserve(nt * static_cast<size_t>(options.episodes));
-  for (int t : options.tasks)
-    for (int e = 0; e < options.episodes; ++e) {
-      Slot s;
-      s.env = std::make_unique<sim::CubeEnv>(eo);
-      const uint64_t seed = sim::EvalEpisodeSeed(options.seed, t, e);
-      s.obs = s.env->ResetToTask(t, seed);
-      if (pixels) {
-        renderer->ResetToTask(t, seed);
-        if (renderer->goal_observation() != s.env->goal_observation())
-          throw std::runtime_error("EvaluateOnCube: the rendering env's goal of task " +
-                                   std::to_string(t) + " differs from the episode's");
-        s.goal_frames = stacker->Repeat(renderer->goal_image().data());
-        renderer->RenderStateOf(*s.env, frame.data());
-        s.frames.emplace(*stacker);
-        s.frames->Reset(frame.data());
-      }
-      s.success = s.done = s.env->Success();
-      s.cube.Start(s.obs.data(), s.env->goal_observation().data());
-      slots.push_back(std::move(s));
-    }
-
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) {
     if (pixels) return StackedImageInputs(active, *stacker, size, obs, goal);
     StateInputs(active, kObs, obs, goal);
   };
-  StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
-    sim::CubeEnv::Action u;
-    for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
-    s.success = s.env->Step(u);
-    s.obs = s.env->GetObservation();
-    s.cube.Observe(s.obs.data());
-    ++s.steps;
-    s.done = s.success || s.steps >= options.max_steps;
-    if (pixels && !s.done) {
-      renderer->RenderStateOf(*s.env, frame.data());
-      s.frames->Push(frame.data());
-    }
-  });
-
+  const size_t per_task = static_cast<size_t>(options.episodes);
   std::vector<EpisodeResult> episodes;
-  for (const Slot& s : slots) {
-    episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
-    episodes.back().cube = s.cube.Finish(s.success);
-  }
+  RunEpisodesInGroups<Slot>(
+      policy, options.tasks.size() * per_task, static_cast<size_t>(options.episodes_at_once),
+      options.max_steps,
+      [&](size_t k) {
+        const int t = options.tasks[k / per_task], e = static_cast<int>(k % per_task);
+        Slot s;
+        s.env = std::make_unique<sim::CubeEnv>(eo);
+        const uint64_t seed = sim::EvalEpisodeSeed(options.seed, t, e);
+        s.obs = s.env->ResetToTask(t, seed);
+        if (pixels) {
+          renderer->ResetToTask(t, seed);
+          if (renderer->goal_observation() != s.env->goal_observation())
+            throw std::runtime_error("EvaluateOnCube: the rendering env's goal of task " +
+                                     std::to_string(t) + " differs from the episode's");
+          s.goal_frames = stacker->Repeat(renderer->goal_image().data());
+          renderer->RenderStateOf(*s.env, frame.data());
+          s.frames.emplace(*stacker);
+          s.frames->Reset(frame.data());
+        }
+        s.success = s.done = s.env->Success();
+        s.cube.Start(s.obs.data(), s.env->goal_observation().data());
+        return s;
+      },
+      inputs,
+      [&](Slot& s, const auto& a) {
+        sim::CubeEnv::Action u;
+        for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
+        s.success = s.env->Step(u);
+        s.obs = s.env->GetObservation();
+        s.cube.Observe(s.obs.data());
+        ++s.steps;
+        s.done = s.success || s.steps >= options.max_steps;
+        if (pixels && !s.done) {
+          renderer->RenderStateOf(*s.env, frame.data());
+          s.frames->Push(frame.data());
+        }
+      },
+      [&](const Slot& s) {
+        episodes.push_back({s.success, s.steps, std::vector<double>(s.obs.begin(), s.obs.end())});
+        episodes.back().cube = s.cube.Finish(s.success);
+      });
   CubeEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;

@@ -381,6 +381,22 @@ TEST(SceneEvaluator, DeterministicRunsToTheScenesCapAndChecksThePolicy) {
   EXPECT_EQ(a.episodes[0].steps, 10);
   EXPECT_EQ(a.episodes[0].final_obs.size(), 40u);
   EXPECT_EQ(a.episodes[0].final_obs, c.episodes[0].final_obs);
+  // Episodes in groups of 2 give what all 6 side by side give, episode by episode.
+  ArmTaskEvalOptions wide = opt;
+  wide.tasks = {1, 3};
+  wide.episodes = 3;
+  const auto at_once = EvaluateOnScene(policy, wide);
+  wide.episodes_at_once = 2;
+  const auto in_pairs = EvaluateOnScene(policy, wide);
+  ASSERT_EQ(at_once.episodes.size(), 6u);
+  ASSERT_EQ(in_pairs.episodes.size(), 6u);
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(at_once.episodes[k].steps, in_pairs.episodes[k].steps) << k;
+    EXPECT_EQ(at_once.episodes[k].final_obs, in_pairs.episodes[k].final_obs) << k;
+  }
+  EXPECT_NE(at_once.episodes[0].final_obs, at_once.episodes[3].final_obs);  // other tasks
+  wide.episodes_at_once = 0;
+  EXPECT_THROW(EvaluateOnScene(policy, wide), std::invalid_argument);
   opt.max_steps = 0;
   const sim::EvalReport report = MakeSceneEvalReport(a, opt, "untrained");
   EXPECT_EQ(report.env, "scene");

@@ -2,8 +2,8 @@
 // puzzle-4x4, cube-double, scene) by OGBench's protocol (no ROS): the 5 tasks' resets with the
 // evaluation seeds of every msspr evaluator (sim::EvalEpisodeSeed), up to max_steps steps
 // (OGBench's caps: 500; the scene 750), success as the env's (the episode ends there). Episodes run
-// side by side, each action computed on its own (Policy::Act), as the cube's evaluator
-// (cube_evaluator.h).
+// side by side, episodes_at_once at a time, each action computed on its own (Policy::Act), as the
+// cube's evaluator (cube_evaluator.h).
 #pragma once
 
 #include <cstdint>
@@ -25,6 +25,8 @@ struct ArmTaskEvalOptions {
   int episodes = 50;  // per task
   int max_steps = 0;  // steps per episode; 0: the env's cap (500; the scene 750)
   uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e)
+  // Episodes side by side, each with its env (about 13 MB); the outcomes do not depend on it.
+  int episodes_at_once = kArmEpisodesAtOnce;
 };
 
 struct PuzzleEvalOptions : ArmTaskEvalOptions {

@@ -1,8 +1,8 @@
 // In-process evaluation of a Policy on cube-single by OGBench's protocol (no
 // ROS): the 5 tasks' resets with the same seeds as msspr_eval --env cube-single
 // over ROS (sim::EvalEpisodeSeed), up to max_steps steps, success when the cube
-// is within 4 cm of the goal (the episode ends there, as over ROS). All
-// episodes run side by side, one policy call per control step, each episode's
+// is within 4 cm of the goal (the episode ends there, as over ROS). Episodes
+// run side by side, episodes_at_once at a time, one policy call per control step, each episode's
 // action computed on its own (Policy::Act), so outcomes do not depend on the
 // thread count or the number of episodes. Pixels policies see 64x64 camera
 // images (front_pixels, the pixel-mode look, as msspr_sim_node's
@@ -29,6 +29,8 @@ struct CubeEvalOptions {
   int episodes = 50;  // per task
   int max_steps = 200;
   uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
+  // Episodes side by side, each with its env (about 13 MB); the outcomes do not depend on it.
+  int episodes_at_once = kArmEpisodesAtOnce;
 };
 
 using CubeEvalResult = TaskSuccessResult;
