@@ -130,5 +130,18 @@ TEST(ReproducibleEvaluation, CubeEpisodesAreTheSameInGroupsOfAnySize) {
   EXPECT_THROW(EvaluateOnCube(policy, groups), std::invalid_argument);
 }
 
+TEST(ReproducibleEvaluation, AntEpisodesAreTheSameInGroupsOfAnySize) {
+  auto policy = ShippedPolicy("antmaze-medium-state.pt");
+  AntEvalOptions all;
+  all.episodes = 10;
+  all.max_steps = 40;
+  AntEvalOptions groups = all;
+  groups.episodes_at_once = 7;
+  const auto a = EvaluateOnAntMaze(policy, all), b = EvaluateOnAntMaze(policy, groups);
+  ExpectSameEpisodes(a, 0, b, 0, 50, "groups of 7 against 50 at once");
+  groups.tasks = {6};
+  EXPECT_THROW(EvaluateOnAntMaze(policy, groups), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace msspr::agent

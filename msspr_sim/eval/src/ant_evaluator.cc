@@ -33,8 +33,9 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
     throw std::invalid_argument("EvaluateOnAntMaze: the policy has " +
                                 std::to_string(policy.action_dim()) + " action dimensions, " +
                                 env_name + " takes " + std::to_string(kAct));
-  if (options.episodes < 1 || options.max_steps < 1)
-    throw std::invalid_argument("EvaluateOnAntMaze: episodes and max_steps must be at least 1");
+  if (options.episodes < 1 || options.max_steps < 1 || options.episodes_at_once < 1)
+    throw std::invalid_argument(
+        "EvaluateOnAntMaze: episodes, max_steps and episodes_at_once must be at least 1");
 
   sim::AntMazeOptions eo;
   eo.maze = options.maze;
@@ -44,22 +45,15 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
     Eigen::VectorXd obs;
     bool done = false, success = false;
   };
-  std::vector<Slot> slots;
-  const size_t nt = options.tasks.size();
-  slots.reserve(nt * static_cast<size_t>(options.episodes));
-  for (int t : options.tasks)
-    for (int e = 0; e < options.episodes; ++e) {
-      Slot s;
-      s.env = std::make_unique<sim::AntMaze>(eo);
-      if (t < 1 || t > static_cast<int>(s.env->map().Tasks().size()))
+  {
+    const sim::AntMaze probe(eo);
+    const int n_tasks = static_cast<int>(probe.map().Tasks().size());
+    for (int t : options.tasks)
+      if (t < 1 || t > n_tasks)
         throw std::invalid_argument("EvaluateOnAntMaze: task " + std::to_string(t) +
                                     " is not a task of " + env_name + " (1 to " +
-                                    std::to_string(s.env->map().Tasks().size()) + ")");
-      s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
-      s.success = s.done = s.env->success();
-      slots.push_back(std::move(s));
-    }
-
+                                    std::to_string(n_tasks) + ")");
+  }
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) {
     const int64_t B = static_cast<int64_t>(active.size());
@@ -75,17 +69,30 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
     }
   };
   Eigen::VectorXd u(kAct);
-  StepEpisodesBatched(policy, slots, options.max_steps, inputs, [&](Slot& s, const auto& a) {
-    for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
-    s.obs = s.env->Step(u);
-    s.success = s.env->success();
-    s.done = s.success || s.env->truncated();
-  });
-
+  const size_t per_task = static_cast<size_t>(options.episodes);
   std::vector<EpisodeResult> episodes;
-  for (const Slot& s : slots)
-    episodes.push_back({s.success, s.env->steps(),
-                        std::vector<double>(s.obs.data(), s.obs.data() + s.obs.size())});
+  RunEpisodesInGroups<Slot>(
+      policy, options.tasks.size() * per_task, static_cast<size_t>(options.episodes_at_once),
+      options.max_steps,
+      [&](size_t k) {
+        const int t = options.tasks[k / per_task], e = static_cast<int>(k % per_task);
+        Slot s;
+        s.env = std::make_unique<sim::AntMaze>(eo);
+        s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));
+        s.success = s.done = s.env->success();
+        return s;
+      },
+      inputs,
+      [&](Slot& s, const auto& a) {
+        for (int k = 0; k < kAct; ++k) u[k] = std::clamp<double>(a[k], -1.0, 1.0);
+        s.obs = s.env->Step(u);
+        s.success = s.env->success();
+        s.done = s.success || s.env->truncated();
+      },
+      [&](const Slot& s) {
+        episodes.push_back({s.success, s.env->steps(),
+                            std::vector<double>(s.obs.data(), s.obs.data() + s.obs.size())});
+      });
   AntEvalResult r = SummarizeTaskEpisodes(options.tasks, options.episodes, std::move(episodes));
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;

@@ -2,8 +2,8 @@
 // antmaze-large) by OGBench's protocol, without ROS: the maze's 5 tasks with
 // the seeds of msspr_eval (sim::EvalEpisodeSeed), the 29-D goal state of
 // AntMaze's goal construction, up to max_steps control steps, success when
-// the torso is within 0.5 m of the goal's xy (the episode ends there). All
-// episodes run side by side: one policy call per control step, each
+// the torso is within 0.5 m of the goal's xy (the episode ends there). Episodes
+// run side by side, episodes_at_once at a time: one policy call per control step, each
 // episode's action computed on its own (Policy::Act), so outcomes do not
 // depend on the thread count or the number of episodes.
 // State policies only (29-D observations, 8-D actions).
@@ -27,6 +27,8 @@ struct AntEvalOptions {
   int episodes = 50;  // per task
   int max_steps = 1000;
   uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
+  // Episodes side by side, each with its env (about 3 MB); the outcomes do not depend on it.
+  int episodes_at_once = kEpisodesAtOnce;
 };
 
 using AntEvalResult = TaskSuccessResult;

@@ -26,7 +26,7 @@ struct ArmTaskEvalOptions {
   int max_steps = 0;  // steps per episode; 0: the env's cap (500; the scene 750)
   uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e)
   // Episodes side by side, each with its env (about 13 MB); the outcomes do not depend on it.
-  int episodes_at_once = kArmEpisodesAtOnce;
+  int episodes_at_once = kEpisodesAtOnce;
 };
 
 struct PuzzleEvalOptions : ArmTaskEvalOptions {

@@ -30,7 +30,7 @@ struct CubeEvalOptions {
   int max_steps = 200;
   uint64_t seed = 0;  // episode e of task t: sim::EvalEpisodeSeed(seed, t, e), as msspr_eval
   // Episodes side by side, each with its env (about 13 MB); the outcomes do not depend on it.
-  int episodes_at_once = kArmEpisodesAtOnce;
+  int episodes_at_once = kEpisodesAtOnce;
 };
 
 using CubeEvalResult = TaskSuccessResult;

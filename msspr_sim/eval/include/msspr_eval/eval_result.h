@@ -14,11 +14,12 @@
 namespace msspr::agent {
 
 // One episode of an evaluation.
-// How many episodes the arm's evaluators run side by side by default. Each holds an env of its
-// own, and an arm env (its MuJoCo model with the meshes, and its data) takes about 13 MB: the
-// 5 x 50 episodes of the protocol at once would hold 3.3 GB for the scene. More side by side
-// saves nothing: Policy::Act computes each row on its own, so outcomes do not depend on it.
-inline constexpr int kArmEpisodesAtOnce = 50;
+// How many episodes the MuJoCo evaluators (the arm's envs, the ant) run side by side by default.
+// Each holds an env of its own: an arm env (its MuJoCo model with the meshes, and its data)
+// takes about 13 MB, the ant's about 3 MB, so the protocol's 5 x 50 episodes at once held 3.5 GB
+// for the scene. More side by side saves nothing: Policy::Act computes each row on its own, so
+// outcomes do not depend on it.
+inline constexpr int kEpisodesAtOnce = 50;
 
 struct EpisodeResult {
   bool success = false;
