@@ -69,13 +69,10 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
     }
   };
   Eigen::VectorXd u(kAct);
-  const size_t per_task = static_cast<size_t>(options.episodes);
   std::vector<EpisodeResult> episodes;
   RunEpisodesInGroups<Slot>(
-      policy, options.tasks.size() * per_task, static_cast<size_t>(options.episodes_at_once),
-      options.max_steps,
-      [&](size_t k) {
-        const int t = options.tasks[k / per_task], e = static_cast<int>(k % per_task);
+      policy, options.tasks, options.episodes, options.episodes_at_once, options.max_steps,
+      [&](int t, int e) {
         Slot s;
         s.env = std::make_unique<sim::AntMaze>(eo);
         s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));

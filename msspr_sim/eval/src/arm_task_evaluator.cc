@@ -65,13 +65,10 @@ TaskSuccessResult EvaluateStates(core::Policy& policy, const Options& options, i
   };
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) { StateInputs(active, obs_dim, obs, goal); };
-  const size_t per_task = static_cast<size_t>(options.episodes);
   std::vector<EpisodeResult> episodes;
   RunEpisodesInGroups<Slot>(
-      policy, options.tasks.size() * per_task, static_cast<size_t>(options.episodes_at_once),
-      max_steps,
-      [&](size_t k) {
-        const int t = options.tasks[k / per_task], e = static_cast<int>(k % per_task);
+      policy, options.tasks, options.episodes, options.episodes_at_once, max_steps,
+      [&](int t, int e) {
         Slot s;
         s.env = make_env();
         s.obs = s.env->ResetToTask(t, sim::EvalEpisodeSeed(options.seed, t, e));

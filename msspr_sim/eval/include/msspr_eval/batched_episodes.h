@@ -40,19 +40,23 @@ void StepEpisodesBatched(core::Policy& policy, std::vector<Slot>& slots, int max
   }
 }
 
-// Runs `count` episodes in groups of at most `at_once` side by side, in order: make(k) returns
-// episode k's slot, started (its env reset); StepEpisodesBatched steps the group; finish(slot)
-// takes each outcome, in order, before the group's slots and envs are freed. An episode's
-// outcome does not depend on its group (see StepEpisodesBatched).
+// Runs `episodes` episodes of each of `tasks` (task by task) in groups of at most `at_once` side
+// by side, in order: make(task, episode) returns that episode's slot, started (its env reset);
+// StepEpisodesBatched steps the group; finish(slot) takes each outcome, in order, before the
+// group's slots and envs are freed. An episode's outcome does not depend on its group (see
+// StepEpisodesBatched).
 template <class Slot, class Make, class Inputs, class Apply, class Finish>
-void RunEpisodesInGroups(core::Policy& policy, size_t count, size_t at_once, int max_steps,
-                         Make make, Inputs inputs, Apply apply, Finish finish) {
-  at_once = std::max<size_t>(at_once, 1);
-  for (size_t first = 0; first < count; first += at_once) {
-    const size_t last = std::min(count, first + at_once);
+void RunEpisodesInGroups(core::Policy& policy, const std::vector<int>& tasks, int episodes,
+                         int at_once, int max_steps, Make make, Inputs inputs, Apply apply,
+                         Finish finish) {
+  const size_t per_task = static_cast<size_t>(std::max(episodes, 0));
+  const size_t count = tasks.size() * per_task, group = static_cast<size_t>(std::max(at_once, 1));
+  for (size_t first = 0; first < count; first += group) {
+    const size_t last = std::min(count, first + group);
     std::vector<Slot> slots;
     slots.reserve(last - first);
-    for (size_t k = first; k < last; ++k) slots.push_back(make(k));
+    for (size_t k = first; k < last; ++k)
+      slots.push_back(make(tasks[k / per_task], static_cast<int>(k % per_task)));
     StepEpisodesBatched(policy, slots, max_steps, inputs, apply);
     for (const Slot& s : slots) finish(s);
   }
