@@ -114,33 +114,31 @@ TEST(ReproducibleEvaluation, CubeEpisodeIsTheSameAloneAsAmongOthers) {
 }
 
 // The episodes run in groups (episodes_at_once, to bound the envs held at once): 50 episodes
-// in groups of 7 (the last of 1) give what they give all side by side, episode by episode.
-TEST(ReproducibleEvaluation, CubeEpisodesAreTheSameInGroupsOfAnySize) {
-  auto policy = ShippedPolicy("cube-single-state.pt");
-  CubeEvalOptions all;
+// (5 tasks x 10, `steps` steps) in groups of 7 (the last of 1) give what they give all side by
+// side, episode by episode; a group size below 1 is refused.
+template <class Options, class Evaluate>
+void ExpectSameInGroupsOfAnySize(Evaluate evaluate, core::Policy& policy, int steps) {
+  Options all;
   all.episodes = 10;
-  all.max_steps = 20;
+  all.max_steps = steps;
   all.episodes_at_once = 50;
-  CubeEvalOptions groups = all;
+  Options groups = all;
   groups.episodes_at_once = 7;
-  const auto a = EvaluateOnCube(policy, all), b = EvaluateOnCube(policy, groups);
+  const auto a = evaluate(policy, all), b = evaluate(policy, groups);
   ExpectSameEpisodes(a, 0, b, 0, 50, "groups of 7 against 50 at once");
   EXPECT_EQ(a.success, b.success);
   groups.episodes_at_once = 0;
-  EXPECT_THROW(EvaluateOnCube(policy, groups), std::invalid_argument);
+  EXPECT_THROW(evaluate(policy, groups), std::invalid_argument);
+}
+
+TEST(ReproducibleEvaluation, CubeEpisodesAreTheSameInGroupsOfAnySize) {
+  auto policy = ShippedPolicy("cube-single-state.pt");
+  ExpectSameInGroupsOfAnySize<CubeEvalOptions>(EvaluateOnCube, policy, 20);
 }
 
 TEST(ReproducibleEvaluation, AntEpisodesAreTheSameInGroupsOfAnySize) {
   auto policy = ShippedPolicy("antmaze-medium-state.pt");
-  AntEvalOptions all;
-  all.episodes = 10;
-  all.max_steps = 40;
-  AntEvalOptions groups = all;
-  groups.episodes_at_once = 7;
-  const auto a = EvaluateOnAntMaze(policy, all), b = EvaluateOnAntMaze(policy, groups);
-  ExpectSameEpisodes(a, 0, b, 0, 50, "groups of 7 against 50 at once");
-  groups.tasks = {6};
-  EXPECT_THROW(EvaluateOnAntMaze(policy, groups), std::invalid_argument);
+  ExpectSameInGroupsOfAnySize<AntEvalOptions>(EvaluateOnAntMaze, policy, 40);
 }
 
 }  // namespace
