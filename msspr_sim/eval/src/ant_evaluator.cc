@@ -14,6 +14,7 @@
 #include "msspr_sim/ant_maze.h"
 #include "msspr_sim/env_id.h"
 #include "msspr_sim/eval_protocol.h"
+#include "msspr_sim/maze_map.h"
 
 namespace msspr::agent {
 
@@ -45,15 +46,12 @@ AntEvalResult EvaluateOnAntMaze(core::Policy& policy, const AntEvalOptions& opti
     Eigen::VectorXd obs;
     bool done = false, success = false;
   };
-  {
-    const sim::AntMaze probe(eo);
-    const int n_tasks = static_cast<int>(probe.map().Tasks().size());
-    for (int t : options.tasks)
-      if (t < 1 || t > n_tasks)
-        throw std::invalid_argument("EvaluateOnAntMaze: task " + std::to_string(t) +
-                                    " is not a task of " + env_name + " (1 to " +
-                                    std::to_string(n_tasks) + ")");
-  }
+  const int n_tasks = static_cast<int>(sim::MazeMap::FromName(options.maze).Tasks().size());
+  for (int t : options.tasks)
+    if (t < 1 || t > n_tasks)
+      throw std::invalid_argument("EvaluateOnAntMaze: task " + std::to_string(t) +
+                                  " is not a task of " + env_name + " (1 to " +
+                                  std::to_string(n_tasks) + ")");
   const auto inputs = [&](const std::vector<Slot*>& active, torch::Tensor* obs,
                           torch::Tensor* goal) {
     const int64_t B = static_cast<int64_t>(active.size());

@@ -13,7 +13,6 @@
 
 namespace msspr::agent {
 
-// One episode of an evaluation.
 // How many episodes the MuJoCo evaluators (the arm's envs, the ant) run side by side by default.
 // Each holds an env of its own: an arm env (its MuJoCo model with the meshes, and its data)
 // takes about 13 MB, the ant's about 3 MB, so the protocol's 5 x 50 episodes at once held 3.5 GB
@@ -21,6 +20,7 @@ namespace msspr::agent {
 // outcomes do not depend on it.
 inline constexpr int kEpisodesAtOnce = 50;
 
+// One episode of an evaluation.
 struct EpisodeResult {
   bool success = false;
   int steps = 0;                  // control steps taken
