@@ -2,7 +2,8 @@
 # The same checkpoint on the same episodes gives the same outcomes over ROS (msspr_sim_node +
 # msspr_policy_node + msspr_eval, demo.launch in lockstep) and in process
 # (msspr_eval_inprocess): per task, the same success rate and the same mean steps of the
-# successful episodes, for the shipped point-maze, cube-single and antmaze-medium checkpoints.
+# successful episodes, for the shipped point-maze, cube-single, antmaze-medium and scene
+# checkpoints.
 #   tests/scripts/ros_equals_inprocess.sh   (from the repository root, after the build)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -13,7 +14,7 @@ fail() { echo "ros_equals_inprocess: FAILED: $*" >&2; exit 1; }
 C=msspr_policy_node/checkpoints
 # env, checkpoint, episodes per task
 for CASE in "pointmaze pointmaze-medium-state.pt 3" "cube-single cube-single-state.pt 3" \
-            "antmaze-medium antmaze-medium-state.pt 2"; do
+            "antmaze-medium antmaze-medium-state.pt 2" "scene scene-state.pt 2"; do
   read -r ENV CKPT EPISODES <<<"$CASE"
   timeout 300 roslaunch -p "$MSSPR_PORT" msspr demo.launch env:="$ENV" episodes:="$EPISODES" \
     out_dir:="$TMP/$ENV" >"$TMP/$ENV.log" 2>&1 || { rc=$?; tail -20 "$TMP/$ENV.log" >&2; fail "$ENV: demo.launch exited $rc"; }
