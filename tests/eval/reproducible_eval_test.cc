@@ -139,6 +139,9 @@ TEST(ReproducibleEvaluation, CubeEpisodesAreTheSameInGroupsOfAnySize) {
 TEST(ReproducibleEvaluation, AntEpisodesAreTheSameInGroupsOfAnySize) {
   auto policy = ShippedPolicy("antmaze-medium-state.pt");
   ExpectSameInGroupsOfAnySize<AntEvalOptions>(EvaluateOnAntMaze, policy, 40);
+  AntEvalOptions bad;
+  bad.tasks = {6};  // antmaze-medium has 5
+  EXPECT_THROW(EvaluateOnAntMaze(policy, bad), std::invalid_argument);
 }
 
 }  // namespace
